@@ -1,0 +1,99 @@
+"""The `oxbot` command. Subcommands mirror the package: game, config (and more as they land).
+
+Every command reads the configuration from `--config FILE` and `--set section.field=value`
+given before the subcommand, e.g. `oxbot --set game.opponent=blocker game`.
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from oxbot.config import OxbotConfig, load_config, to_toml
+from oxbot.errors import OxbotError
+
+app = typer.Typer(
+    name="oxbot",
+    help="A talking robot that learns to play noughts and crosses on paper.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+err_console = Console(stderr=True, highlight=False)
+
+
+@app.callback()
+def main_options(
+    ctx: typer.Context,
+    config: Annotated[
+        Path | None, typer.Option("--config", help="TOML file overriding the paper's defaults.")
+    ] = None,
+    overrides: Annotated[
+        list[str] | None,
+        typer.Option("--set", help="Override one field: section.field=value (repeatable)."),
+    ] = None,
+    verbose: Annotated[bool, typer.Option("--verbose", "-v", help="Log debug messages.")] = False,
+) -> None:
+    """A talking robot that learns to play noughts and crosses on paper."""
+    logging.basicConfig(
+        level=logging.DEBUG if verbose else logging.WARNING,
+        format="%(levelname)s %(name)s: %(message)s",
+    )
+    ctx.obj = load_config(config, overrides or [])
+
+
+def _config(ctx: typer.Context) -> OxbotConfig:
+    return ctx.obj if isinstance(ctx.obj, OxbotConfig) else OxbotConfig()
+
+
+@app.command("config")
+def show_config(ctx: typer.Context) -> None:
+    """Print the effective configuration as TOML, each field with where its default comes from."""
+    typer.echo(to_toml(_config(ctx)))
+
+
+@app.command("game")
+def game(
+    ctx: typer.Context,
+    opponent: Annotated[
+        str | None,
+        typer.Option(help="The robot's strategy: random, blocker or minimax (default: config)."),
+    ] = None,
+    robot_starts: Annotated[
+        bool | None,
+        typer.Option("--robot-starts/--person-starts", help="Who draws first, with circles."),
+    ] = None,
+    seed: Annotated[int | None, typer.Option(help="Seed for the robot's tie-breaking.")] = None,
+) -> None:
+    """Play noughts and crosses in the terminal against the robot's game strategy."""
+    import numpy as np
+
+    from oxbot.game.opponents import as_robot, make_opponent
+    from oxbot.game.terminal import TerminalGame
+
+    cfg = _config(ctx).game
+    rng = np.random.default_rng(seed)
+    robot = as_robot(make_opponent(opponent or cfg.opponent, rng))
+    starts = cfg.robot_starts if robot_starts is None else robot_starts
+    TerminalGame(robot, robot_starts=starts).play_session()
+
+
+def main() -> None:
+    """Entry point: run the app, printing oxbot's own errors as one clear line."""
+    try:
+        app()
+    except OxbotError as exc:
+        err_console.print(f"[bold red]error:[/] {exc}")
+        sys.exit(2)
+    except KeyboardInterrupt:
+        sys.exit(130)
+
+
+if __name__ == "__main__":
+    main()

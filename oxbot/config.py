@@ -1,0 +1,300 @@
+"""Configuration: frozen dataclasses whose defaults are the paper's values.
+
+Each field carries a one-line docstring saying where its default comes from; `oxbot config`
+prints them. A TOML file with one table per section overrides the defaults, and
+`--set section.field=value` on the command line overrides the file:
+
+    [agent]
+    discount = 0.7
+
+    [game]
+    opponent = "blocker"
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import functools
+import inspect
+import itertools
+import textwrap
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from oxbot.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class GameConfig:
+    """The game itself and the terminal game's opponent."""
+
+    robot_starts: bool = True
+    """Paper §3.3: the robot always started, drawing circles (the starter draws circles)."""
+    opponent: str = "minimax"
+    """oxbot: who plays the robot's side in `oxbot game` until the trained manager exists."""
+
+    def __post_init__(self) -> None:
+        from oxbot.game.opponents import OPPONENTS
+
+        if self.opponent not in OPPONENTS:
+            raise ConfigError(
+                f"game.opponent is {self.opponent!r}; choose one of {', '.join(OPPONENTS)}"
+            )
+
+
+@dataclass(frozen=True)
+class PerceptionConfig:
+    """The CNN+SVM symbol classifier and its generated training data."""
+
+    image_size: int = 40
+    """Paper §2.1: cells are 40x40 grayscale images."""
+    conv1_filters: int = 8
+    """Paper §2.1: first convolution has 8 filters."""
+    conv2_filters: int = 16
+    """Paper §2.1: second convolution has 16 filters."""
+    kernel_size: int = 5
+    """ConvNetJS default used by SimpleDS: 5x5 kernels, padding 2."""
+    pool1: int = 2
+    """Paper §2.1: first max-pool 2x2, stride 2."""
+    pool2: int = 3
+    """Paper §2.1: second max-pool 3x3, stride 3."""
+    seeds_per_class: int = 36
+    """Paper §3.3: 108 seed images, i.e. 36 per class."""
+    train_images: int = 10_000
+    """Paper §3.3: 10K generated training images."""
+    test_images: int = 1_000
+    """Paper §3.3: accuracy measured on 1,000 randomly generated test images."""
+    seed: int = 0
+    """oxbot: seed of every random generator used in data generation and training."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "image_size", "conv1_filters", "conv2_filters", "kernel_size")
+        _require_positive(self, "pool1", "pool2", "seeds_per_class", "train_images", "test_images")
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """The game-move tracker that turns board readings into moves."""
+
+    period_s: float = 0.1
+    """Paper §2.1: the classifier runs every 100 milliseconds."""
+    stable_readings: int = 3
+    """Paper §2.1: a new drawing is accepted once recognised 3 times in a row."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "period_s", "stable_readings")
+
+
+@dataclass(frozen=True)
+class RewardConfig:
+    """The reward R(s,a,s') = BR*w + DR*(1-w) - DL and the action mask."""
+
+    win_bonus: float = 5.0
+    """Paper §2.2: BR = 5 if the agent is about to win."""
+    draw_bonus: float = 1.0
+    """Paper §2.2: BR = 1 if the agent is about to draw."""
+    bonus_weight: float = 0.5
+    """Paper §2.2: w = 0.5, the weight of BR against DR."""
+    length_penalty: float = 0.1
+    """Paper §2.2: DL = 0.1, to encourage efficient interactions."""
+    end_reward_loss: float = 0.0
+    """Paper §2.2: 0 at the end of a dialogue whose game the robot lost."""
+    end_reward_otherwise: float = 5.0
+    """Paper §2.2: 5 at the end of any other dialogue."""
+    mask_threshold: float = 0.001
+    """Paper §2.2: only actions with Pr(a|s) > 0.001 are offered."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.bonus_weight <= 1.0:
+            raise ConfigError(f"reward.bonus_weight is {self.bonus_weight}; use a value in [0, 1]")
+        if not 0.0 <= self.mask_threshold < 1.0:
+            raise ConfigError(
+                f"reward.mask_threshold is {self.mask_threshold}; use a value in [0, 1)"
+            )
+
+
+@dataclass(frozen=True)
+class AgentConfig:
+    """The DQN interaction manager (Mnih et al. 2015, as configured in the paper)."""
+
+    hidden_sizes: tuple[int, ...] = (60, 60)
+    """Paper §2.2: two hidden layers of 60 ReLU units."""
+    replay_size: int = 100_000
+    """Paper §2.2: experience replay size 100K."""
+    discount: float = 0.7
+    """Paper §2.2: discount factor 0.7."""
+    epsilon_min: float = 0.01
+    """Paper §2.2: minimum epsilon 0.01."""
+    learning_rate: float = 0.001
+    """Paper §2.2: learning rate 0.001."""
+    batch_size: int = 32
+    """Paper §2.2: batch size 32."""
+    seed: int = 0
+    """oxbot: seed of the environment, exploration and network initialisation."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "replay_size", "learning_rate", "batch_size")
+        if not 0.0 <= self.discount <= 1.0:
+            raise ConfigError(f"agent.discount is {self.discount}; use a value in [0, 1]")
+        if not 0.0 <= self.epsilon_min <= 1.0:
+            raise ConfigError(f"agent.epsilon_min is {self.epsilon_min}; use a value in [0, 1]")
+        if not self.hidden_sizes or any(int(h) <= 0 for h in self.hidden_sizes):
+            raise ConfigError(
+                f"agent.hidden_sizes is {self.hidden_sizes}; give one or more positive sizes"
+            )
+
+
+@dataclass(frozen=True)
+class OxbotConfig:
+    """The whole configuration, one section per part of the system."""
+
+    game: GameConfig = field(default_factory=GameConfig)
+    perception: PerceptionConfig = field(default_factory=PerceptionConfig)
+    tracker: TrackerConfig = field(default_factory=TrackerConfig)
+    reward: RewardConfig = field(default_factory=RewardConfig)
+    agent: AgentConfig = field(default_factory=AgentConfig)
+
+
+def _require_positive(config: Any, *names: str) -> None:
+    section = _section_name(type(config))
+    for name in names:
+        value = getattr(config, name)
+        if value <= 0:
+            raise ConfigError(f"{section}.{name} is {value}; it must be greater than 0")
+
+
+def _section_name(cls: type) -> str:
+    for f in dataclasses.fields(OxbotConfig):
+        if f.default_factory is cls:  # type: ignore[comparison-overlap]
+            return f.name
+    return cls.__name__
+
+
+@functools.cache
+def field_docs(cls: type) -> dict[str, str]:
+    """The docstring written under each field of a config dataclass, by field name."""
+    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+    body = tree.body[0].body  # type: ignore[attr-defined]
+    docs: dict[str, str] = {}
+    for node, following in itertools.pairwise(body):
+        if (
+            isinstance(node, ast.AnnAssign)
+            and isinstance(node.target, ast.Name)
+            and isinstance(following, ast.Expr)
+            and isinstance(following.value, ast.Constant)
+            and isinstance(following.value.value, str)
+        ):
+            docs[node.target.id] = following.value.value.strip()
+    return docs
+
+
+def _coerce(section: str, name: str, default: Any, value: Any) -> Any:
+    """Check a value from TOML or the command line against the type of the field's default."""
+    where = f"{section}.{name}"
+    if isinstance(default, bool):
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, str) and value.lower() in {"true", "yes", "1", "false", "no", "0"}:
+            return value.lower() in {"true", "yes", "1"}
+    elif isinstance(default, int):
+        if isinstance(value, int) and not isinstance(value, bool):
+            return value
+    elif isinstance(default, float):
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            return float(value)
+    elif isinstance(default, str):
+        if isinstance(value, str):
+            return value
+    elif (
+        isinstance(default, tuple)
+        and isinstance(value, list | tuple)
+        and all(isinstance(v, int) and not isinstance(v, bool) for v in value)
+    ):
+        return tuple(value)
+    raise ConfigError(
+        f"{where} = {value!r} has the wrong type; expected {type(default).__name__} "
+        f"like the default {default!r}"
+    )
+
+
+def with_overrides(config: OxbotConfig, overrides: dict[str, dict[str, Any]]) -> OxbotConfig:
+    """A copy of `config` with `{section: {field: value}}` applied, each value type-checked."""
+    sections = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
+    for section, values in overrides.items():
+        if section not in sections:
+            raise ConfigError(
+                f"unknown config section [{section}]; sections are {', '.join(sections)}"
+            )
+        if not isinstance(values, dict):
+            raise ConfigError(f"[{section}] must be a table of field = value lines")
+        current = sections[section]
+        known = {f.name for f in dataclasses.fields(current)}
+        changes = {}
+        for name, value in values.items():
+            if name not in known:
+                raise ConfigError(
+                    f"unknown field {section}.{name}; fields are {', '.join(sorted(known))}"
+                )
+            changes[name] = _coerce(section, name, getattr(current, name), value)
+        sections[section] = dataclasses.replace(current, **changes)
+    return OxbotConfig(**sections)
+
+
+def parse_assignment(text: str) -> tuple[str, str, Any]:
+    """Split a command-line override `section.field=value`; the value is read as TOML."""
+    key, sep, raw = text.partition("=")
+    section, dot, name = key.strip().partition(".")
+    if not sep or not dot or not section or not name:
+        raise ConfigError(f"--set {text!r} is malformed; write it as section.field=value")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()  # a bare word such as blocker reads as a string
+    return section, name, value
+
+
+def load_config(path: str | Path | None = None, assignments: list[str] = ()) -> OxbotConfig:
+    """The defaults, overridden by the TOML file at `path`, then by `section.field=value` items."""
+    config = OxbotConfig()
+    if path is not None:
+        path = Path(path)
+        try:
+            data = tomllib.loads(path.read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise ConfigError(f"config file {path} does not exist; check the path") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+            raise ConfigError(f"config file {path} is not valid TOML: {exc}") from None
+        config = with_overrides(config, data)
+    overrides: dict[str, dict[str, Any]] = {}
+    for item in assignments:
+        section, name, value = parse_assignment(item)
+        overrides.setdefault(section, {})[name] = value
+    return with_overrides(config, overrides)
+
+
+def to_toml(config: OxbotConfig) -> str:
+    """The configuration as a commented TOML file that `load_config` reads back."""
+    lines: list[str] = []
+    for section_field in dataclasses.fields(config):
+        section = getattr(config, section_field.name)
+        docs = field_docs(type(section))
+        lines.append(f"[{section_field.name}]")
+        for f in dataclasses.fields(section):
+            if f.name in docs:
+                lines.append(f"# {docs[f.name]}")
+            lines.append(f"{f.name} = {_toml_value(getattr(section, f.name))}")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return repr(value)

@@ -1,0 +1,39 @@
+"""Every error a user of oxbot can see.
+
+Each message says what was wrong and what to do about it. Catch `OxbotError` to handle them
+all; the command line prints the message alone, without a traceback.
+"""
+
+from __future__ import annotations
+
+
+class OxbotError(Exception):
+    """Base class of all errors oxbot raises on purpose."""
+
+
+class ConfigError(OxbotError, ValueError):
+    """A configuration file or option is malformed or out of range."""
+
+
+class IllegalMoveError(OxbotError, ValueError):
+    """A move names a cell that does not exist or is already taken."""
+
+
+class OpponentError(OxbotError, ValueError):
+    """An opponent callable returned something that is not an empty cell's index."""
+
+
+class DataError(OxbotError, ValueError):
+    """Shipped or user data (images, dialogues, templates) is missing or malformed."""
+
+
+class InvalidInputError(OxbotError, ValueError):
+    """An array, image or audio clip handed to oxbot has the wrong shape, type or content."""
+
+
+class ModelFileError(OxbotError, ValueError):
+    """A saved model or policy file is missing, truncated or from another architecture."""
+
+
+class NoGridFound(OxbotError):
+    """No hand-drawn 3x3 grid is visible in the frame."""
