@@ -27,6 +27,10 @@ app = typer.Typer(
 
 err_console = Console(stderr=True, highlight=False)
 
+# Command groups; each domain registers its commands below, next to the others of its group.
+train_app = typer.Typer(help="Train a learner and write its model, metrics and plots.")
+evaluate_app = typer.Typer(help="Measure a trained learner, as in the paper's experiments.")
+
 
 @app.callback()
 def main_options(
@@ -82,6 +86,16 @@ def game(
     robot = as_robot(make_opponent(opponent or cfg.opponent, rng))
     starts = cfg.robot_starts if robot_starts is None else robot_starts
     TerminalGame(robot, robot_starts=starts).play_session()
+
+
+# --- perception commands (issue 3) ---
+
+# --- board-reading commands (issue 4) ---
+
+# --- dialogue commands (issue 5) ---
+
+app.add_typer(train_app, name="train")
+app.add_typer(evaluate_app, name="evaluate")
 
 
 def main() -> None:
