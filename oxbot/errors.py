@@ -37,3 +37,7 @@ class ModelFileError(OxbotError, ValueError):
 
 class NoGridFound(OxbotError):
     """No hand-drawn 3x3 grid is visible in the frame."""
+
+
+class FrameSourceError(OxbotError):
+    """A camera, video file or image folder cannot be opened or read."""
