@@ -134,9 +134,46 @@ class AgentConfig:
     """Paper §2.2: batch size 32."""
     seed: int = 0
     """oxbot: seed of the environment, exploration and network initialisation."""
+    target_update_interval: int = 1_000
+    """oxbot: the paper syncs the target network every C steps without giving C."""
+    total_steps: int = 200_000
+    """oxbot: the training budget in experiences (the paper trained for 3 hours)."""
+    learning_starts: int = 1_000
+    """oxbot: experiences collected before the first update."""
+    train_frequency: int = 1
+    """oxbot: experiences between two updates."""
+    epsilon_start: float = 1.0
+    """oxbot: the paper gives only the minimum epsilon; exploration starts fully random."""
+    exploration_fraction: float = 0.5
+    """oxbot: share of the budget over which epsilon falls linearly to its minimum."""
+    anneal_learning_rate: bool = False
+    """oxbot: let the learning rate fall linearly to 0 over the run; off, as in the paper."""
+    double_dqn: bool = False
+    """oxbot: Double DQN targets (van Hasselt et al. 2016); off, like the paper's DQN."""
+    symmetries: bool = False
+    """oxbot: augment each sampled experience with a random symmetry of the board; off."""
+    opponents: str = "random"
+    """Paper §3.3: a semi-random simulated person; oxbot: a weighted mix, random:2,minimax:1."""
+    robot_starts: str = "yes"
+    """Paper §3.3: the robot always started; oxbot: yes, no or both (half the games each)."""
+    eval_every: int = 0
+    """oxbot: experiences between greedy evaluations that keep the best policy; 0 never."""
+    eval_games: int = 300
+    """oxbot: games per opponent and who-starts condition in each of those evaluations."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "replay_size", "learning_rate", "batch_size")
+        _require_positive(self, "target_update_interval", "total_steps", "train_frequency")
+        _require_positive(self, "eval_games")
+        if self.learning_starts < 0 or self.eval_every < 0:
+            raise ConfigError("agent.learning_starts and agent.eval_every must be 0 or more")
+        if not 0.0 < self.exploration_fraction <= 1.0:
+            raise ConfigError(
+                f"agent.exploration_fraction is {self.exploration_fraction}; use a value in (0, 1]"
+            )
+        if self.robot_starts not in ("yes", "no", "both"):
+            raise ConfigError(f"agent.robot_starts is {self.robot_starts!r}; use yes, no or both")
+        opponent_mix(self.opponents)
         if not 0.0 <= self.discount <= 1.0:
             raise ConfigError(f"agent.discount is {self.discount}; use a value in [0, 1]")
         if not 0.0 <= self.epsilon_min <= 1.0:
@@ -145,6 +182,55 @@ class AgentConfig:
             raise ConfigError(
                 f"agent.hidden_sizes is {self.hidden_sizes}; give one or more positive sizes"
             )
+
+
+def opponent_mix(text: str) -> dict[str, float]:
+    """Parse `random:2,minimax:1` (a weight after each name, default 1) into normalised weights."""
+    from oxbot.game.opponents import OPPONENTS
+
+    weights: dict[str, float] = {}
+    for item in text.split(","):
+        name, _, weight = item.strip().partition(":")
+        if name not in OPPONENTS:
+            raise ConfigError(
+                f"agent.opponents names {name!r}; choose from {', '.join(OPPONENTS)}, "
+                "e.g. random:2,blocker:1,minimax:1"
+            )
+        try:
+            weights[name] = float(weight) if weight else 1.0
+        except ValueError:
+            raise ConfigError(f"agent.opponents weight {weight!r} is not a number") from None
+        if weights[name] <= 0:
+            raise ConfigError(f"agent.opponents weight of {name} must be greater than 0")
+    total = sum(weights.values())
+    return {name: w / total for name, w in weights.items()}
+
+
+@dataclass(frozen=True)
+class DialogueConfig:
+    """The dialogue domain's simulated person and the interactive game environment."""
+
+    asr_noise: float = 0.2
+    """oxbot: speech-recognition noise level in [0, 1]; the paper does not give its simulator's."""
+    decline_probability: float = 0.1
+    """oxbot: chance that the simulated person declines the first invitation to play."""
+    out_of_turn_probability: float = 0.05
+    """oxbot: chance that the simulated person answers with small talk instead."""
+    max_turns: int = 60
+    """oxbot: the dialogue length cap in system acts; the episode is truncated there."""
+    nb_alpha: float = 0.01
+    """oxbot: Laplace smoothing of the Naive Bayes action model (paper §2.2 gives none)."""
+    nb_binarize: float = 0.5
+    """oxbot: a word feature above this counts as heard for the Naive Bayes action model."""
+    nb_flag_weight: int = 4
+    """oxbot: each game/dialogue flag counts this many times in the Naive Bayes action model."""
+
+    def __post_init__(self) -> None:
+        for name in ("asr_noise", "decline_probability", "out_of_turn_probability"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                raise ConfigError(f"dialogue.{name} is {value}; use a value in [0, 1]")
+        _require_positive(self, "max_turns", "nb_alpha", "nb_flag_weight")
 
 
 @dataclass(frozen=True)
@@ -156,6 +242,7 @@ class OxbotConfig:
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
     agent: AgentConfig = field(default_factory=AgentConfig)
+    dialogue: DialogueConfig = field(default_factory=DialogueConfig)
 
 
 def _require_positive(config: Any, *names: str) -> None:

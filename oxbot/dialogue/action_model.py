@@ -1,0 +1,157 @@
+"""The action model: a Naive Bayes classifier of Pr(a|s) learned from the seed dialogues.
+
+Paper §2.2: "the action set was derived from the most likely actions, Pr(a|s) > 0.001, with
+probabilities derived from a Naive Bayes classifier trained from example dialogues. In
+addition, if a physical action was included in the action set, we included all valid physical
+actions". The same probabilities are the DR term of the reward.
+
+The classifier (scikit-learn's `BernoulliNB`) predicts the act *type*: the nine GameMoves are
+one class, because ten seed games say nothing about which cell is good; every valid cell gets
+the GameMove probability and an occupied cell gets 0. It reads the word features and the game
+and dialogue flags (see `FeatureLayout.dialogue_columns`); a word counts as heard above `binarize`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sklearn.naive_bayes import BernoulliNB
+
+from oxbot.dialogue.domain import ACTION_INDEX, SYSTEM_ACTS, Domain, game_move_cell
+from oxbot.dialogue.features import FeatureLayout
+from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, play
+
+GAME_MOVE_CLASS = "GameMove"
+N_ACTIONS = len(SYSTEM_ACTS)
+
+
+REPEAT_SUFFIX = "#again"
+
+
+def act_class(act: str, repeated: bool = False) -> str:
+    """The classifier's label of a system act: `GameMove` for any cell, else the act itself.
+
+    An act said right after itself (asking again after a "no" or an answer out of turn) is a
+    class of its own, `Act#again`: its states look nothing like the first time's, and one Naive
+    Bayes class cannot model both.
+    """
+    if game_move_cell(act) is not None:
+        return GAME_MOVE_CLASS
+    return act + REPEAT_SUFFIX if repeated else act
+
+
+def class_act(label: str) -> str:
+    """The act (GameMove for the nine) a classifier label stands for."""
+    return label.removesuffix(REPEAT_SUFFIX)
+
+
+def seed_examples(domain: Domain, layout: FeatureLayout) -> tuple[np.ndarray, list[str]]:
+    """Replay the seed dialogues: the state before each system act, and its class label.
+
+    The state is built exactly as the environment builds it: the last system words (1), the
+    words of the person's answer to them (confidence 1 in the seeds; none if silent), the board.
+    """
+    states: list[np.ndarray] = []
+    acts: list[str] = []
+    for dialogue in domain.dialogues:
+        first = next(u for u in dialogue if u.cell is not None)
+        robot_starts = first.speaker == "SYS"
+        board: Board = EMPTY_BOARD
+        system_words: list[str] = []
+        user_words: list[tuple[str, float]] = []
+        said: set[str] = set()
+        previous = ""
+        for utterance in dialogue:
+            if utterance.speaker == "SYS":
+                states.append(layout.encode(system_words, user_words, board, robot_starts, said))
+                acts.append(act_class(utterance.act, repeated=utterance.act == previous))
+                system_words, user_words = utterance.words, []
+                said.add(utterance.act)
+                previous = utterance.act
+            else:
+                user_words = [(w, 1.0) for w in utterance.words]
+            if utterance.cell is not None:
+                board = play(board, utterance.cell, ROBOT if utterance.speaker == "SYS" else USER)
+    return np.stack(states), acts
+
+
+class ActionModel:
+    """Pr(a|s) over the 18 actions, from Bernoulli Naive Bayes on the dialogue features.
+
+    Configured in `__init__`, learned by `fit`, and `predict_proba` takes a batch. Prediction is
+    computed from the fitted log-probabilities with one matrix product (the same numbers as
+    `BernoulliNB.predict_proba`, without its per-call overhead: the environment asks every step).
+    """
+
+    def __init__(
+        self,
+        layout: FeatureLayout,
+        alpha: float = 0.01,
+        binarize: float = 0.5,
+        flag_weight: int = 4,
+    ) -> None:
+        self.layout = layout
+        self.alpha = alpha
+        self.binarize = binarize
+        self.flag_weight = flag_weight
+        words = np.arange(layout.n_words)
+        flags = np.r_[layout.flags.start : layout.dialogue_flags.stop]
+        # weighted Naive Bayes: a flag column repeated k times counts as k independent features
+        self.columns = np.r_[words, np.repeat(flags, flag_weight)]
+
+    def fit(self, states: np.ndarray, labels: list[str]) -> ActionModel:
+        """Learn from states (N, n_features) and the class label (`act_class`) of each act."""
+        self.classifier_ = BernoulliNB(alpha=self.alpha, binarize=self.binarize)
+        self.classifier_.fit(states[:, self.columns], labels)
+        log_p = self.classifier_.feature_log_prob_
+        log_not_p = np.log1p(-np.exp(log_p))
+        self._weights = (log_p - log_not_p).T.astype(np.float64)  # (n_columns, n_classes)
+        self._bias = log_not_p.sum(axis=1) + self.classifier_.class_log_prior_
+        # where each class's probability goes among the 18 actions (GameMove: each of 9 cells)
+        self._to_actions = np.zeros((len(self.classifier_.classes_), N_ACTIONS))
+        for k, label in enumerate(self.classifier_.classes_):
+            for a, act in enumerate(SYSTEM_ACTS):
+                if act_class(act) == class_act(str(label)):
+                    self._to_actions[k, a] = 1.0
+        return self
+
+    @classmethod
+    def from_domain(cls, domain: Domain, layout: FeatureLayout, **kwargs: float) -> ActionModel:
+        """The action model trained on the domain's seed dialogues."""
+        states, acts = seed_examples(domain, layout)
+        return cls(layout, **kwargs).fit(states, acts)
+
+    def class_proba(self, states: np.ndarray) -> np.ndarray:
+        """Pr(act type | s), (N, n_classes), in the order of `classifier_.classes_`."""
+        x = (np.atleast_2d(states)[:, self.columns] > self.binarize).astype(np.float64)
+        logits = x @ self._weights + self._bias
+        logits -= logits.max(axis=1, keepdims=True)
+        p = np.exp(logits)
+        return p / p.sum(axis=1, keepdims=True)
+
+    def predict_proba(self, states: np.ndarray) -> np.ndarray:
+        """Pr(a|s) for the 18 actions, (N, 18); a GameMove on an occupied cell has 0."""
+        states = np.atleast_2d(states)
+        probs = self.class_proba(states) @ self._to_actions
+        occupied = (states[:, self.layout.robot_cells] + states[:, self.layout.person_cells]) > 0
+        probs[:, :9] = np.where(occupied, 0.0, probs[:, :9])
+        return probs
+
+
+def action_mask(
+    probs: np.ndarray, board: Board, robot_to_move: bool, threshold: float
+) -> np.ndarray:
+    """The actions offered in a state: Pr(a|s) > threshold, and all valid GameMoves if any is.
+
+    A GameMove is valid only on an empty cell while it is the robot's turn. If nothing passes
+    the threshold, the most likely act that can be done is offered, so the set is never empty.
+    """
+    offered = probs > threshold
+    valid_moves = np.array([c == 0 for c in board]) & robot_to_move
+    offered[:9] = valid_moves if offered[:9].any() else False
+    if not offered.any():
+        candidates = np.where(np.r_[valid_moves, np.ones(N_ACTIONS - 9, dtype=bool)], probs, -1.0)
+        offered[int(np.argmax(candidates))] = True
+    return offered
+
+
+__all__ = ["ACTION_INDEX", "ActionModel", "act_class", "action_mask", "seed_examples"]

@@ -1,0 +1,311 @@
+"""The dialogue domain: the 18 system acts, the user acts, and the parser of the domain files.
+
+The domain lives in three plain text files under `oxbot/data/dialogue/`, in a format like
+SimpleDS's. Every utterance is one line, `SPEAKER:[Act]"words"`:
+
+    SYS:[Salutation(greeting)]"Hello!"
+    USR:[Confirm(playGame=yes)]"Yes, let's go."
+    SYS:[GameMove(gridloc=lowermiddle)]"I take this one [who=rob what=draw where=lowermiddle]"
+
+- `dialogues.txt`: the 10 seed dialogues, one utterance per line, a blank line between
+  dialogues. A drawing is written in square brackets like the paper's Figure 1
+  (`[who=usr what=draw where=middle]`); it must name the act's `gridloc`, an empty cell, and
+  the game must end with the feedback act of its real outcome.
+- `templates.txt`: `SYS:[Act]"words"` lines, one or more per system act (all 18 must have one);
+  `$loc` stands for the cell in the GameMove template.
+- `user_responses.txt`: `SystemAct => USR:[UserAct]"words"` lines, the person's alternatives to
+  each system act (`""` is silence).
+
+Lines starting with `#` are comments. The vocabulary is every word of the templates and the user
+responses (lower-cased; bracketed game-move tags are actions, not words); every word of the seed
+dialogues must be in it. Every problem is a `DataError` naming the file and line.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+from oxbot.errors import DataError, IllegalMoveError
+from oxbot.game.board import (
+    CELL_NAMES,
+    EMPTY_BOARD,
+    ROBOT,
+    USER,
+    Board,
+    outcome,
+    play,
+)
+
+GAME_MOVES: tuple[str, ...] = tuple(f"GameMove(gridloc={cell})" for cell in CELL_NAMES)
+SYSTEM_ACTS: tuple[str, ...] = (
+    *GAME_MOVES,
+    "Provide(feedback=draw)",
+    "Provide(feedback=loose)",
+    "Provide(feedback=win)",
+    "Provide(name)",
+    "Reply(playGame=yes)",
+    "Request(playGame)",
+    "Request(userGameMove)",
+    "Salutation(closing)",
+    "Salutation(greeting)",
+)
+"""SPEC §3: the 18 actions, in the paper's order; index 0-8 is a GameMove on that cell."""
+
+ACTION_INDEX: dict[str, int] = {act: i for i, act in enumerate(SYSTEM_ACTS)}
+FEEDBACK_ACTS: dict[str, str] = {
+    "win": "Provide(feedback=win)",
+    "draw": "Provide(feedback=draw)",
+    "loss": "Provide(feedback=loose)",
+}
+"""The feedback act that matches each outcome (from the robot's side)."""
+
+GAME_MOVE_TEMPLATE = "GameMove(gridloc=$loc)"
+USER_ACTS: tuple[str, ...] = (
+    "Salutation(greeting)",
+    "Salutation(closing)",
+    "Confirm(playGame=yes)",
+    "Reject(playGame=no)",
+    "Acknowledge",
+    GAME_MOVE_TEMPLATE,
+    "Silence",
+)
+"""The person's acts; `GameMove(gridloc=$loc)` stands for a drawing on any cell."""
+
+_UTTERANCE = re.compile(r'^(SYS|USR):\[([^\]]*)\]"([^"]*)"$')
+_RESPONSE = re.compile(r"^(\S+)\s*=>\s*(.*)$")
+_TAG = re.compile(r"\[who=(\w+) what=draw where=([\w$]+)\]")
+_WORD = re.compile(r"[a-z]+(?:'[a-z]+)?")
+
+
+def words_of(text: str) -> list[str]:
+    """The spoken words of an utterance, lower-cased, without its bracketed game-move tag."""
+    return _WORD.findall(_TAG.sub(" ", text.lower()))
+
+
+def game_move_cell(act: str) -> int | None:
+    """The cell index of a `GameMove(gridloc=...)` act, or None for any other act."""
+    if act.startswith("GameMove(gridloc=") and act.endswith(")"):
+        name = act[len("GameMove(gridloc=") : -1]
+        if name in CELL_NAMES:
+            return CELL_NAMES.index(name)
+    return None
+
+
+@dataclass(frozen=True)
+class Utterance:
+    """One line of a domain file: who speaks, the dialogue act, the words (and a drawing)."""
+
+    speaker: str
+    """`SYS` (the robot) or `USR` (the person)."""
+    act: str
+    text: str
+    source: str = ""
+    """`file:line` the utterance was read from, for error messages."""
+
+    @property
+    def words(self) -> list[str]:
+        return words_of(self.text)
+
+    @property
+    def cell(self) -> int | None:
+        """The cell this utterance draws on, or None."""
+        return game_move_cell(self.act)
+
+
+@dataclass(frozen=True)
+class Domain:
+    """Everything the action model, the simulator and the environment learn from."""
+
+    dialogues: tuple[tuple[Utterance, ...], ...]
+    templates: dict[str, tuple[str, ...]]
+    """System act (`GameMove(gridloc=$loc)` for all nine) -> its template texts."""
+    responses: dict[str, tuple[Utterance, ...]]
+    """System act (`GameMove(gridloc=$loc)` for all nine) -> the person's alternatives."""
+    vocabulary: tuple[str, ...]
+    """The words of the templates and user responses, in order of first appearance."""
+
+    def templates_for(self, act: str) -> tuple[str, ...]:
+        """The template texts of a system act, with `$loc` filled for a GameMove."""
+        cell = game_move_cell(act)
+        if cell is None:
+            return self.templates[act]
+        return tuple(
+            t.replace("$loc", CELL_NAMES[cell]) for t in self.templates[GAME_MOVE_TEMPLATE]
+        )
+
+    def responses_to(self, act: str) -> tuple[Utterance, ...]:
+        """The person's alternatives to a system act (empty means silence)."""
+        key = GAME_MOVE_TEMPLATE if game_move_cell(act) is not None else act
+        return self.responses.get(key, ())
+
+
+def _lines(path: Path) -> list[tuple[int, str]]:
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise DataError(f"{path} does not exist; the dialogue domain needs it") from None
+    except UnicodeDecodeError as exc:
+        raise DataError(f"{path} is not UTF-8 text: {exc}") from None
+    return [(n, line.strip()) for n, line in enumerate(text.splitlines(), start=1)]
+
+
+def parse_utterance(line: str, where: str, speaker: str | None = None) -> Utterance:
+    """One `SPEAKER:[Act]"words"` line, checked; `where` is `file:line` for the error message."""
+    match = _UTTERANCE.match(line)
+    if match is None:
+        raise DataError(
+            f'{where}: malformed line {line!r}; write SYS:[Act]"words" or USR:[Act]"words"'
+        )
+    who, act, text = match.groups()
+    if speaker is not None and who != speaker:
+        raise DataError(f"{where}: expected a {speaker}: line, got {who}:")
+    known = (*SYSTEM_ACTS, GAME_MOVE_TEMPLATE) if who == "SYS" else USER_ACTS + GAME_MOVES
+    if act not in known:
+        kind = "system" if who == "SYS" else "user"
+        listed = [a for a in known if a not in GAME_MOVES and a != GAME_MOVE_TEMPLATE]
+        listed.append("GameMove(gridloc=<cell>)")
+        raise DataError(f"{where}: unknown {kind} act {act!r}; {kind} acts are {', '.join(listed)}")
+    tags = _TAG.findall(text)
+    is_move = act.startswith("GameMove(")
+    if is_move:
+        expected = ("rob" if who == "SYS" else "usr", act[len("GameMove(gridloc=") : -1])
+        if tags != [expected]:
+            raise DataError(
+                f"{where}: {act} must draw with [who={expected[0]} what=draw where={expected[1]}]"
+            )
+    elif tags or "[" in text:
+        raise DataError(f"{where}: only a GameMove act may carry a [who=... what=draw ...] tag")
+    return Utterance(who, act, text, where)
+
+
+def parse_templates(path: Path) -> dict[str, tuple[str, ...]]:
+    """The system templates file: act -> texts; every one of the 18 acts must have one."""
+    templates: dict[str, list[str]] = {}
+    for n, line in _lines(path):
+        if not line or line.startswith("#"):
+            continue
+        utterance = parse_utterance(line, f"{path.name}:{n}", speaker="SYS")
+        if utterance.cell is not None:
+            raise DataError(
+                f"{path.name}:{n}: write the GameMove template once, as {GAME_MOVE_TEMPLATE}"
+            )
+        templates.setdefault(utterance.act, []).append(utterance.text)
+    needed = [a for a in SYSTEM_ACTS if a not in GAME_MOVES] + [GAME_MOVE_TEMPLATE]
+    missing = [a for a in needed if a not in templates]
+    if missing:
+        raise DataError(f"{path.name} has no template for {', '.join(missing)}; add a line each")
+    return {act: tuple(texts) for act, texts in templates.items()}
+
+
+def parse_responses(path: Path) -> dict[str, tuple[Utterance, ...]]:
+    """The user responses file: system act -> the person's alternative utterances."""
+    responses: dict[str, list[Utterance]] = {}
+    for n, line in _lines(path):
+        if not line or line.startswith("#"):
+            continue
+        where = f"{path.name}:{n}"
+        match = _RESPONSE.match(line)
+        if match is None:
+            raise DataError(
+                f'{where}: malformed line {line!r}; write SystemAct => USR:[UserAct]"words"'
+            )
+        system_act, rest = match.groups()
+        if system_act not in (*SYSTEM_ACTS, GAME_MOVE_TEMPLATE) or system_act in GAME_MOVES:
+            raise DataError(
+                f"{where}: unknown system act {system_act!r}; use one of the 18 acts, with "
+                f"{GAME_MOVE_TEMPLATE} for the robot's moves"
+            )
+        utterance = parse_utterance(rest, where, speaker="USR")
+        if utterance.cell is not None:
+            raise DataError(f"{where}: write a person's drawing as {GAME_MOVE_TEMPLATE}")
+        responses.setdefault(system_act, []).append(utterance)
+    return {act: tuple(alternatives) for act, alternatives in responses.items()}
+
+
+def parse_dialogues(path: Path, vocabulary: tuple[str, ...]) -> tuple[tuple[Utterance, ...], ...]:
+    """The seed dialogues file, each dialogue replayed to check its moves and its feedback."""
+    dialogues: list[list[Utterance]] = [[]]
+    known_words = set(vocabulary)
+    for n, line in _lines(path):
+        if line.startswith("#"):
+            continue
+        if not line:
+            if dialogues[-1]:
+                dialogues.append([])
+            continue
+        where = f"{path.name}:{n}"
+        utterance = parse_utterance(line, where)
+        if utterance.act == GAME_MOVE_TEMPLATE:
+            raise DataError(
+                f"{where}: a seed dialogue names the cell, e.g. GameMove(gridloc=middle)"
+            )
+        unknown = [w for w in utterance.words if w not in known_words]
+        if unknown:
+            raise DataError(
+                f"{where}: {', '.join(repr(w) for w in unknown)} not in the vocabulary; use the "
+                "words of templates.txt and user_responses.txt"
+            )
+        dialogues[-1].append(utterance)
+    found = tuple(tuple(d) for d in dialogues if d)
+    if not found:
+        raise DataError(f"{path.name} holds no dialogue; add at least one")
+    for dialogue in found:
+        _check_game(dialogue)
+    return found
+
+
+def _check_game(dialogue: tuple[Utterance, ...]) -> None:
+    board: Board = EMPTY_BOARD
+    for utterance in dialogue:
+        cell = utterance.cell
+        if cell is not None:
+            if outcome(board) is not None:
+                raise DataError(f"{utterance.source}: a move after the game is over")
+            try:
+                board = play(board, cell, ROBOT if utterance.speaker == "SYS" else USER)
+            except IllegalMoveError as exc:
+                raise DataError(f"{utterance.source}: {exc}") from None
+        elif utterance.act.startswith("Provide(feedback="):
+            result = outcome(board)
+            if result is None or utterance.act != FEEDBACK_ACTS[result]:
+                raise DataError(
+                    f"{utterance.source}: {utterance.act} does not match the game "
+                    f"({result or 'not over'})"
+                )
+
+
+def derive_vocabulary(
+    templates: dict[str, tuple[str, ...]], responses: dict[str, tuple[Utterance, ...]]
+) -> tuple[str, ...]:
+    """Every word of the templates and user responses, in order of first appearance."""
+    words: dict[str, None] = {}
+    for texts in templates.values():
+        for text in texts:
+            words.update(dict.fromkeys(words_of(text)))
+    for alternatives in responses.values():
+        for utterance in alternatives:
+            words.update(dict.fromkeys(utterance.words))
+    return tuple(words)
+
+
+def default_domain_dir() -> Path:
+    """The shipped domain files, `oxbot/data/dialogue/`."""
+    return Path(str(resources.files("oxbot") / "data" / "dialogue"))
+
+
+def load_domain(directory: str | Path | None = None) -> Domain:
+    """Parse and check `dialogues.txt`, `templates.txt` and `user_responses.txt` in `directory`."""
+    root = Path(directory) if directory is not None else default_domain_dir()
+    templates = parse_templates(root / "templates.txt")
+    responses = parse_responses(root / "user_responses.txt")
+    vocabulary = derive_vocabulary(templates, responses)
+    if not vocabulary:
+        raise DataError(
+            f"the vocabulary derived from {root / 'templates.txt'} and "
+            f"{root / 'user_responses.txt'} is empty; the templates need words"
+        )
+    dialogues = parse_dialogues(root / "dialogues.txt", vocabulary)
+    return Domain(dialogues, templates, responses, vocabulary)

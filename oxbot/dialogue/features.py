@@ -1,0 +1,156 @@
+"""The state the interaction manager sees: word features plus game and dialogue context.
+
+Layout (SPEC §3, paper §2.2 "State Space") with the shipped vocabulary of 35 words, 61 features:
+
+    index  name                     value
+    0-34   word:<w>, vocabulary     system words of the last response: 1 if present; user words
+           order                    of the last answer: the recogniser's confidence in [0, 1],
+                                    overriding the system's value on overlap
+    35-43  robot:<cell>             1 if the robot's mark is on the cell (row-major, upper left
+                                    first)
+    44-52  person:<cell>            1 if the person's mark is on the cell
+    53     game:robot_to_move       1 while the game is on and it is the robot's turn to draw
+                                    (before the first move: 1 if the robot starts)
+    54     game:robot_won           1 once the robot has three in a row
+    55     game:person_won          1 once the person has three in a row
+    56     game:draw                1 once the board is full with no line
+    57     dialogue:greeted         1 once the robot has said Salutation(greeting)
+    58     dialogue:introduced      1 once it has said Provide(name)
+    59     dialogue:invited         1 once it has said Request(playGame)
+    60     dialogue:gave_feedback   1 once it has said a Provide(feedback=...) act
+
+The paper had 57 features (about 40 words plus game moves); the first 57 here are exactly that
+kind (35 words, 18 cells, 4 game flags). The word features are reset every turn; the others keep
+the history instead (paper: "we kept the game move features as to describe the game state rather
+than resetting them at every turn"). oxbot adds the four dialogue flags for the same reason: the
+last turn's words cannot tell whether the robot has already introduced itself or given feedback,
+and without them no policy can be well formed every time (see README, Deviations).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from oxbot.errors import DataError
+from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, Board, to_move, winner
+
+GAME_FLAGS: tuple[str, ...] = (
+    "game:robot_to_move",
+    "game:robot_won",
+    "game:person_won",
+    "game:draw",
+)
+DIALOGUE_FLAGS: dict[str, str] = {
+    "dialogue:greeted": "Salutation(greeting)",
+    "dialogue:introduced": "Provide(name)",
+    "dialogue:invited": "Request(playGame)",
+    "dialogue:gave_feedback": "Provide(feedback=",
+}
+"""Context features: 1 once the robot has said the act (any feedback act for the last one)."""
+
+# The 8 symmetries of the square as permutations of the cells: new[i] = old[perm[i]].
+_ROTATE = (6, 3, 0, 7, 4, 1, 8, 5, 2)
+_MIRROR = (2, 1, 0, 5, 4, 3, 8, 7, 6)
+
+
+def board_symmetries() -> np.ndarray:
+    """The 8 rotations and reflections of the board, as (8, 9) cell permutations."""
+    perms = [tuple(range(9))]
+    for _ in range(3):
+        perms.append(tuple(perms[-1][i] for i in _ROTATE))
+    perms += [tuple(p[i] for i in _MIRROR) for p in perms[:4]]
+    return np.array(perms, dtype=np.int64)
+
+
+class FeatureLayout:
+    """Names and positions of the state features for a given vocabulary."""
+
+    def __init__(self, vocabulary: Sequence[str]) -> None:
+        if not vocabulary:
+            raise DataError("the vocabulary is empty; the state needs at least one word feature")
+        if len(set(vocabulary)) != len(vocabulary):
+            raise DataError("the vocabulary lists a word twice; each word is one feature")
+        self.vocabulary: tuple[str, ...] = tuple(vocabulary)
+        self.word_index: dict[str, int] = {w: i for i, w in enumerate(self.vocabulary)}
+        n = len(self.vocabulary)
+        self.robot_cells = slice(n, n + 9)
+        self.person_cells = slice(n + 9, n + 18)
+        self.flags = slice(n + 18, n + 18 + len(GAME_FLAGS))
+        self.dialogue_flags = slice(self.flags.stop, self.flags.stop + len(DIALOGUE_FLAGS))
+        self.names: tuple[str, ...] = (
+            *(f"word:{w}" for w in self.vocabulary),
+            *(f"robot:{c}" for c in CELL_NAMES),
+            *(f"person:{c}" for c in CELL_NAMES),
+            *GAME_FLAGS,
+            *DIALOGUE_FLAGS,
+        )
+        self.n_features = len(self.names)
+        self.n_words = n
+
+    def encode(
+        self,
+        system_words: Iterable[str],
+        user_words: Iterable[tuple[str, float]],
+        board: Board,
+        robot_starts: bool,
+        said: Iterable[str] = (),
+    ) -> np.ndarray:
+        """The state vector after a system response and the user's (heard) response.
+
+        `said` is every system act the robot has said so far in the dialogue.
+        """
+        state = np.zeros(self.n_features, dtype=np.float32)
+        for word in system_words:
+            i = self.word_index.get(word)
+            if i is not None:
+                state[i] = 1.0
+        for word, confidence in user_words:  # the user's words override the system's
+            i = self.word_index.get(word)
+            if i is not None:
+                state[i] = confidence
+        self.encode_game(state, board, robot_starts)
+        flags = state[self.dialogue_flags]
+        for act in said:
+            for k, prefix in enumerate(DIALOGUE_FLAGS.values()):
+                if act.startswith(prefix):
+                    flags[k] = 1.0
+        return state
+
+    def encode_game(self, state: np.ndarray, board: Board, robot_starts: bool) -> None:
+        """Write the game-move features of `board` into `state` in place."""
+        cells = np.asarray(board)
+        state[self.robot_cells] = cells == ROBOT
+        state[self.person_cells] = cells == USER
+        w = winner(board)
+        full = EMPTY not in board
+        flags = state[self.flags]
+        flags[0] = w == EMPTY and not full and to_move(board, robot_starts) == ROBOT
+        flags[1] = w == ROBOT
+        flags[2] = w == USER
+        flags[3] = w == EMPTY and full
+
+    def dialogue_columns(self) -> np.ndarray:
+        """The features the action model reads: the words and the flags, not the cells.
+
+        The seed dialogues' ten boards say nothing about which act follows which board, and
+        per-cell features would let Naive Bayes veto acts on boards it has never seen.
+        """
+        return np.r_[0 : self.n_words, self.flags.start : self.dialogue_flags.stop]
+
+    def symmetry_permutations(self) -> tuple[np.ndarray, np.ndarray]:
+        """(8, n_features) feature and (8, 18) action permutations for the board symmetries.
+
+        Under symmetry k a state becomes `state[features[k]]` and an act `a` becomes
+        `actions[k][a]`; only the cell features and the GameMoves move.
+        """
+        cells = board_symmetries()
+        features = np.tile(np.arange(self.n_features), (len(cells), 1))
+        actions = np.tile(np.arange(18), (len(cells), 1))
+        for k, perm in enumerate(cells):
+            features[k, self.robot_cells] = self.robot_cells.start + perm
+            features[k, self.person_cells] = self.person_cells.start + perm
+            inverse = np.argsort(perm)  # old cell c moves to position inverse[c]
+            actions[k, :9] = inverse
+        return features, actions

@@ -1,0 +1,65 @@
+import numpy as np
+import pytest
+
+from oxbot.dialogue.action_model import ActionModel, action_mask, act_class, seed_examples
+from oxbot.dialogue.domain import SYSTEM_ACTS
+from oxbot.dialogue.env import shipped_components
+from oxbot.game.board import EMPTY_BOARD, play
+
+
+def test_probabilities_are_scikit_learns_naive_bayes():
+    domain, layout, model = shipped_components()
+    states, _ = seed_examples(domain, layout)
+    ours = model.class_proba(states)
+    sklearn = model.classifier_.predict_proba(states[:, model.columns])
+    assert ours == pytest.approx(sklearn, abs=1e-9)
+
+
+def test_the_model_reproduces_the_seed_dialogues():
+    domain, layout, model = shipped_components()
+    states, labels = seed_examples(domain, layout)
+    predicted = model.classifier_.classes_[model.class_proba(states).argmax(axis=1)]
+    assert predicted.tolist() == labels
+    assert "Request(playGame)#again" in labels  # asking again after a "no" is learned apart
+    assert act_class("GameMove(gridloc=middle)") == "GameMove"
+
+
+def test_a_game_move_on_an_occupied_cell_has_probability_zero():
+    _, layout, model = shipped_components()
+    board = play(play(EMPTY_BOARD, 4, 1), 0, 2)
+    said = ["Salutation(greeting)", "Provide(name)", "Request(playGame)"]
+    state = layout.encode(["your", "turn"], [("i", 1.0), ("pick", 1.0)], board, True, said)
+    probs = model.predict_proba(state)[0]
+    assert probs[4] == 0 and probs[0] == 0
+    assert probs[1] > 0.5  # the robot's turn: a move is likely, on any empty cell alike
+    assert np.allclose(probs[[1, 2, 3, 5, 6, 7, 8]], probs[1])
+
+
+def test_mask_offers_all_valid_moves_when_one_is_offered_and_never_an_occupied_cell():
+    board = play(play(EMPTY_BOARD, 4, 1), 0, 2)
+    probs = np.zeros(18)
+    probs[2] = 0.5  # one GameMove passes the threshold
+    probs[SYSTEM_ACTS.index("Request(userGameMove)")] = 0.0005  # below 0.001: not offered
+    probs[SYSTEM_ACTS.index("Provide(name)")] = 0.002
+    mask = action_mask(probs, board, robot_to_move=True, threshold=0.001)
+    assert mask[:9].tolist() == [False, True, True, True, False, True, True, True, True]
+    assert mask[SYSTEM_ACTS.index("Provide(name)")]
+    assert not mask[SYSTEM_ACTS.index("Request(userGameMove)")]
+    assert not action_mask(probs, board, robot_to_move=False, threshold=0.001)[:9].any()
+
+
+def test_mask_is_never_empty():
+    probs = np.full(18, 1e-6)
+    probs[SYSTEM_ACTS.index("Salutation(closing)")] = 2e-6
+    mask = action_mask(probs, EMPTY_BOARD, robot_to_move=False, threshold=0.001)
+    assert mask.sum() == 1 and mask[SYSTEM_ACTS.index("Salutation(closing)")]
+
+
+def test_threshold_follows_the_paper():
+    _, layout, model = shipped_components()
+    state = layout.encode([], [], EMPTY_BOARD, True)
+    probs = model.predict_proba(state)[0]
+    mask = action_mask(probs, EMPTY_BOARD, True, 0.001)
+    assert mask.tolist() == (probs > 0.001).tolist()
+    assert SYSTEM_ACTS[int(np.argmax(probs))] == "Salutation(greeting)"
+    assert isinstance(model, ActionModel)

@@ -1,0 +1,137 @@
+import re
+from collections import Counter
+
+import pytest
+
+from oxbot.dialogue.domain import FEEDBACK_ACTS, GAME_MOVES, SYSTEM_ACTS, load_domain, words_of
+from oxbot.errors import DataError
+from tests.dialogue.conftest import replace_line
+
+
+def test_shipped_domain_has_ten_varied_seed_dialogues():
+    domain = load_domain()
+    assert len(domain.dialogues) == 10
+    feedback = Counter(
+        u.act for d in domain.dialogues for u in d if u.act.startswith("Provide(feedback=")
+    )
+    assert set(feedback) == set(FEEDBACK_ACTS.values())  # robot wins, draws and losses
+    starters = Counter(next(u.speaker for u in d if u.cell is not None) for d in domain.dialogues)
+    assert starters == {"SYS": 5, "USR": 5}
+    moves = {sum(u.cell is not None for u in d) for d in domain.dialogues}
+    assert len(moves) >= 3  # games of different lengths
+    openings = {tuple(u.act for u in d[:3]) for d in domain.dialogues}
+    acceptances = {u.text for d in domain.dialogues for u in d if u.act == "Confirm(playGame=yes)"}
+    assert len(openings) >= 3 and len(acceptances) >= 3
+
+
+def test_every_act_has_a_template_and_the_vocabulary_is_about_forty_words():
+    domain = load_domain()
+    for act in SYSTEM_ACTS:
+        assert domain.templates_for(act), act
+    assert "I take this one [who=rob what=draw where=middle]" in domain.templates_for(
+        "GameMove(gridloc=middle)"
+    )
+    assert "Provide(feedback=loose)" in SYSTEM_ACTS  # the paper's spelling
+    assert len(SYSTEM_ACTS) == 18 and SYSTEM_ACTS[:9] == GAME_MOVES
+    assert 30 <= len(domain.vocabulary) <= 45
+    assert {"hello", "oxbot", "turn", "won", "draw", "bye", "pick"} <= set(domain.vocabulary)
+
+
+def test_words_leave_out_the_drawing():
+    assert words_of("I pick this one [who=usr what=draw where=middle]") == [
+        "i",
+        "pick",
+        "this",
+        "one",
+    ]
+    assert words_of("Yes, let's go.") == ["yes", "let's", "go"]
+
+
+@pytest.mark.parametrize(
+    "file,old,new,message",
+    [
+        (
+            "dialogues.txt",
+            'SYS:[Provide(name)]"I am oxbot."',
+            'SYS:[Provide(name)]"I am oxbot.',
+            "malformed line",
+        ),
+        (
+            "dialogues.txt",
+            'SYS:[Provide(name)]"I am oxbot."',
+            'SYS:[Provide(age)]"I am oxbot."',
+            "unknown system act 'Provide(age)'",
+        ),
+        (
+            "dialogues.txt",
+            'SYS:[Provide(name)]"I am oxbot."',
+            'SYS:[Provide(name)]"I am robby."',
+            "'robby' not in the vocabulary",
+        ),
+        (
+            "dialogues.txt",
+            "where=lowerright]",
+            'SYS:[GameMove(gridloc=middleleft)]"I take this one [who=rob what=draw where=middleleft]"',
+            "already taken",
+        ),
+        (
+            "dialogues.txt",
+            'SYS:[Provide(feedback=win)]"Yes, I won."',
+            'SYS:[Provide(feedback=draw)]"It is a draw."',
+            "does not match the game (win)",
+        ),
+        ("templates.txt", 'SYS:[Provide(name)]"I am oxbot."', "", "no template for Provide(name)"),
+        (
+            "templates.txt",
+            'SYS:[Salutation(greeting)]"Hi!"',
+            'SYS:[Salutation(hug)]"Hi!"',
+            "unknown system act 'Salutation(hug)'",
+        ),
+        (
+            "user_responses.txt",
+            "Provide(name) => USR:[Silence]",
+            'Provide(name) -> USR:[Silence]""',
+            "malformed line",
+        ),
+        (
+            "user_responses.txt",
+            "Provide(name) => USR:[Silence]",
+            'Provide(name) => USR:[Dance]""',
+            "unknown user act 'Dance'",
+        ),
+    ],
+)
+def test_a_broken_line_is_reported_with_its_file_and_number(domain_dir, file, old, new, message):
+    line = replace_line(domain_dir / file, old, new)
+    with pytest.raises(DataError, match=re.escape(message)) as error:
+        load_domain(domain_dir)
+    if new:  # a removed line cannot be pointed at; the message names the missing act instead
+        assert f"{file}:{line}" in str(error.value) or file == "templates.txt"
+    else:
+        assert file in str(error.value)
+
+
+def test_an_empty_vocabulary_is_refused(domain_dir):
+    templates = domain_dir / "templates.txt"
+    lines = [
+        line.split("]", 1)[0] + ']""'
+        if line.startswith("SYS:") and "[GameMove" not in line
+        else line
+        for line in templates.read_text().splitlines()
+    ]
+    lines = [
+        'SYS:[GameMove(gridloc=$loc)]"[who=rob what=draw where=$loc]"'
+        if "[GameMove" in line
+        else line
+        for line in lines
+    ]
+    templates.write_text("\n".join(lines) + "\n")
+    (domain_dir / "user_responses.txt").write_text("# nothing\n")
+    with pytest.raises(DataError, match="vocabulary derived from .* is empty"):
+        load_domain(domain_dir)
+
+
+def test_a_missing_file_is_named(domain_dir):
+    (domain_dir / "dialogues.txt").unlink()
+    with pytest.raises(DataError, match="dialogues.txt does not exist"):
+        load_domain(domain_dir)
