@@ -1,0 +1,180 @@
+"""Reading the board: a photo of the game sheet in, the 9 cells' labels out (SPEC §5).
+
+Paper §3.1 "Game Move Recognition": RGB → grayscale → remove the grid → split into 9 images →
+classify each as circle, cross or nothing. Here the grid is found first (`grid.py`), and the 9
+cells go to the classifier in one batch:
+
+    from oxbot.perception import read_board
+    read_board(frame)   # uint8 (H, W, 3) RGB or (H, W) gray -> ["nothing", "cross", ...]
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import cv2
+import numpy as np
+
+from oxbot.atomic import atomic_write
+from oxbot.errors import InvalidInputError
+from oxbot.game.board import CELL_NAMES
+from oxbot.perception.grid import (
+    Grid,
+    as_gray,
+    cut_cells,
+    find_grid,
+    rectify,
+    remove_grid_lines,
+)
+
+SINGLE_STROKE = 8.0
+"""oxbot: ink whose spread along its main axis is this many times its spread across it is one
+stroke — half a cross, a stray line — not yet a symbol. Complete symbols in the tuning renders
+stay below 4.5, a cross's first stroke alone above 16."""
+
+
+class Classifier(Protocol):
+    """What the board reader needs of a classifier: SPEC §5's `predict`."""
+
+    def predict(self, cells: np.ndarray) -> list[str]: ...
+
+
+@dataclass(frozen=True)
+class BoardReading:
+    """One frame's reading, with what the reader saw on the way, for debugging."""
+
+    labels: tuple[str, ...]
+    """The 9 labels, row-major from the upper left."""
+    grid: Grid
+    """Where the grid was found in the frame."""
+    sheet: np.ndarray
+    """The rectified sheet, uint8 (150, 150), before the grid lines were painted over."""
+    cleaned: np.ndarray
+    """The rectified sheet with the grid lines painted over."""
+    cells: np.ndarray
+    """The 9 cells the classifier saw, uint8 (9, 40, 40)."""
+
+
+def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarray]:
+    """The 9 cells of the sheet in `frame`, uint8 (9, 40, 40), with the grid and the sheets.
+
+    Raises InvalidInputError for a frame that is not a photo, NoGridFound when no grid is seen.
+    """
+    gray = as_gray(frame)
+    grid = find_grid(gray)
+    sheet = rectify(gray, grid)
+    cleaned = remove_grid_lines(sheet)
+    return cut_cells(cleaned), grid, sheet, cleaned
+
+
+class BoardReader:
+    """Reads boards with one classifier: `read(frame)` gives a `BoardReading`."""
+
+    def __init__(self, classifier: Classifier | None = None) -> None:
+        if classifier is None:
+            from oxbot.perception.classifier import load_classifier
+
+            classifier = load_classifier()
+        self.classifier = classifier
+
+    def read(self, frame: np.ndarray) -> BoardReading:
+        """Find the grid in `frame`, cut the 9 cells and classify them in one batch.
+
+        A cell whose ink is a single stroke reads "nothing", whatever the classifier says: the
+        paper's classifier knows only whole symbols, and the first stroke of a cross must not
+        become a move while the person is still drawing.
+        """
+        cells, grid, sheet, cleaned = cut_board(frame)
+        labels = list(self.classifier.predict(cells))
+        stretched = ink_elongation(cells) > SINGLE_STROKE
+        labels = [
+            "nothing" if stretched[i] and label != "nothing" else label
+            for i, label in enumerate(labels)
+        ]
+        return BoardReading(tuple(labels), grid, sheet, cleaned, cells)
+
+
+def ink_elongation(cells: np.ndarray) -> np.ndarray:
+    """For each cell of (N, 40, 40), how stretched its ink is: the ratio of the ink's spread
+    along its main axis to its spread across it (1 for a circle or an X, large for a line)."""
+    inner = cells[:, 2:-2, 2:-2].astype(np.float32)  # the border may hold grid remnants
+    weight = np.clip(235.0 - inner, 0.0, None)
+    weight[weight < 40.0] = 0.0  # paper grain and faint smudges are not ink
+    total = weight.sum(axis=(1, 2))
+    ys, xs = np.mgrid[0 : inner.shape[1], 0 : inner.shape[2]].astype(np.float32)
+    safe = np.maximum(total, 1e-6)
+    mx = (weight * xs).sum(axis=(1, 2)) / safe
+    my = (weight * ys).sum(axis=(1, 2)) / safe
+    dx, dy = xs[None] - mx[:, None, None], ys[None] - my[:, None, None]
+    cxx = (weight * dx * dx).sum(axis=(1, 2)) / safe
+    cyy = (weight * dy * dy).sum(axis=(1, 2)) / safe
+    cxy = (weight * dx * dy).sum(axis=(1, 2)) / safe
+    half_trace, det = (cxx + cyy) / 2, cxx * cyy - cxy * cxy
+    root = np.sqrt(np.maximum(half_trace**2 - det, 0.0))
+    major, minor = half_trace + root, half_trace - root
+    return np.where(total > 0, major / np.maximum(minor, 1e-3), 0.0)
+
+
+@functools.cache
+def default_reader() -> BoardReader:
+    """The board reader with the shipped classifier, loaded once."""
+    return BoardReader()
+
+
+def read_board(frame: np.ndarray) -> list[str]:
+    """The 9 labels of the game sheet photographed in `frame`, row-major from the upper left.
+
+    `frame` is uint8 (H, W, 3) RGB or (H, W) grayscale. Raises `oxbot.errors.NoGridFound` if
+    no whole 3x3 grid is in view, and `InvalidInputError` for an array that is not a photo.
+    """
+    return list(default_reader().read(frame).labels)
+
+
+SYMBOL_MARKS = {"circle": "O", "cross": "X", "nothing": " "}
+
+
+def format_board(labels: tuple[str, ...] | list[str]) -> str:
+    """Nine labels as three text rows, O for circles and X for crosses."""
+    marks = [SYMBOL_MARKS[label] for label in labels]
+    rows = [" " + " | ".join(marks[r * 3 : r * 3 + 3]) for r in range(3)]
+    return "\n---+---+---\n".join(rows)
+
+
+def save_debug(
+    reading: BoardReading, frame: np.ndarray, folder: str | Path, stem: str
+) -> list[Path]:
+    """Write what the reader saw as PNGs in `folder`; return the paths.
+
+    `<stem>_grid.png` the photo with the found grid drawn on it, `<stem>_sheet.png` the
+    rectified sheet, `<stem>_cleaned.png` the same with the grid lines painted over, and
+    `<stem>_cell<i>_<name>_<label>.png` the nine 40x40 cells the classifier saw.
+    """
+    folder = Path(folder)
+    overlay = frame.copy() if frame.ndim == 3 else cv2.cvtColor(frame, cv2.COLOR_GRAY2RGB)
+    lattice = reading.grid.lattice
+    thickness = max(1, round(reading.grid.cell_size() / 40))
+    for k in range(4):  # the lattice's rows and columns; the inner ones are the drawn lines
+        color = (255, 0, 0) if k in (1, 2) else (0, 200, 0)
+        for line in (lattice[k, :], lattice[:, k]):
+            pts = np.round(line * 16).astype(np.int32).reshape(-1, 1, 2)
+            cv2.polylines(overlay, [pts], False, color, thickness, cv2.LINE_AA, shift=4)
+    images = {
+        f"{stem}_grid.png": cv2.cvtColor(overlay, cv2.COLOR_RGB2BGR),
+        f"{stem}_sheet.png": reading.sheet,
+        f"{stem}_cleaned.png": reading.cleaned,
+    }
+    for i, (cell, label) in enumerate(zip(reading.cells, reading.labels, strict=True)):
+        images[f"{stem}_cell{i}_{CELL_NAMES[i]}_{label}.png"] = cell
+    written = []
+    for name, image in images.items():
+        ok, png = cv2.imencode(".png", image)
+        if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
+            raise InvalidInputError(f"could not encode {name} as PNG")
+        path = folder / name
+        with atomic_write(path) as handle:
+            handle.write(png.tobytes())
+        written.append(path)
+    return written

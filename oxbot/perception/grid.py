@@ -1,0 +1,499 @@
+"""Finding the hand-drawn 3x3 grid in a photo, and cutting it into nine 40x40 cells.
+
+Paper §3.1 "Game Move Recognition": grayscale → remove the grid → split into 9 images. The
+paper's arm camera saw a fixed grid from a fixed pose; here the grid may be anywhere in view,
+rotated up to ±15° and under mild perspective (SPEC §2), so it is found first:
+
+1. *Ink*: pixels clearly darker than the paper around them (a morphological closing estimates
+   the paper), on a copy of the frame at most `WORK_SIDE` pixels wide. Desk edges, shadows and
+   lighting gradients are not thin and dark, so they are not ink.
+2. *Lines*: the Hough transform proposes straight lines through the ink; the grid is the pair
+   of near-parallel lines and the crossing pair of near-parallel lines whose ink runs along
+   all four, across the whole grid. Hand-drawn lines wobble, overshoot or stop short; the
+   check asks for most, not all, of each line.
+3. *Fit*: each of the four lines is refitted to the ink near it; their four crossings fix a
+   homography from *cell units* (inner lines at 1 and 2, cells filling [0, 3]²) to pixels.
+4. *Cells*: the frame is rectified into a square sheet, the paper's uneven light divided out,
+   the remains of the four lines traced and painted over, and each cell cut out with a small
+   margin, so neighbouring grid ink stays out, at 40x40.
+
+`NoGridFound` is raised rather than a guess when no such four lines exist (a blank sheet, an
+empty desk) or when the grid runs off the frame.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from oxbot.errors import InvalidInputError, NoGridFound
+
+WORK_SIDE = 320
+"""Longest side, in pixels, of the copy of the frame the grid is searched in."""
+MIN_SIDE = 64
+"""Frames smaller than this on either side cannot show a readable grid."""
+CELL_SIZE = 40
+"""Paper §2.1: cells are 40x40 grayscale images."""
+CELL_MARGIN = 0.05
+"""Share of a cell's side cropped away along each grid line, to keep its ink out."""
+SHEET_CELL = round(CELL_SIZE / (1 - 2 * CELL_MARGIN))
+"""Side of one cell, in pixels, on the rectified sheet (a 40x40 crop plus the margins)."""
+MIN_GRID_SHARE = 0.18
+"""The grid's side must be at least this share of the frame's shorter side."""
+
+_INK_CONTRAST = 0.22  # ink is at least this much darker than the paper around it
+_MAX_LINES = 14  # distinct Hough lines considered
+_PARALLEL = math.radians(12)  # the two lines of a pair differ by at most this angle
+_CROSSING = math.radians(30)  # the two pairs cross at 90° give or take this angle
+_MIN_SUPPORT = 0.55  # least share of a line that must be inked
+_MIN_MEAN_SUPPORT = 0.75  # least mean share over the four lines
+
+
+Line = tuple[float, float]
+"""A straight line (rho, theta): the points x cos(theta) + y sin(theta) = rho."""
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A grid found in a frame: where its 4x4 lattice of cell corners lies, in frame pixels.
+
+    `lattice[r, c]` is the point at cell units (x=c, y=r). The four inner points are the
+    crossings of the drawn lines; the outer ones extend each line by one cell, as long as the
+    middle cell is along that line. Extending along the lines, rather than through a
+    homography fitted to the middle cell, keeps a hand-drawn grid's irregular spacing from
+    being mistaken for strong perspective and blown up at the outer corners.
+    """
+
+    lattice: np.ndarray
+    """float (4, 4, 2): frame pixels of the cell corners, rows top to bottom."""
+    support: float
+    """How closely ink follows the four lines, 0-1: how sure the finder is."""
+
+    def cell_quad(self, index: int) -> np.ndarray:
+        """(4, 2) frame pixels of cell `index`'s corners, clockwise from its upper left."""
+        r, c = divmod(index, 3)
+        q = self.lattice
+        return np.array([q[r, c], q[r, c + 1], q[r + 1, c + 1], q[r + 1, c]])
+
+    def corners(self) -> np.ndarray:
+        """(4, 2) frame pixels of the grid's outer corners, clockwise from the upper left."""
+        q = self.lattice
+        return np.array([q[0, 0], q[0, 3], q[3, 3], q[3, 0]])
+
+    def cell_size(self) -> float:
+        """The mean side of a cell in frame pixels."""
+        q = self.lattice
+        return float(
+            (
+                np.linalg.norm(np.diff(q, axis=0), axis=2).mean()
+                + np.linalg.norm(np.diff(q, axis=1), axis=2).mean()
+            )
+            / 2
+        )
+
+
+def as_gray(frame: object) -> np.ndarray:
+    """A frame as a uint8 (H, W) grayscale image, or InvalidInputError saying what is wrong.
+
+    Accepts uint8 (H, W) grayscale and (H, W, 3) RGB, as SPEC §5 promises, and nothing else:
+    other layouts are refused with the fix rather than silently guessed at.
+    """
+    if not isinstance(frame, np.ndarray):
+        raise InvalidInputError(
+            f"a frame must be a numpy array; got {type(frame).__name__} "
+            "(load a file with oxbot.perception.sources.load_image)"
+        )
+    if frame.size == 0:
+        raise InvalidInputError(f"the frame is empty (shape {frame.shape}); give a photo")
+    if frame.dtype != np.uint8:
+        raise InvalidInputError(
+            f"the frame has dtype {frame.dtype}; give uint8 pixels 0-255 "
+            "(e.g. (frame * 255).astype(np.uint8) for floats in [0, 1])"
+        )
+    if frame.ndim == 3 and frame.shape[2] == 3:
+        gray = cv2.cvtColor(np.ascontiguousarray(frame), cv2.COLOR_RGB2GRAY)
+    elif frame.ndim == 2:
+        gray = np.ascontiguousarray(frame)
+    else:
+        hint = " (drop the alpha channel: frame[..., :3])" if frame.shape[-1] == 4 else ""
+        raise InvalidInputError(
+            f"the frame has shape {frame.shape}; give (H, W, 3) RGB or (H, W) grayscale{hint}"
+        )
+    h, w = gray.shape
+    if min(h, w) < MIN_SIDE:
+        raise InvalidInputError(
+            f"the frame is {w}x{h} pixels, too small to show a 3x3 grid; give a photo at least "
+            f"{MIN_SIDE}x{MIN_SIDE} (a webcam's 640x480 is fine)"
+        )
+    return gray
+
+
+def ink_mask(gray: np.ndarray, kernel: int = 7) -> np.ndarray:
+    """uint8 mask (0/255) of thin dark strokes: pixels well below the paper's closing."""
+    smooth = cv2.GaussianBlur(gray, (3, 3), 0)
+    paper = cv2.morphologyEx(smooth, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
+    darker = cv2.subtract(paper, smooth).astype(np.float32)
+    return ((darker > _INK_CONTRAST * paper.astype(np.float32)) & (darker > 12)).astype(
+        np.uint8
+    ) * 255
+
+
+def find_grid(gray: np.ndarray) -> Grid:
+    """The hand-drawn 3x3 grid in a grayscale frame; NoGridFound when there is none to see."""
+    h, w = gray.shape
+    scale = min(1.0, WORK_SIDE / max(h, w))
+    small = (
+        gray
+        if scale == 1.0
+        else cv2.resize(gray, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+    )
+    ink = ink_mask(small)
+    short = min(small.shape)
+    min_spacing = MIN_GRID_SHARE * short / 3
+    lines = _hough_lines(ink, votes=max(12, int(0.6 * 3 * min_spacing)))
+    if len(lines) < 4:
+        raise NoGridFound(
+            "no grid in view: found no long pen lines (a blank sheet or an empty desk?); "
+            "draw the 3x3 grid with a dark pen and keep all of it in the picture"
+        )
+    center = np.array(small.shape[::-1], np.float64) / 2
+    best = _best_grid(lines, ink, min_spacing, short / 2, center)
+    if best is None:
+        raise NoGridFound(
+            "no 3x3 grid in view: no two pairs of crossing pen lines run across a whole grid; "
+            "keep all four lines of the grid in the picture"
+        )
+    four, support = best
+    lattice = _lattice(*_refine(four, ink))
+    if lattice is None:
+        lattice = _lattice(*four)
+    assert lattice is not None
+    grid = Grid(lattice=lattice / scale, support=support)
+    _check_in_view(grid, w, h)
+    return grid
+
+
+def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]]:
+    """Distinct straight lines through the ink as (rho, theta, votes), strongest first."""
+    found = cv2.HoughLinesWithAccumulator(ink, 1, math.pi / 180, votes)
+    if found is None:
+        return []
+    center = np.array(ink.shape[::-1], np.float64) / 2
+    kept: list[tuple[float, float, float]] = []
+    for rho, theta, count in found[:, 0, :]:
+        if any(_same_line((rho, theta), (r, t), center) for r, t, _ in kept):
+            continue
+        kept.append((float(rho), float(theta), float(count)))
+        if len(kept) == _MAX_LINES:
+            break
+    return kept
+
+
+def _same_line(a: Line, b: Line, center: np.ndarray) -> bool:
+    return _angle_between(a[1], b[1]) < math.radians(6) and _spacing(a, b, center) < 6
+
+
+def _angle_between(t1: float, t2: float) -> float:
+    """Angle between two line directions, 0 to pi/2."""
+    d = abs(t1 - t2) % math.pi
+    return min(d, math.pi - d)
+
+
+def _spacing(l1: Line, l2: Line, center: np.ndarray) -> float:
+    """Distance from line 2 to the point of line 1 nearest `center`."""
+    (r1, t1), (r2, t2) = l1, l2
+    n1 = np.array([math.cos(t1), math.sin(t1)])
+    foot = center - (center @ n1 - r1) * n1
+    return abs(foot @ np.array([math.cos(t2), math.sin(t2)]) - r2)
+
+
+def _intersect(l1: Line, l2: Line) -> np.ndarray | None:
+    (r1, t1), (r2, t2) = l1, l2
+    a = np.array([[math.cos(t1), math.sin(t1)], [math.cos(t2), math.sin(t2)]])
+    det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    if abs(det) < 1e-6:
+        return None
+    return np.array([(r1 * a[1, 1] - r2 * a[0, 1]) / det, (a[0, 0] * r2 - a[1, 0] * r1) / det])
+
+
+Four = tuple[Line, Line, Line, Line]
+"""The grid's lines: left and right vertical, then top and bottom horizontal."""
+
+
+def _best_grid(
+    lines: list[tuple[float, float, float]],
+    ink: np.ndarray,
+    min_spacing: float,
+    max_spacing: float,
+    center: np.ndarray,
+) -> tuple[Four, float] | None:
+    """The four lines, among `lines`, along which ink runs most closely; or None."""
+    pairs = [
+        (a, b)
+        for a, b in itertools.combinations(lines, 2)
+        if _angle_between(a[1], b[1]) < _PARALLEL
+        and min_spacing <= _spacing(a[:2], b[:2], center) <= max_spacing
+    ]
+    best: tuple[float, Four, float] | None = None
+    for p, q in itertools.combinations(pairs, 2):
+        if len({id(x) for x in (*p, *q)}) < 4:
+            continue
+        if abs(_angle_between(p[0][1], q[0][1]) - math.pi / 2) > _CROSSING:
+            continue
+        four = _order(p, q)
+        lattice = _lattice(*four, min_side=0.8 * min_spacing)
+        if lattice is None:
+            continue
+        support, closeness = _line_support(lattice, ink)
+        if support.min() < _MIN_SUPPORT or support.mean() < _MIN_MEAN_SUPPORT:
+            continue
+        score = closeness + 1e-4 * sum(x[2] for x in (*p, *q))
+        if best is None or score > best[0]:
+            best = (score, four, float(closeness))
+    return None if best is None else (best[1], best[2])
+
+
+def _order(p: tuple, q: tuple) -> Four:
+    """Two pairs of lines as (left, right, top, bottom)."""
+    # The pair whose normals point more along x holds the vertical lines.
+    if abs(math.cos(p[0][1])) < abs(math.cos(q[0][1])):
+        p, q = q, p
+    mid = _intersect(p[0][:2], q[0][:2])
+    mid = np.zeros(2) if mid is None else mid
+
+    def position(line: tuple, axis: int) -> float:
+        # Where the line crosses the other family's direction through `mid`: its x or y.
+        rho, theta = line[0], line[1]
+        n = np.array([math.cos(theta), math.sin(theta)])
+        foot = mid - (mid @ n - rho) * n
+        return float(foot[axis])
+
+    left, right = sorted((p[0][:2], p[1][:2]), key=lambda line: position(line, 0))
+    top, bottom = sorted((q[0][:2], q[1][:2]), key=lambda line: position(line, 1))
+    return left, right, top, bottom
+
+
+def _lattice(
+    left: Line, right: Line, top: Line, bottom: Line, min_side: float = 1.0
+) -> np.ndarray | None:
+    """The (4, 4, 2) lattice of cell corners of four lines, or None if they make no grid."""
+    q = np.zeros((4, 4, 2))
+    for r, hz in ((1, top), (2, bottom)):
+        for c, v in ((1, left), (2, right)):
+            point = _intersect(v, hz)
+            if point is None:
+                return None
+            q[r, c] = point
+    middle = np.array([q[1, 1], q[1, 2], q[2, 2], q[2, 1]], np.float32)
+    if not np.isfinite(middle).all() or not cv2.isContourConvex(middle.reshape(-1, 1, 2)):
+        return None
+    sides = np.linalg.norm(middle - np.roll(middle, 1, axis=0), axis=1)
+    if sides.min() < min_side or not (
+        0.6 < sides[0] / sides[2] < 1 / 0.6
+        and 0.6 < sides[1] / sides[3] < 1 / 0.6
+        and 0.5 < sides[0] / sides[1] < 2
+    ):
+        return None
+    for r in (1, 2):  # along each horizontal line, one cell further out on either side
+        q[r, 0] = 2 * q[r, 1] - q[r, 2]
+        q[r, 3] = 2 * q[r, 2] - q[r, 1]
+    for c in (1, 2):  # along each vertical line
+        q[0, c] = 2 * q[1, c] - q[2, c]
+        q[3, c] = 2 * q[2, c] - q[1, c]
+    for r0, rn in ((0, 1), (3, 2)):  # the outer corners complete parallelograms
+        for c0, cn in ((0, 1), (3, 2)):
+            q[r0, c0] = q[r0, cn] + q[rn, c0] - q[rn, cn]
+    return q
+
+
+def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """For the four lines (left, right, top, bottom): a crossing A on each, the step D of one
+    cell along it, its unit normal N, and the mean cell size."""
+    q = lattice
+    a = np.array([q[1, 1], q[1, 2], q[1, 1], q[2, 1]])
+    d = np.array([q[2, 1] - q[1, 1], q[2, 2] - q[1, 2], q[1, 2] - q[1, 1], q[2, 2] - q[2, 1]])
+    length = np.linalg.norm(d, axis=1, keepdims=True)
+    n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.maximum(length, 1e-9)
+    return a, d, n, float(length.mean())
+
+
+# Points along each inner line (in cells from its first crossing) and small steps across it:
+# ink is looked for within ±0.06 cells of the line, because hand-drawn lines wobble; ink
+# nearer the line counts for more, so that of two candidate lines the one on the ink wins.
+_ALONG = np.linspace(-0.88, 1.88, 24)
+_ACROSS = np.linspace(-0.06, 0.06, 7)
+_CLOSENESS = 1 - np.abs(_ACROSS) / 0.09
+
+
+def _line_support(lattice: np.ndarray, ink: np.ndarray) -> tuple[np.ndarray, float]:
+    """Share of each of the four lines along which ink is found (4,), and how close (0-1)."""
+    a, d, n, size = _line_frames(lattice)
+    pts = (
+        a[:, None, None, :]
+        + _ALONG[None, :, None, None] * d[:, None, None, :]
+        + (_ACROSS * size)[None, None, :, None] * n[:, None, None, :]
+    )
+    h, w = ink.shape
+    x = np.round(pts[..., 0]).astype(np.int64)
+    y = np.round(pts[..., 1]).astype(np.int64)
+    inside = (x >= 0) & (x < w) & (y >= 0) & (y < h)
+    hit = np.zeros(x.shape, bool)
+    hit[inside] = ink[y[inside], x[inside]] > 0
+    closeness = (hit * _CLOSENESS).max(axis=2)
+    return hit.any(axis=2).mean(axis=1), float(closeness.mean())
+
+
+def _refine(four: Four, ink: np.ndarray) -> Four:
+    """Refit each line to the ink in a narrowing band around it.
+
+    Hough's lines can be a few degrees off a wobbly hand-drawn line, and symbols touch the
+    lines: each round fits a straight line to the ink near the current one, keeps the closer
+    three quarters of it (dropping bits of symbols) and fits again.
+    """
+    ys, xs = np.nonzero(ink)
+    pixels = np.stack([xs, ys], axis=1).astype(np.float64)
+    for band in (0.2, 0.12, 0.08):
+        lattice = _lattice(*four)
+        if lattice is None:
+            return four
+        a, d, n, size = _line_frames(lattice)
+        fitted = []
+        for k in range(4):
+            rel = pixels - a[k]
+            along = rel @ d[k] / (d[k] @ d[k])
+            near = (np.abs(rel @ n[k]) < band * size) & (along > -1.3) & (along < 2.3)
+            line = _fit_line(pixels[near])
+            if line is None:
+                return four
+            fitted.append(line)
+        four = (fitted[0], fitted[1], fitted[2], fitted[3])
+    return four
+
+
+def _fit_line(points: np.ndarray) -> Line | None:
+    """The straight line through points, refitted without the farthest quarter of them."""
+    if len(points) < 10:
+        return None
+    for refit in (False, True):
+        mean = points.mean(axis=0)
+        centered = points - mean
+        _, vectors = np.linalg.eigh(centered.T @ centered)
+        normal = vectors[:, 0]  # the direction of least spread
+        if not refit:
+            residual = np.abs(centered @ normal)
+            points = points[residual <= np.quantile(residual, 0.75)]
+            if len(points) < 8:
+                return None
+    return float(mean @ normal), math.atan2(normal[1], normal[0])
+
+
+def _check_in_view(grid: Grid, width: int, height: int) -> None:
+    corners = grid.lattice.reshape(-1, 2)
+    slack = 0.1 * grid.cell_size()
+    inside = (
+        (corners[:, 0] >= -slack)
+        & (corners[:, 0] <= width - 1 + slack)
+        & (corners[:, 1] >= -slack)
+        & (corners[:, 1] <= height - 1 + slack)
+    )
+    if not inside.all():
+        raise NoGridFound(
+            "the grid runs off the edge of the picture; move the camera or the sheet so that "
+            "all nine cells are in view"
+        )
+
+
+# --- from a found grid to nine cells ---
+
+
+def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL) -> np.ndarray:
+    """The grid seen from straight above: uint8 (3*cell, 3*cell), paper evened out to white.
+
+    Each cell's quadrilateral is warped to a `cell` x `cell` square on its own; neighbouring
+    cells share their edges, so the sheet is continuous across the grid lines.
+    """
+    lattice = grid.lattice
+    frame_cell = grid.cell_size()
+    if frame_cell > 1.6 * cell:  # shrink first: a perspective warp does not average pixels
+        f = 1.25 * cell / frame_cell
+        gray = cv2.resize(gray, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
+        lattice = lattice * f
+    square = np.array([[0, 0], [cell, 0], [cell, cell], [0, cell]], np.float32)
+    sheet = np.empty((3 * cell, 3 * cell), np.uint8)
+    shifted = Grid(lattice=lattice, support=grid.support)
+    for i in range(9):
+        r, c = divmod(i, 3)
+        to_frame = cv2.getPerspectiveTransform(square, shifted.cell_quad(i).astype(np.float32))
+        sheet[r * cell : (r + 1) * cell, c * cell : (c + 1) * cell] = cv2.warpPerspective(
+            gray,
+            to_frame,
+            (cell, cell),
+            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+            borderMode=cv2.BORDER_REPLICATE,
+        )
+    return even_out_light(sheet)
+
+
+def even_out_light(sheet: np.ndarray) -> np.ndarray:
+    """Divide out the paper's uneven light: paper near 245, ink keeps its contrast."""
+    kernel = max(5, (sheet.shape[0] // 12) | 1)
+    paper = cv2.morphologyEx(sheet, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
+    paper = cv2.GaussianBlur(paper, (0, 0), kernel / 2)
+    out = sheet.astype(np.float32) * (245.0 / np.maximum(paper.astype(np.float32), 8.0))
+    return np.clip(out, 0, 255).astype(np.uint8)
+
+
+def remove_grid_lines(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
+    """The rectified sheet with the four grid lines traced and painted over with paper."""
+    out = sheet.copy()
+    band = max(3, round(0.18 * cell))
+    dark = 255 - sheet.astype(np.int16)
+    for at in (cell, 2 * cell):
+        lo, hi = at - band, at + band + 1
+        _erase_line(out, dark[:, lo:hi], lo, vertical=True)
+        _erase_line(out, dark[lo:hi, :].T, lo, vertical=False)
+    return out
+
+
+def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool) -> None:
+    """Trace a near-vertical line through `strip` (rows along the line) and paint it over."""
+    # The line's centre in each row: the darkness-weighted mean position, smoothed along it.
+    weight = np.clip(strip - 40, 0, None).astype(np.float32)
+    total = weight.sum(axis=1)
+    if (total > 0).sum() < strip.shape[0] // 3:
+        return
+    pos = np.arange(strip.shape[1], dtype=np.float32)
+    center = np.where(total > 0, (weight * pos).sum(axis=1) / np.maximum(total, 1e-6), np.nan)
+    rows = np.arange(strip.shape[0])
+    known = ~np.isnan(center)
+    center = np.interp(rows, rows[known], center[known])
+    center = cv2.blur(center.astype(np.float32).reshape(-1, 1), (1, 9)).ravel()
+    # The line's half-width: the inked extent around the centre, typically.
+    inked = (strip > 60).sum(axis=1)
+    half = float(np.median(inked[known])) / 2 + 1.5 if known.any() else 2.0
+    dist = np.abs(pos[None, :] - center[:, None])
+    cover = dist <= half
+    if vertical:
+        region = out[:, offset : offset + strip.shape[1]]
+        region[cover] = np.maximum(region[cover], 245)
+    else:
+        region = out[offset : offset + strip.shape[1], :].T
+        region[cover] = np.maximum(region[cover], 245)
+
+
+def cut_cells(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
+    """The nine cells of a rectified sheet, row-major, as uint8 (9, 40, 40)."""
+    margin = (cell - CELL_SIZE) / 2
+    cells = np.empty((9, CELL_SIZE, CELL_SIZE), np.uint8)
+    for i in range(9):
+        row, col = divmod(i, 3)
+        top, left = round(row * cell + margin), round(col * cell + margin)
+        crop = sheet[top : top + CELL_SIZE, left : left + CELL_SIZE]
+        if crop.shape != (CELL_SIZE, CELL_SIZE):
+            crop = cv2.resize(crop, (CELL_SIZE, CELL_SIZE), interpolation=cv2.INTER_AREA)
+        cells[i] = crop
+    return cells

@@ -1,0 +1,193 @@
+"""The move tracker: from a stream of board readings to the person's game moves.
+
+Paper §2.1: the classifier runs every 100 ms, and "we accept a new drawing if it has been
+recognised at least 3 times in a row"; the perception component then outputs a game move
+`[who=usr ∧ what=draw ∧ where=middle]`. The drawn symbol is inferred from who started: the
+starter draws circles (paper, footnote).
+
+The tracker keeps the board it has accepted. Each reading is compared with it:
+
+- a symbol in an empty cell is a *new drawing*; the same new drawing(s) must be read
+  `stable_readings` times in a row before anything happens, so a half-drawn symbol that the
+  classifier reads differently from one frame to the next, or a one-frame flicker, is ignored;
+- a symbol that disappears (a hand over it, a misread frame) is ignored: paper does not
+  forget, and the accepted board keeps it;
+- the robot's own drawings are known in advance (`robot_draws`), so they never become the
+  person's moves;
+- a stable change that is not a legal move — two new symbols at once, a symbol drawn over an
+  occupied cell, the other player's symbol — is reported as an `ImpossibleEvent` once, and
+  never accepted.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+from oxbot.config import TrackerConfig
+from oxbot.errors import InvalidInputError
+from oxbot.game.board import CELL_NAMES, LABELS, ROBOT, USER, cell_index, symbol_of
+
+PLURAL = {"circle": "circles", "cross": "crosses"}
+
+
+@dataclass(frozen=True)
+class GameMove:
+    """A drawing accepted as a move: the paper's `[who=usr ∧ what=draw ∧ where=middle]`."""
+
+    who: Literal["usr", "rob"]
+    what: Literal["draw"]
+    where: str
+    """The cell's name (`CELL_NAMES`), e.g. "middle"."""
+    cell: int
+    """The cell's index 0-8, row-major from the upper left."""
+    symbol: str
+    """"circle" or "cross"."""
+    reading: int
+    """How many readings the tracker had been fed when it accepted the move (1-based)."""
+
+    def __str__(self) -> str:
+        return f"[who={self.who} ∧ what={self.what} ∧ where={self.where}]"
+
+
+ImpossibleKind = Literal["two_new_symbols", "occupied_cell", "wrong_symbol"]
+
+
+@dataclass(frozen=True)
+class ImpossibleEvent:
+    """A stable change on the sheet that is not a legal move; reported, never accepted."""
+
+    kind: ImpossibleKind
+    cells: tuple[int, ...]
+    """The cells involved, by index."""
+    symbols: tuple[str, ...]
+    """What was read in each of those cells."""
+    message: str
+    """What happened, in words a person understands."""
+    reading: int
+    """How many readings the tracker had been fed when it reported this (1-based)."""
+
+    def __str__(self) -> str:
+        return self.message
+
+
+TrackerEvent = GameMove | ImpossibleEvent
+
+
+class MoveTracker:
+    """Turns board readings, one every `config.period_s`, into the person's game moves.
+
+    `update(labels)` takes one reading (9 labels, row-major) and returns the event it
+    completes, if any; `update(None)` records a frame in which no board could be read, which
+    breaks any run of identical readings.
+    """
+
+    def __init__(self, robot_starts: bool = True, config: TrackerConfig | None = None) -> None:
+        self.config = config if config is not None else TrackerConfig()
+        self.robot_starts = robot_starts
+        self.user_symbol = symbol_of(USER, robot_starts)
+        self.robot_symbol = symbol_of(ROBOT, robot_starts)
+        self.reset()
+
+    def reset(self) -> None:
+        """Start again from an empty sheet."""
+        self._board: list[str] = ["nothing"] * 9
+        self._robot_cells: set[int] = set()
+        self._candidate: tuple[tuple[int, str], ...] = ()
+        self._count = 0
+        self._readings = 0
+
+    @property
+    def board(self) -> tuple[str, ...]:
+        """The accepted labels of the 9 cells, the robot's announced drawings included."""
+        return tuple(self._board)
+
+    def robot_draws(self, cell: int | str) -> None:
+        """Tell the tracker that the robot draws (or drew) its symbol in `cell`.
+
+        The cell counts as the robot's from now on, while the arm is still drawing, so the
+        half-drawn symbol is never taken for the person's move.
+        """
+        index = cell if isinstance(cell, int) else cell_index(cell)
+        if not 0 <= index < 9:
+            raise InvalidInputError(f"cell {cell!r} does not exist; cells are 0-8")
+        if self._board[index] != "nothing" and index not in self._robot_cells:
+            raise InvalidInputError(
+                f"the robot cannot draw in {CELL_NAMES[index]}: the person's "
+                f"{self._board[index]} is there"
+            )
+        self._board[index] = self.robot_symbol
+        self._robot_cells.add(index)
+
+    def update(self, labels: Sequence[str] | None) -> TrackerEvent | None:
+        """Feed one reading; return the move or impossible event it completes, else None."""
+        self._readings += 1
+        if labels is None:
+            self._candidate, self._count = (), 0
+            return None
+        changes = self._changes(labels)
+        if not changes:
+            self._candidate, self._count = (), 0
+            return None
+        if changes == self._candidate:
+            self._count += 1
+        else:
+            self._candidate, self._count = changes, 1
+        if self._count != self.config.stable_readings:
+            return None  # not yet seen often enough, or already dealt with
+        return self._judge(changes)
+
+    def _changes(self, labels: Sequence[str]) -> tuple[tuple[int, str], ...]:
+        """The (cell, label) pairs where the reading adds to the accepted board."""
+        if len(labels) != 9 or any(label not in LABELS for label in labels):
+            raise InvalidInputError(
+                f"a board reading is 9 labels from {', '.join(LABELS)}; got {list(labels)!r}"
+            )
+        changes = []
+        for cell, (seen, known) in enumerate(zip(labels, self._board, strict=True)):
+            if seen == "nothing" or seen == known:
+                continue  # unchanged, or a symbol that disappeared: paper does not forget
+            changes.append((cell, seen))
+        return tuple(changes)
+
+    def _judge(self, changes: tuple[tuple[int, str], ...]) -> TrackerEvent:
+        cells = tuple(cell for cell, _ in changes)
+        symbols = tuple(label for _, label in changes)
+        occupied = [(c, s) for c, s in changes if self._board[c] != "nothing"]
+        if occupied:
+            c, s = occupied[0]
+            owner = "the robot's" if c in self._robot_cells else "the person's"
+            return self._impossible(
+                "occupied_cell",
+                cells,
+                symbols,
+                f"a {s} appeared in {CELL_NAMES[c]}, which already holds {owner} "
+                f"{self._board[c]}; a cell can be played only once",
+            )
+        if len(changes) > 1:
+            where = ", ".join(f"{s} in {CELL_NAMES[c]}" for c, s in changes)
+            return self._impossible(
+                "two_new_symbols",
+                cells,
+                symbols,
+                f"{len(changes)} new symbols appeared at once ({where}); a turn is one symbol",
+            )
+        cell, symbol = changes[0]
+        if symbol != self.user_symbol:
+            starter = "the robot" if self.robot_starts else "the person"
+            return self._impossible(
+                "wrong_symbol",
+                cells,
+                symbols,
+                f"a {symbol} appeared in {CELL_NAMES[cell]}, but the person draws "
+                f"{PLURAL[self.user_symbol]} ({starter} started, and the starter draws circles)",
+            )
+        self._board[cell] = symbol
+        self._candidate, self._count = (), 0
+        return GameMove("usr", "draw", CELL_NAMES[cell], cell, symbol, self._readings)
+
+    def _impossible(
+        self, kind: ImpossibleKind, cells: tuple[int, ...], symbols: tuple[str, ...], text: str
+    ) -> ImpossibleEvent:
+        return ImpossibleEvent(kind, cells, symbols, text, self._readings)
