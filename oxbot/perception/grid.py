@@ -49,8 +49,9 @@ _INK_CONTRAST = 0.22  # ink is at least this much darker than the paper around i
 _MAX_LINES = 14  # distinct Hough lines considered
 _PARALLEL = math.radians(12)  # the two lines of a pair differ by at most this angle
 _CROSSING = math.radians(30)  # the two pairs cross at 90° give or take this angle
-_MIN_SUPPORT = 0.55  # least share of a line that must be inked
-_MIN_MEAN_SUPPORT = 0.75  # least mean share over the four lines
+_MIN_SUPPORT = 0.45  # least share of a line's length across the grid that must be inked
+_MIN_MEAN_SUPPORT = 0.7  # least mean share over the four lines
+_MIN_MIDDLE_SUPPORT = 0.75  # least share of a line's stretch along the middle cell
 
 
 Line = tuple[float, float]
@@ -168,9 +169,9 @@ def find_grid(gray: np.ndarray) -> Grid:
             "keep all four lines of the grid in the picture"
         )
     four, support = best
-    lattice = _lattice(*_refine(four, ink))
-    if lattice is None:
-        lattice = _lattice(*four)
+    refined = _refine(four, ink)
+    lattice = _lattice(*refined)
+    lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, ink)
     assert lattice is not None
     grid = Grid(lattice=lattice / scale, support=support)
     _check_in_view(grid, w, h)
@@ -248,8 +249,12 @@ def _best_grid(
         lattice = _lattice(*four, min_side=0.8 * min_spacing)
         if lattice is None:
             continue
-        support, closeness = _line_support(lattice, ink)
-        if support.min() < _MIN_SUPPORT or support.mean() < _MIN_MEAN_SUPPORT:
+        support, middle, closeness = _line_support(lattice, ink)
+        if (
+            support.min() < _MIN_SUPPORT
+            or support.mean() < _MIN_MEAN_SUPPORT
+            or middle.min() < _MIN_MIDDLE_SUPPORT
+        ):
             continue
         score = closeness + 1e-4 * sum(x[2] for x in (*p, *q))
         if best is None or score > best[0]:
@@ -298,6 +303,11 @@ def _lattice(
         and 0.5 < sides[0] / sides[1] < 2
     ):
         return None
+    return _extend(q)
+
+
+def _extend(q: np.ndarray) -> np.ndarray:
+    """Fill in the outer lattice points from the four inner ones, in place."""
     for r in (1, 2):  # along each horizontal line, one cell further out on either side
         q[r, 0] = 2 * q[r, 1] - q[r, 2]
         q[r, 3] = 2 * q[r, 2] - q[r, 1]
@@ -327,10 +337,12 @@ def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
 _ALONG = np.linspace(-0.88, 1.88, 24)
 _ACROSS = np.linspace(-0.06, 0.06, 7)
 _CLOSENESS = 1 - np.abs(_ACROSS) / 0.09
+_MIDDLE = (_ALONG > 0.1) & (_ALONG < 0.9)  # the stretch between the line's two crossings
 
 
-def _line_support(lattice: np.ndarray, ink: np.ndarray) -> tuple[np.ndarray, float]:
-    """Share of each of the four lines along which ink is found (4,), and how close (0-1)."""
+def _line_support(lattice: np.ndarray, ink: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Share of each of the four lines along which ink is found (4,), the same along the
+    middle cell only (4,), and how close to the lines the ink lies (0-1)."""
     a, d, n, size = _line_frames(lattice)
     pts = (
         a[:, None, None, :]
@@ -344,7 +356,8 @@ def _line_support(lattice: np.ndarray, ink: np.ndarray) -> tuple[np.ndarray, flo
     hit = np.zeros(x.shape, bool)
     hit[inside] = ink[y[inside], x[inside]] > 0
     closeness = (hit * _CLOSENESS).max(axis=2)
-    return hit.any(axis=2).mean(axis=1), float(closeness.mean())
+    inked = hit.any(axis=2)
+    return inked.mean(axis=1), inked[:, _MIDDLE].mean(axis=1), float(closeness.mean())
 
 
 def _refine(four: Four, ink: np.ndarray) -> Four:
@@ -372,6 +385,36 @@ def _refine(four: Four, ink: np.ndarray) -> Four:
             fitted.append(line)
         four = (fitted[0], fitted[1], fitted[2], fitted[3])
     return four
+
+
+def _local_crossings(four: Four, lattice: np.ndarray, ink: np.ndarray) -> np.ndarray:
+    """The lattice rebuilt on where the lines really cross: a hand-drawn line bends, so each
+    crossing is found from the two lines fitted within half a cell of it."""
+    ys, xs = np.nonzero(ink)
+    pixels = np.stack([xs, ys], axis=1).astype(np.float64)
+    a, d, n, size = _line_frames(lattice)
+    local = {}
+    for k in range(4):
+        rel = pixels - a[k]
+        along = rel @ d[k] / (d[k] @ d[k])
+        near = np.abs(rel @ n[k]) < 0.08 * size
+        for end in (0, 1):  # around the line's first and second crossing
+            line = _fit_line(pixels[near & (np.abs(along - end) < 0.5)])
+            local[k, end] = line if line is not None else four[k]
+    inner = {}
+    for r, top_or_bottom in ((1, 2), (2, 3)):
+        for c, left_or_right in ((1, 0), (2, 1)):
+            # Line k's crossings run along it: verticals top to bottom, horizontals left to right.
+            vertical = local[left_or_right, r - 1]
+            horizontal = local[top_or_bottom, c - 1]
+            point = _intersect(vertical, horizontal)
+            if point is None or np.linalg.norm(point - lattice[r, c]) > 0.25 * size:
+                return lattice  # the local fits disagree with the whole lines: keep those
+            inner[r, c] = point
+    q = lattice.copy()
+    for (r, c), point in inner.items():
+        q[r, c] = point
+    return _extend(q)
 
 
 def _fit_line(points: np.ndarray) -> Line | None:

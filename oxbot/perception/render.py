@@ -289,17 +289,21 @@ def random_scene(
     with_paper: bool = True,
     grid_fraction: Range | None = None,
     center: tuple[float, float] | None = None,
+    rotation: float | None = None,
 ) -> SheetScene:
     """A sheet with a grid (and no symbols yet) lying on a desk in front of the camera.
 
     `center` places the grid's centre at that share of the photo's width and height (default:
-    anywhere the whole grid fits); `with_grid=False` gives a blank sheet and
-    `with_paper=False` an empty desk.
+    anywhere the whole grid fits), `rotation` turns it by that many degrees (default: random
+    within the style's range); `with_grid=False` gives a blank sheet and `with_paper=False`
+    an empty desk.
     """
     width, height = style.size
     hand = style.hand
     side = float(rng.uniform(*(grid_fraction or style.grid_fraction))) * min(width, height)
-    angle = math.radians(rng.uniform(-style.max_rotation, style.max_rotation))
+    if rotation is None:
+        rotation = rng.uniform(-style.max_rotation, style.max_rotation)
+    angle = math.radians(rotation)
     src = np.array([[0, 0], [3, 0], [3, 3], [0, 3]], np.float32)
     rot = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
     square = (src - 1.5) / 3 * side
@@ -307,7 +311,7 @@ def random_scene(
     corners += rng.uniform(-1, 1, corners.shape) * style.perspective * side
     # Keep the whole grid and a margin for symbols that spill over in view (shrinking the grid
     # if it would not fit).
-    margin = 0.08 * side
+    margin = 0.15 * side
     fit = min(1.0, *((np.array([width, height]) - 2 * margin) / np.ptp(corners, axis=0)))
     corners *= fit
     lo, hi = corners.min(axis=0), corners.max(axis=0)
@@ -387,7 +391,7 @@ def _grid_line(
     across += rng.normal(0, 0.15 * hand.grid_wobble, n)
     points = np.stack([across, along], axis=1) if vertical else np.stack([along, across], axis=1)
     stroke = points if rng.uniform() < 0.5 else points[::-1].copy()
-    return stroke, float(offset + (1.5 - 1.5) * tilt)
+    return stroke, float(offset)
 
 
 def _cell_bounds(

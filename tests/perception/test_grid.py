@@ -1,0 +1,166 @@
+import dataclasses
+
+import cv2
+import numpy as np
+import pytest
+
+from oxbot.errors import InvalidInputError, NoGridFound
+from oxbot.perception.grid import (
+    CELL_SIZE,
+    SHEET_CELL,
+    as_gray,
+    cut_cells,
+    find_grid,
+    rectify,
+    remove_grid_lines,
+)
+from oxbot.perception.render import TUNING_STYLE, SheetScene, random_scene, render_photo
+
+
+def polyline_crossing(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Where two polylines cross (the first crossing found), or where they come closest."""
+    p, r = a[:-1, None, :], (a[1:] - a[:-1])[:, None, :]
+    q, s = b[None, :-1, :], (b[1:] - b[:-1])[None, :, :]
+    cross = r[..., 0] * s[..., 1] - r[..., 1] * s[..., 0]
+    cross = np.where(np.abs(cross) < 1e-12, 1e-12, cross)
+    qp = q - p
+    t = (qp[..., 0] * s[..., 1] - qp[..., 1] * s[..., 0]) / cross
+    u = (qp[..., 0] * r[..., 1] - qp[..., 1] * r[..., 0]) / cross
+    inside = (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
+    if inside.any():
+        i, j = np.argwhere(inside)[0]
+        return a[i] + t[i, j] * (a[i + 1] - a[i])
+    # A line stops short of the other: extend both straight, as a person sees the crossing.
+    (pa, da), (pb, db) = (a.mean(axis=0), a[-1] - a[0]), (b.mean(axis=0), b[-1] - b[0])
+    t = np.linalg.solve(np.stack([da, -db], axis=1), pb - pa)[0]
+    return pa + t * da
+
+
+def drawn_crossings(scene: SheetScene) -> np.ndarray:
+    """Photo pixels where the scene's drawn lines cross: upper left, upper right, lower right,
+    lower left (the grid's lattice[1:3, 1:3])."""
+    lines = scene.grid_lines
+    points = [polyline_crossing(lines[v], lines[h]) for v, h in ((0, 2), (1, 2), (1, 3), (0, 3))]
+    pts = np.array(points, np.float64).reshape(-1, 1, 2)
+    return cv2.perspectiveTransform(pts, scene.homography).reshape(-1, 2)
+
+
+def crossing_error(scene: SheetScene, gray: np.ndarray) -> float:
+    """How far the found crossings are from the drawn ones, in cells."""
+    lattice = find_grid(gray).lattice
+    found = np.array([lattice[1, 1], lattice[1, 2], lattice[2, 2], lattice[2, 1]])
+    error = np.linalg.norm(found - drawn_crossings(scene), axis=1).max()
+    return float(error / scene.cell_size_px())
+
+
+def test_finds_the_grid_anywhere_in_view():
+    errors = []
+    for seed in range(30):
+        photo = render_photo(np.random.default_rng(seed), style=TUNING_STYLE)
+        errors.append(crossing_error(photo.scene, as_gray(photo.image)))
+    assert np.median(errors) < 0.03
+    assert max(errors) < 0.15
+
+
+@pytest.mark.parametrize("degrees", [-15, -8, 0, 8, 15])
+def test_finds_the_grid_rotated_up_to_15_degrees(degrees):
+    rng = np.random.default_rng(100 + degrees)
+    scene = random_scene(rng, TUNING_STYLE, rotation=degrees).with_symbol(4, "cross", rng)
+    assert crossing_error(scene, as_gray(scene.photo(rng))) < 0.1
+
+
+def test_finds_grid_lines_that_stop_short_of_a_crossing():
+    hand = dataclasses.replace(TUNING_STYLE.hand, grid_gap_chance=0.3)
+    style = dataclasses.replace(TUNING_STYLE, hand=hand)
+    gapped = 0
+    for seed in range(12):
+        rng = np.random.default_rng(seed)
+        scene = random_scene(rng, style)
+        # A line with a gap starts or ends between the two lines it should cross.
+        ends = [(s[:, 1] if i < 2 else s[:, 0])[[0, -1]] for i, s in enumerate(scene.grid_lines)]
+        gapped += sum(bool(((e > 0.9) & (e < 2.1)).any()) for e in ends)
+        assert crossing_error(scene, as_gray(scene.photo(rng))) < 0.15
+    assert gapped >= 3
+
+
+@pytest.mark.parametrize(
+    "what,kwargs",
+    [
+        ("blank sheet", {"with_grid": False}),
+        ("empty desk", {"with_grid": False, "with_paper": False}),
+        ("grid cut off at the left", {"center": (0.02, 0.5)}),
+        ("grid cut off at the bottom", {"center": (0.5, 0.97)}),
+    ],
+)
+def test_no_grid_in_view_raises_instead_of_guessing(what, kwargs):
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        scene = random_scene(rng, TUNING_STYLE, **kwargs).with_symbol(4, "circle", rng)
+        with pytest.raises(NoGridFound, match="grid"):
+            find_grid(as_gray(scene.photo(rng)))
+
+
+def test_a_desk_with_no_paper_and_stray_strokes_has_no_grid():
+    rng = np.random.default_rng(3)
+    scene = random_scene(rng, TUNING_STYLE, with_grid=False)
+    for cell in (0, 2, 4, 6, 8):
+        scene = scene.with_symbol(cell, "cross" if cell % 4 else "circle", rng)
+    with pytest.raises(NoGridFound):
+        find_grid(as_gray(scene.photo(rng)))
+
+
+@pytest.mark.parametrize(
+    "frame,message",
+    [
+        (np.zeros((0, 0, 3), np.uint8), "empty"),
+        (np.zeros((480, 640, 3), np.float32), "dtype float32"),
+        (np.zeros((480, 640, 4), np.uint8), "alpha"),
+        (np.zeros((480, 640, 2), np.uint8), r"shape \(480, 640, 2\)"),
+        (np.zeros((3, 480, 640), np.uint8), r"shape \(3, 480, 640\)"),
+        (np.zeros((20, 30, 3), np.uint8), "too small"),
+        ([[0, 1], [2, 3]], "numpy array"),
+    ],
+)
+def test_bad_frames_are_refused_with_the_fix(frame, message):
+    with pytest.raises(InvalidInputError, match=message):
+        as_gray(frame)
+
+
+def test_gray_and_rgb_frames_agree():
+    photo = render_photo(np.random.default_rng(5), style=TUNING_STYLE)
+    gray = cv2.cvtColor(photo.image, cv2.COLOR_RGB2GRAY)
+    np.testing.assert_array_equal(as_gray(photo.image), as_gray(gray))
+
+
+def test_cells_hold_their_own_symbol_and_no_grid_ink():
+    rng = np.random.default_rng(11)
+    labels = ["nothing"] * 9
+    labels[4] = "cross"
+    labels[2] = "circle"
+    photo = render_photo(rng, labels, TUNING_STYLE)
+    gray = as_gray(photo.image)
+    sheet = rectify(gray, find_grid(gray))
+    assert sheet.shape == (3 * SHEET_CELL, 3 * SHEET_CELL) and sheet.dtype == np.uint8
+    cells = cut_cells(remove_grid_lines(sheet))
+    assert cells.shape == (9, CELL_SIZE, CELL_SIZE) and cells.dtype == np.uint8
+    ink = (cells < 150).sum(axis=(1, 2))
+    assert ink[4] > 40 and ink[2] > 40
+    blank = [i for i in range(9) if labels[i] == "nothing"]
+    assert ink[blank].max() <= 3, ink
+
+
+def test_remove_grid_lines_paints_the_lines_over():
+    rng = np.random.default_rng(12)
+    photo = render_photo(rng, ["nothing"] * 9, TUNING_STYLE)
+    gray = as_gray(photo.image)
+    sheet = rectify(gray, find_grid(gray))
+    cleaned = remove_grid_lines(sheet)
+    band = np.zeros(sheet.shape, bool)
+    for at in (SHEET_CELL, 2 * SHEET_CELL):
+        band[:, at - 4 : at + 5] = True
+        band[at - 4 : at + 5, :] = True
+    assert (sheet[band] < 150).sum() > 200  # the lines were there
+    assert (cleaned[band] < 150).sum() < 10  # and now they are gone
+    np.testing.assert_array_equal(
+        cleaned[~band & (sheet > 200)] >= sheet[~band & (sheet > 200)], True
+    )
