@@ -21,13 +21,17 @@ The tracker keeps the board it has accepted. Each reading is compared with it:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
+import numpy as np
+
 from oxbot.config import TrackerConfig
-from oxbot.errors import InvalidInputError
+from oxbot.errors import InvalidInputError, NoGridFound
 from oxbot.game.board import CELL_NAMES, LABELS, ROBOT, USER, cell_index, symbol_of
+from oxbot.perception.sources import FrameSource
 
 PLURAL = {"circle": "circles", "cross": "crosses"}
 
@@ -191,3 +195,46 @@ class MoveTracker:
         self, kind: ImpossibleKind, cells: tuple[int, ...], symbols: tuple[str, ...], text: str
     ) -> ImpossibleEvent:
         return ImpossibleEvent(kind, cells, symbols, text, self._readings)
+
+
+def watch(
+    source: FrameSource,
+    tracker: MoveTracker,
+    read: Callable[[np.ndarray], Sequence[str]] | None = None,
+    clock: Callable[[], float] = time.monotonic,
+    sleep: Callable[[float], None] = time.sleep,
+) -> Iterator[TrackerEvent]:
+    """Read the board from an open `source` once per `tracker.config.period_s` and yield the
+    tracker's events, until the source ends.
+
+    A video file is sampled by its own clock (one frame per period of video time, however fast
+    it decodes); a camera, an image folder or pushed frames are read once per period of wall
+    time. A frame without a readable grid (a hand over the sheet) counts as a missed reading.
+    """
+    if read is None:
+        from oxbot.perception.board import read_board
+
+        read = read_board
+    period = tracker.config.period_s
+    fps = getattr(source, "fps", 0.0)
+    step = max(1, round(fps * period)) if fps > 0 else 0
+    index, next_tick = 0, clock()
+    while True:
+        if step == 0:  # live: wait for the next tick of the wall clock
+            delay = next_tick - clock()
+            if delay > 0:
+                sleep(delay)
+            next_tick = max(next_tick + period, clock())
+        frame = source.read()
+        if frame is None:
+            return
+        index += 1
+        if step and (index - 1) % step:
+            continue  # a video frame between two ticks of the video's clock
+        try:
+            labels: Sequence[str] | None = read(frame)
+        except NoGridFound:
+            labels = None
+        event = tracker.update(labels)
+        if event is not None:
+            yield event

@@ -1,0 +1,88 @@
+"""Benchmark of reading the board: time per frame on one core, and how often all 9 are right.
+
+    .venv/bin/python bench/bench_board.py                  # 200 held-out photos, 5 repeats
+    .venv/bin/python bench/bench_board.py --photos 50 --repeats 3 --style tuning
+    .venv/bin/python bench/bench_board.py --model runs/perceiver.pt
+
+Renders photos of game sheets (`oxbot.perception.render`, the held-out style by default: the
+one the board reader was not tuned on), then times `BoardReader.read` — grayscale, grid
+finding, rectification, grid-line removal, 9 cells, one classifier batch — on one core
+(torch and OpenCV limited to one thread), and prints the median time per frame over repeats,
+its stages, and the share of photos with all 9 cells right. SPEC §2 goal: ≤ 15 ms per frame,
+all 9 cells right in ≥ 98% of frames. Not a test.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import statistics
+import time
+
+import cv2
+import numpy as np
+import torch
+
+from oxbot.errors import NoGridFound
+from oxbot.perception.board import BoardReader, cut_board
+from oxbot.perception.classifier import load_classifier
+from oxbot.perception.grid import as_gray, find_grid
+from oxbot.perception.render import STYLES, render_photo
+
+
+def per_frame_ms(function, frames: list[np.ndarray], repeats: int) -> float:
+    """Median over `repeats` passes of the mean time per frame of `function(frame)`, in ms."""
+    times = []
+    for _ in range(repeats):
+        started = time.perf_counter()
+        for frame in frames:
+            with contextlib.suppress(NoGridFound):
+                function(frame)
+        times.append((time.perf_counter() - started) / len(frames) * 1000)
+    return statistics.median(times)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--photos", type=int, default=200, help="rendered photos (default 200)")
+    parser.add_argument("--repeats", type=int, default=5, help="timing passes (median of them)")
+    parser.add_argument("--style", choices=sorted(STYLES), default="held-out")
+    parser.add_argument("--seed", type=int, default=2024, help="seed of the rendered photos")
+    parser.add_argument("--model", default=None, help="classifier file (default: shipped)")
+    args = parser.parse_args()
+
+    torch.set_num_threads(1)
+    cv2.setNumThreads(1)
+    style = STYLES[args.style]
+    rng = np.random.default_rng(args.seed)
+    photos = [render_photo(rng, style=style) for _ in range(args.photos)]
+    frames = [p.image for p in photos]
+    reader = BoardReader(load_classifier(args.model))
+    right = no_grid = 0
+    cells = np.full((9, 40, 40), 245, np.uint8)
+    for photo in photos:
+        try:
+            reading = reader.read(photo.image)
+        except NoGridFound:
+            no_grid += 1
+            continue
+        right += reading.labels == photo.labels
+        cells = reading.cells
+    stages = {
+        "grid finding": lambda f: find_grid(as_gray(f)),
+        "cells (all steps)": cut_board,
+        "classify 9 cells": lambda _: reader.classifier.predict(cells),
+    }
+
+    width, height = style.size
+    print(f"{args.photos} {style.name} photos, {width}x{height}, one core, seed {args.seed}")
+    print(f"all 9 cells right: {right}/{args.photos} = {right / args.photos:.1%} (goal >= 98%)")
+    print(f"no grid found:     {no_grid}")
+    for name, function in stages.items():
+        print(f"{name + ':':19s}{per_frame_ms(function, frames, args.repeats):6.2f} ms")
+    total = per_frame_ms(reader.read, frames, args.repeats)
+    print(f"read_board total:  {total:6.2f} ms per frame, median of {args.repeats} (goal <= 15 ms)")
+
+
+if __name__ == "__main__":
+    main()
