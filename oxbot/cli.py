@@ -92,6 +92,39 @@ def game(
 
 # --- board-reading commands (issue 4) ---
 
+
+@app.command("see")
+def see(
+    images: Annotated[list[Path], typer.Argument(help="Photos of the game sheet (PNG or JPEG).")],
+    debug: Annotated[
+        Path | None,
+        typer.Option("--debug", help="Write the found grid, rectified sheet and 9 cells here."),
+    ] = None,
+) -> None:
+    """Print the board read from each photo of the game sheet (O circles, X crosses)."""
+    from rich.markup import escape
+
+    from oxbot.perception.board import default_reader, format_board, save_debug
+    from oxbot.perception.sources import load_image
+
+    failed = 0
+    for path in images:
+        try:
+            frame = load_image(path)
+            reading = default_reader().read(frame)
+        except OxbotError as exc:
+            failed += 1
+            err_console.print(f"[bold red]error:[/] {escape(f'{path}: {exc}')}")
+            continue
+        typer.echo(f"{path}: {' '.join(reading.labels)}")
+        typer.echo(format_board(reading.labels))
+        if debug is not None:
+            written = save_debug(reading, frame, debug, path.stem)
+            typer.echo(f"wrote {len(written)} images to {debug}/{path.stem}_*.png")
+    if failed:
+        raise typer.Exit(2)
+
+
 # --- dialogue commands (issue 5) ---
 
 app.add_typer(train_app, name="train")
