@@ -46,7 +46,10 @@ MIN_GRID_SHARE = 0.18
 """The grid's side must be at least this share of the frame's shorter side."""
 
 _INK_CONTRAST = 0.22  # ink is at least this much darker than the paper around it
-_MAX_LINES = 14  # distinct Hough lines considered
+_MAX_LINES = 16  # distinct Hough lines considered
+_MAX_HOUGH = 200  # strongest Hough lines looked at (they come sorted by votes)
+_MAX_GRIDS = 24  # quadruples of lines checked against the ink, best voted first
+_MAX_TILT = math.radians(27)  # SPEC §2: rotation up to ±15°, plus perspective and wobble
 _PARALLEL = math.radians(12)  # the two lines of a pair differ by at most this angle
 _CROSSING = math.radians(30)  # the two pairs cross at 90° give or take this angle
 _MIN_SUPPORT = 0.45  # least share of a line's length across the grid that must be inked
@@ -185,7 +188,11 @@ def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]
         return []
     center = np.array(ink.shape[::-1], np.float64) / 2
     kept: list[tuple[float, float, float]] = []
-    for rho, theta, count in found[:, 0, :]:
+    for rho, theta, count in found[:_MAX_HOUGH, 0, :].tolist():
+        # Grid lines run within a few tens of degrees of horizontal or vertical; the strokes
+        # of crosses, at 45° to them, would crowd them out.
+        if min(_angle_between(theta, 0.0), _angle_between(theta, math.pi / 2)) > _MAX_TILT:
+            continue
         if any(_same_line((rho, theta), (r, t), center) for r, t, _ in kept):
             continue
         kept.append((float(rho), float(theta), float(count)))
@@ -207,18 +214,19 @@ def _angle_between(t1: float, t2: float) -> float:
 def _spacing(l1: Line, l2: Line, center: np.ndarray) -> float:
     """Distance from line 2 to the point of line 1 nearest `center`."""
     (r1, t1), (r2, t2) = l1, l2
-    n1 = np.array([math.cos(t1), math.sin(t1)])
-    foot = center - (center @ n1 - r1) * n1
-    return abs(foot @ np.array([math.cos(t2), math.sin(t2)]) - r2)
+    c1, s1 = math.cos(t1), math.sin(t1)
+    off = float(center[0]) * c1 + float(center[1]) * s1 - r1
+    fx, fy = float(center[0]) - off * c1, float(center[1]) - off * s1
+    return abs(fx * math.cos(t2) + fy * math.sin(t2) - r2)
 
 
 def _intersect(l1: Line, l2: Line) -> np.ndarray | None:
     (r1, t1), (r2, t2) = l1, l2
-    a = np.array([[math.cos(t1), math.sin(t1)], [math.cos(t2), math.sin(t2)]])
-    det = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    a, b, c, d = math.cos(t1), math.sin(t1), math.cos(t2), math.sin(t2)
+    det = a * d - b * c
     if abs(det) < 1e-6:
         return None
-    return np.array([(r1 * a[1, 1] - r2 * a[0, 1]) / det, (a[0, 0] * r2 - a[1, 0] * r1) / det])
+    return np.array([(r1 * d - r2 * b) / det, (a * r2 - c * r1) / det])
 
 
 Four = tuple[Line, Line, Line, Line]
@@ -233,18 +241,29 @@ def _best_grid(
     center: np.ndarray,
 ) -> tuple[Four, float] | None:
     """The four lines, among `lines`, along which ink runs most closely; or None."""
-    pairs = [
-        (a, b)
-        for a, b in itertools.combinations(lines, 2)
-        if _angle_between(a[1], b[1]) < _PARALLEL
-        and min_spacing <= _spacing(a[:2], b[:2], center) <= max_spacing
+    # Every line left runs within _MAX_TILT of vertical (normal near 0 or pi) or horizontal.
+    vertical = [x for x in lines if _angle_between(x[1], 0.0) <= _MAX_TILT]
+    horizontal = [x for x in lines if _angle_between(x[1], 0.0) > _MAX_TILT]
+
+    def pairs(family: list) -> list:
+        return [
+            (a, b)
+            for a, b in itertools.combinations(family, 2)
+            if _angle_between(a[1], b[1]) < _PARALLEL
+            and min_spacing <= _spacing(a[:2], b[:2], center) <= max_spacing
+        ]
+
+    candidates = [
+        (p, q)
+        for p in pairs(vertical)
+        for q in pairs(horizontal)
+        if abs(_angle_between(p[0][1], q[0][1]) - math.pi / 2) <= _CROSSING
     ]
+    # The grid's lines are the longest in view: try the best-voted quadruples first, and only
+    # so many of them, so that a cluttered sheet cannot blow the time budget.
+    candidates.sort(key=lambda pq: -sum(x[2] for x in (*pq[0], *pq[1])))
     best: tuple[float, Four, float] | None = None
-    for p, q in itertools.combinations(pairs, 2):
-        if len({id(x) for x in (*p, *q)}) < 4:
-            continue
-        if abs(_angle_between(p[0][1], q[0][1]) - math.pi / 2) > _CROSSING:
-            continue
+    for p, q in candidates[:_MAX_GRIDS]:
         four = _order(p, q)
         lattice = _lattice(*four, min_side=0.8 * min_spacing)
         if lattice is None:
@@ -296,7 +315,7 @@ def _lattice(
     middle = np.array([q[1, 1], q[1, 2], q[2, 2], q[2, 1]], np.float32)
     if not np.isfinite(middle).all() or not cv2.isContourConvex(middle.reshape(-1, 1, 2)):
         return None
-    sides = np.linalg.norm(middle - np.roll(middle, 1, axis=0), axis=1)
+    sides = np.linalg.norm(middle - middle[[3, 0, 1, 2]], axis=1)
     if sides.min() < min_side or not (
         0.6 < sides[0] / sides[2] < 1 / 0.6
         and 0.6 < sides[1] / sides[3] < 1 / 0.6

@@ -197,7 +197,7 @@ class SheetScene:
         if label == "nothing":
             symbols = {k: v for k, v in self.symbols.items() if k != cell}
         else:
-            bounds = _cell_bounds(cell, self.line_positions)
+            bounds = _cell_bounds(cell, self.grid_lines, self.line_positions)
             symbols = {**self.symbols, cell: _draw_symbol(bounds, label, self.style, rng)}
         return dataclasses.replace(self, symbols=symbols)
 
@@ -395,13 +395,25 @@ def _grid_line(
 
 
 def _cell_bounds(
-    cell: int, positions: tuple[float, float, float, float]
+    cell: int, lines: Sequence[Stroke], positions: tuple[float, float, float, float]
 ) -> tuple[float, float, float, float]:
-    """Left, top, right, bottom of a cell as the person drew it, in cell units."""
-    v1, v2, h1, h2 = positions
+    """Left, top, right, bottom of a cell as the person sees it, in cell units: where the
+    drawn (tilted, wobbly) lines pass the cell's middle; the outer cells as wide as the middle
+    one."""
+    row, col = divmod(cell, 3)
+    cx, cy = col + 0.5, row + 0.5
+
+    def across(k: int, at: float) -> float:
+        if not lines:
+            return positions[k]
+        stroke = lines[k]
+        along, other = (stroke[:, 1], stroke[:, 0]) if k < 2 else (stroke[:, 0], stroke[:, 1])
+        order = np.argsort(along)
+        return float(np.interp(at, along[order], other[order]))
+
+    v1, v2, h1, h2 = across(0, cy), across(1, cy), across(2, cx), across(3, cx)
     xs = (v1 - (v2 - v1), v1, v2, v2 + (v2 - v1))
     ys = (h1 - (h2 - h1), h1, h2, h2 + (h2 - h1))
-    row, col = divmod(cell, 3)
     return xs[col], ys[row], xs[col + 1], ys[row + 1]
 
 

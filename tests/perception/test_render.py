@@ -43,7 +43,7 @@ def test_labels_are_drawn_where_asked():
     photo = render_photo(np.random.default_rng(1), labels)
     assert photo.labels == labels
     assert sorted(photo.scene.symbols) == [0, 2, 4, 8]
-    assert photo.scene.symbols[0].label == "cross" and len(photo.scene.symbols[0].strokes) == 2
+    assert photo.scene.symbols[0].label == "cross" and len(photo.scene.symbols[0].strokes) >= 2
     with pytest.raises(ValueError, match="9 of"):
         render_photo(np.random.default_rng(1), ("cross",) * 8)
 
