@@ -5,8 +5,10 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-# Debian packages the robot and its tests use: speech synthesis, audio tools, the test browser.
-SYSTEM_PACKAGES := espeak-ng sox chromium
+# Debian packages the robot and its tests use: speech synthesis, audio tools, the test browser,
+# and the handwriting fonts of the perceiver's other-hand test set (never trained on).
+SYSTEM_PACKAGES := espeak-ng sox chromium \
+	fonts-dkg-handwriting fonts-breip fonts-femkeklaver fonts-rufscript
 
 .PHONY: setup system venv run test lint format bench clean
 
