@@ -127,6 +127,89 @@ def see(
 
 # --- dialogue commands (issue 5) ---
 
+
+@train_app.command("agent")
+def train_agent_command(
+    ctx: typer.Context,
+    out: Annotated[
+        Path, typer.Option(help="Folder for agent.pt, its metrics, the two plots, the checkpoint.")
+    ] = Path("runs/agent"),
+    resume: Annotated[
+        bool, typer.Option("--resume/--no-resume", help="Continue from OUT/checkpoint.pt.")
+    ] = True,
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+) -> None:
+    """Train the DQN interaction manager (config section [agent]) against the user simulator."""
+    from oxbot.dialogue.training import train_agent
+
+    result = train_agent(_config(ctx), out, resume=resume, show_progress=not quiet)
+    m = result.metrics
+    typer.echo(
+        f"trained on {m['experiences']} experiences ({m['games']} games) in "
+        f"{m['wall_clock_s']:.0f} s; wrote {out}/agent.pt, agent_metrics.json, "
+        "agent_reward.png, agent_win_draw.png"
+    )
+
+
+@evaluate_app.command("agent")
+def evaluate_agent_command(
+    ctx: typer.Context,
+    opponent: Annotated[
+        str, typer.Option(help="The person's strategy: random, blocker, minimax or all.")
+    ] = "random",
+    robot_starts: Annotated[
+        str, typer.Option("--robot-starts", help="Who draws first: yes, no or both.")
+    ] = "both",
+    games: Annotated[
+        int, typer.Option(help="Games per opponent and who-starts condition.")
+    ] = 10_000,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the figures as JSON.")] = False,
+    show: Annotated[int, typer.Option(help="Print this many transcripts like Figure 1.")] = 0,
+    policy_file: Annotated[
+        Path | None, typer.Option("--policy", help="A policy file (default: the shipped one).")
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the simulated people.")] = 0,
+) -> None:
+    """Play the greedy policy against a simulated person and measure its dialogues."""
+    import json
+
+    from oxbot.dialogue.agent import load_policy
+    from oxbot.dialogue.evaluation import evaluate, format_transcript
+    from oxbot.errors import ConfigError
+    from oxbot.game.opponents import OPPONENTS
+
+    names = list(OPPONENTS) if opponent == "all" else [opponent]
+    if any(n not in OPPONENTS for n in names):
+        raise ConfigError(f"unknown opponent {opponent!r}; choose random, blocker, minimax or all")
+    starts = {"yes": [True], "no": [False], "both": [True, False]}.get(robot_starts)
+    if starts is None:
+        raise ConfigError(f"--robot-starts is {robot_starts!r}; use yes, no or both")
+    if games <= 0:
+        raise ConfigError(f"--games is {games}; play at least one game")
+    policy = load_policy(policy_file)
+    results = [
+        evaluate(
+            policy.act_batch, name, start, games, _config(ctx), seed=seed, keep_transcripts=show
+        )
+        for name in names
+        for start in starts
+    ]
+    if as_json:
+        typer.echo(json.dumps([r.summary() for r in results], indent=2))
+    else:
+        for r in results:
+            who = "robot starts" if r.robot_starts else "person starts"
+            typer.echo(
+                f"{r.opponent:8s} {who:14s} games {r.games}  win {r.win_rate:.2%}  "
+                f"draw {r.draw_rate:.2%}  loss {r.loss_rate:.2%}  reward {r.average_reward:.2f}  "
+                f"turns {r.average_turns:.1f}  well-formed {r.well_formed:.2%}"
+            )
+    for r in results:
+        for transcript in r.transcripts[:show]:
+            typer.echo(f"\n# {r.opponent}, robot starts: {r.robot_starts}", err=as_json)
+            typer.echo(format_transcript(transcript), err=as_json)
+
+
 app.add_typer(train_app, name="train")
 app.add_typer(evaluate_app, name="evaluate")
 

@@ -1,0 +1,145 @@
+"""The DQN interaction manager: the Q-network, the greedy policy, and its policy file.
+
+Paper §2.2 "Model Architecture": a fully connected network with 57 inputs, two hidden layers of
+60 ReLU units and 18 outputs (one Q-value per act), trained with deep Q-learning with experience
+replay and a target network (Mnih et al. 2015); the defaults are in `AgentConfig`. At test time
+the policy is greedy over the offered acts: argmax of Q(s, a) where `action_mask` is true.
+
+A policy file (`torch.save` of plain types) records the feature layout it was trained on; a file
+from another layout (another vocabulary) is refused with a `ModelFileError`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from oxbot.atomic import atomic_write
+from oxbot.dialogue.domain import SYSTEM_ACTS
+from oxbot.errors import ModelFileError
+
+POLICY_FORMAT = "oxbot-dqn-policy/1"
+SHIPPED_POLICY = "agent.pt"
+
+
+class QNetwork(nn.Module):
+    """Q(s, ·): state features -> hidden ReLU layers -> one value per act (paper: 57-60-60-18)."""
+
+    def __init__(
+        self, n_features: int, hidden_sizes: Sequence[int] = (60, 60), n_actions: int = 18
+    ):
+        super().__init__()
+        layers: list[nn.Module] = []
+        size = n_features
+        for hidden in hidden_sizes:
+            layers += [nn.Linear(size, int(hidden)), nn.ReLU()]
+            size = int(hidden)
+        layers.append(nn.Linear(size, n_actions))
+        self.net = nn.Sequential(*layers)
+        self.n_features = n_features
+        self.hidden_sizes = tuple(int(h) for h in hidden_sizes)
+
+    def forward(self, states: torch.Tensor) -> torch.Tensor:
+        return self.net(states)
+
+
+def masked_argmax(q_values: np.ndarray, masks: np.ndarray) -> np.ndarray:
+    """The best offered act of each row."""
+    return np.argmax(np.where(masks, q_values, -np.inf), axis=-1)
+
+
+class DQNPolicy:
+    """The greedy interaction manager: the offered act with the highest Q-value."""
+
+    def __init__(
+        self,
+        q_network: QNetwork,
+        feature_names: Sequence[str],
+        metadata: dict[str, Any] | None = None,
+    ) -> None:
+        self.q_network = q_network.eval()
+        self.feature_names = tuple(feature_names)
+        self.metadata = dict(metadata or {})
+
+    def q_values(self, states: np.ndarray) -> np.ndarray:
+        """Q(s, a) for a batch of states (N, n_features) -> (N, 18)."""
+        with torch.inference_mode():
+            x = torch.as_tensor(np.asarray(states, dtype=np.float32))
+            return self.q_network(x).numpy()
+
+    def act(self, obs: np.ndarray, action_mask: np.ndarray) -> int:
+        """The act to take in state `obs` among those `action_mask` offers."""
+        q = self.q_values(np.asarray(obs, dtype=np.float32)[None])[0]
+        return int(masked_argmax(q, np.asarray(action_mask, dtype=bool)))
+
+    def act_batch(self, states: np.ndarray, masks: np.ndarray) -> np.ndarray:
+        """`act` for a batch of states and masks."""
+        return masked_argmax(self.q_values(states), np.asarray(masks, dtype=bool))
+
+    def save(self, path: str | Path) -> None:
+        """Write the policy file atomically (never half-written)."""
+        payload = {
+            "format": POLICY_FORMAT,
+            "feature_names": list(self.feature_names),
+            "action_names": list(SYSTEM_ACTS),
+            "hidden_sizes": list(self.q_network.hidden_sizes),
+            "state_dict": self.q_network.state_dict(),
+            "metadata": self.metadata,
+        }
+        with atomic_write(path, "wb") as handle:
+            torch.save(payload, handle)
+
+
+def shipped_policy_path() -> Path:
+    """Where the shipped trained policy lives: `oxbot/data/models/agent.pt`."""
+    return Path(str(resources.files("oxbot") / "data" / "models" / SHIPPED_POLICY))
+
+
+def load_policy(
+    path: str | Path | None = None, feature_names: Sequence[str] | None = None
+) -> DQNPolicy:
+    """The shipped trained policy, or the one at `path`; no training step.
+
+    The file must have been trained on the same feature layout as the environment's (the
+    shipped domain's unless `feature_names` is given); otherwise `ModelFileError`.
+    """
+    path = Path(path) if path is not None else shipped_policy_path()
+    if feature_names is None:
+        from oxbot.dialogue.env import shipped_components
+
+        feature_names = shipped_components()[1].names
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise ModelFileError(
+            f"policy file {path} does not exist; train one with `oxbot train agent`"
+        ) from None
+    except Exception as exc:
+        raise ModelFileError(
+            f"policy file {path} cannot be read ({exc}); it may be truncated"
+        ) from None
+    if not isinstance(payload, dict) or payload.get("format") != POLICY_FORMAT:
+        raise ModelFileError(f"{path} is not an oxbot DQN policy file ({POLICY_FORMAT})")
+    saved = tuple(payload["feature_names"])
+    if saved != tuple(feature_names):
+        missing = sorted(set(feature_names) - set(saved))[:5]
+        extra = sorted(set(saved) - set(feature_names))[:5]
+        raise ModelFileError(
+            f"policy file {path} was trained on another feature layout ({len(saved)} features, "
+            f"the environment has {len(feature_names)}; missing {missing}, unknown {extra}); "
+            "retrain it with `oxbot train agent`"
+        )
+    if tuple(payload["action_names"]) != SYSTEM_ACTS:
+        raise ModelFileError(f"policy file {path} was trained on other acts; retrain it")
+    network = QNetwork(len(saved), payload["hidden_sizes"], len(SYSTEM_ACTS))
+    try:
+        network.load_state_dict(payload["state_dict"])
+    except RuntimeError as exc:
+        raise ModelFileError(f"policy file {path} does not match its network: {exc}") from None
+    return DQNPolicy(network, saved, payload.get("metadata", {}))

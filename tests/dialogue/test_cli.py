@@ -1,0 +1,41 @@
+import json
+import subprocess
+import sys
+
+
+def oxbot(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "oxbot.cli", *args], capture_output=True, text=True, timeout=120
+    )
+
+
+def test_evaluate_agent_prints_json_figures_and_figure_1_like_transcripts():
+    result = oxbot(
+        "evaluate", "agent", "--opponent", "minimax", "--robot-starts", "both",
+        "--games", "40", "--json", "--show", "1",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    figures = json.loads(result.stdout)
+    assert [f["robot_starts"] for f in figures] == [True, False]
+    for f in figures:
+        assert f["games"] == 40 and f["loss_rate"] == 0.0 and f["well_formed"] == 1.0
+        assert {"win_rate", "draw_rate", "average_reward", "average_turns"} <= set(f)
+    assert "Rob: I take this one [who=rob what=draw where=" in result.stderr
+    assert "Rob: Good bye!" in result.stderr
+
+
+def test_train_agent_writes_its_files(tmp_path):
+    result = oxbot(
+        "--set", "agent.total_steps=600", "--set", "agent.learning_starts=100",
+        "train", "agent", "--out", str(tmp_path), "--quiet",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "trained on 600 experiences" in result.stdout
+    assert (tmp_path / "agent.pt").exists() and (tmp_path / "agent_metrics.json").exists()
+
+
+def test_bad_evaluate_options_give_one_clear_line():
+    result = oxbot("evaluate", "agent", "--robot-starts", "sometimes")
+    assert result.returncode == 2
+    assert "--robot-starts is 'sometimes'; use yes, no or both" in result.stderr
+    assert "Traceback" not in result.stderr

@@ -1,0 +1,84 @@
+import time
+
+import pytest
+
+from oxbot.dialogue.agent import load_policy
+from oxbot.dialogue.evaluation import check_dialogue, evaluate
+from oxbot.game import win_probability_vs_random
+from oxbot.game.board import EMPTY_BOARD, ROBOT
+
+
+def sys(act: str, text: str = "") -> dict[str, str]:
+    return {"speaker": "sys", "act": act, "text": text}
+
+
+def usr(act: str, text: str = "") -> dict[str, str]:
+    return {"speaker": "usr", "act": act, "text": text}
+
+
+FIGURE_1 = [
+    sys("Salutation(greeting)"),
+    sys("Provide(name)"),
+    sys("Request(playGame)"),
+    usr("Confirm(playGame=yes)"),
+    sys("Reply(playGame=yes)"),
+    sys("GameMove(gridloc=lowermiddle)"),
+    sys("Request(userGameMove)"),
+    usr("GameMove(gridloc=middleleft)"),
+    sys("GameMove(gridloc=lowerright)"),
+    sys("Request(userGameMove)"),
+    usr("GameMove(gridloc=middle)"),
+    sys("GameMove(gridloc=lowerleft)"),
+    sys("Provide(feedback=win)"),
+    sys("Salutation(closing)"),
+]
+
+
+def test_the_papers_figure_1_is_well_formed():
+    assert check_dialogue(FIGURE_1, "win") is None
+
+
+@pytest.mark.parametrize(
+    "edit,outcome,problem",
+    [
+        (lambda t: t[1:], "win", "does not greet first"),
+        (lambda t: [t[0], *t[2:]], "win", "does not introduce itself"),
+        (lambda t: [*t[:2], *t[3:]], "win", "does not invite"),
+        (lambda t: [*t[:6], *t[7:]], "win", "does not ask for the person's move"),
+        (lambda t: t, "draw", "says Provide(feedback=win) but the outcome is a draw"),
+        (lambda t: [*t[:12], *t[13:]], "win", "gives 0 feedback acts"),
+        (lambda t: t[:-1], "win", "does not close"),
+    ],
+)
+def test_each_broken_rule_is_caught(edit, outcome, problem):
+    assert problem in check_dialogue(edit(FIGURE_1), outcome)
+
+
+def test_the_shipped_policy_never_loses_and_wins_near_the_optimum():
+    """A quick version of the acceptance check; the full 10,000 games are in the slow test."""
+    policy = load_policy()
+    for opponent, games in (("random", 1000), ("blocker", 300), ("minimax", 300)):
+        for robot_starts in (True, False):
+            r = evaluate(policy.act_batch, opponent, robot_starts, games, seed=123)
+            assert r.loss_rate == 0, (opponent, robot_starts, r.summary())
+            assert r.well_formed == 1.0, r.problems
+            assert r.truncated == 0
+            if opponent == "random":
+                optimum = win_probability_vs_random(EMPTY_BOARD, ROBOT, robot_starts)
+                assert r.win_rate >= optimum - 0.02  # 1,000 games: 2 points of slack
+
+
+@pytest.mark.slow
+def test_acceptance_ten_thousand_games_per_condition():
+    policy = load_policy()
+    started = time.perf_counter()
+    for opponent in ("random", "blocker", "minimax"):
+        for robot_starts in (True, False):
+            r = evaluate(policy.act_batch, opponent, robot_starts, 10_000, seed=2026)
+            assert r.games == 10_000
+            assert r.loss_rate == 0, (opponent, robot_starts, r.summary())
+            assert r.well_formed == 1.0, r.problems
+            if opponent == "random":
+                optimum = win_probability_vs_random(EMPTY_BOARD, ROBOT, robot_starts)
+                assert r.win_rate >= optimum - 0.01, r.summary()
+    assert time.perf_counter() - started < 240

@@ -1,0 +1,70 @@
+import json
+
+import pytest
+
+from oxbot.config import load_config
+from oxbot.dialogue.agent import load_policy
+from oxbot.dialogue.training import epsilon_at, train_agent
+from oxbot.errors import ModelFileError
+
+TINY = [
+    "agent.total_steps=3000",
+    "agent.learning_starts=200",
+    "agent.double_dqn=true",
+    "agent.symmetries=true",
+    "agent.opponents=random:2,minimax:1",
+    "agent.robot_starts=both",
+    "agent.eval_every=1500",
+    "agent.eval_games=10",
+]
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    out = tmp_path_factory.mktemp("agent")
+    result = train_agent(load_config(None, TINY), out, show_progress=False, checkpoint_every=1000)
+    return out, result
+
+
+def test_a_tiny_real_run_writes_policy_metrics_and_curves(trained):
+    out, _result = trained
+    assert {p.name for p in out.iterdir()} >= {
+        "agent.pt",
+        "agent_metrics.json",
+        "agent_reward.png",
+        "agent_win_draw.png",
+        "checkpoint.pt",
+    }
+    assert not list(out.glob(".*.tmp"))
+    metrics = json.loads((out / "agent_metrics.json").read_text())
+    assert metrics["experiences"] == 3000 and metrics["updates"] == 2800
+    assert metrics["seed"] == 0 and metrics["config"]["agent"]["double_dqn"] is True
+    assert len(metrics["reward_curve"]) == 3 and len(metrics["evaluations"]) == 2
+    assert metrics["games"] > 100
+    for png in ("agent_reward.png", "agent_win_draw.png"):
+        assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    policy = load_policy(out / "agent.pt")
+    assert policy.metadata["experiences"] == 3000
+
+
+def test_training_resumes_from_its_checkpoint(trained):
+    out, first = trained
+    longer = load_config(None, [*TINY[1:], "agent.total_steps=4000"])
+    result = train_agent(longer, out, show_progress=False, checkpoint_every=1000)
+    assert result.metrics["experiences"] == 4000
+    assert result.metrics["updates"] == first.metrics["updates"] + 1000
+    assert result.metrics["games"] > first.metrics["games"]
+
+
+def test_a_checkpoint_from_other_settings_is_refused(trained):
+    out, _ = trained
+    other = load_config(None, [*TINY, "agent.discount=0.5"])
+    with pytest.raises(ModelFileError, match="other agent settings \\(discount\\)"):
+        train_agent(other, out, show_progress=False)
+
+
+def test_epsilon_falls_linearly_to_its_minimum():
+    cfg = load_config(None, ["agent.total_steps=1000", "agent.exploration_fraction=0.5"])
+    assert epsilon_at(0, cfg) == 1.0
+    assert epsilon_at(250, cfg) == pytest.approx(0.505)
+    assert epsilon_at(900, cfg) == 0.01
