@@ -5,16 +5,19 @@ paper's arm camera saw a fixed grid from a fixed pose; here the grid may be anyw
 rotated up to ±15° and under mild perspective (SPEC §2), so it is found first:
 
 1. *Ink*: pixels clearly darker than the paper around them (a morphological closing estimates
-   the paper), on a copy of the frame at most `WORK_SIDE` pixels wide. Desk edges, shadows and
-   lighting gradients are not thin and dark, so they are not ink.
-2. *Lines*: the Hough transform proposes straight lines through the ink; the grid is the pair
-   of near-parallel lines and the crossing pair of near-parallel lines whose ink runs along
-   all four, across the whole grid. Hand-drawn lines wobble, overshoot or stop short; the
-   check asks for most, not all, of each line.
-3. *Fit*: each of the four lines is refitted to the ink near it; their four crossings fix a
-   homography from *cell units* (inner lines at 1 and 2, cells filling [0, 3]²) to pixels.
-4. *Cells*: the frame is rectified into a square sheet, the paper's uneven light divided out,
-   the remains of the four lines traced and painted over, and each cell cut out with a small
+   the paper), on a copy of the frame at most `WORK_SIDE` pixels wide, shrunk so that thin
+   pen lines stay dark. Desk edges, shadows and lighting gradients are not thin and dark.
+2. *Lines*: the Hough transform proposes straight lines through the ink within 27° of
+   horizontal or vertical (the grid turns at most 15°); the grid is a pair of near-parallel
+   lines and a crossing pair whose ink runs along all four, across the whole grid. Hand-drawn
+   lines wobble, overshoot or stop short; the check asks for ink along most of each line,
+   and along most of its stretch beside the middle cell.
+3. *Fit*: each of the four lines is refitted to the ink near it, and each crossing to the
+   ink within half a cell of it. The four crossings and one more cell along each line give a
+   4x4 lattice of cell corners (`Grid`), in *cell units* (inner lines at 1 and 2, cells
+   filling [0, 3]²).
+4. *Cells*: each cell is warped to a square, the paper's uneven light divided out, the
+   remains of the four lines traced and painted over, and each cell cut out with a small
    margin, so neighbouring grid ink stays out, at 40x40.
 
 `NoGridFound` is raised rather than a guess when no such four lines exist (a blank sheet, an
@@ -48,6 +51,7 @@ MIN_GRID_SHARE = 0.18
 _INK_CONTRAST = 0.22  # ink is at least this much darker than the paper around it
 _MAX_LINES = 16  # distinct Hough lines considered
 _MAX_HOUGH = 200  # strongest Hough lines looked at (they come sorted by votes)
+_FINALISTS = 3  # best quadruples refitted to the ink before the final choice
 _MAX_GRIDS = 24  # quadruples of lines checked against the ink, best voted first
 _MAX_TILT = math.radians(27)  # SPEC §2: rotation up to ±15°, plus perspective and wobble
 _PARALLEL = math.radians(12)  # the two lines of a pair differ by at most this angle
@@ -146,15 +150,20 @@ def ink_mask(gray: np.ndarray, kernel: int = 7) -> np.ndarray:
     ) * 255
 
 
+def shrink_keeping_strokes(gray: np.ndarray, scale: float) -> np.ndarray:
+    """`gray` resized by `scale` < 1 so that a pen line one pixel wide stays dark: each pixel
+    first takes the darkest value around it (as wide as the pixels that merge), then areas are
+    averaged."""
+    k = max(1, math.ceil(1 / scale))
+    darkest = cv2.erode(gray, np.ones((k, k), np.uint8)) if k > 1 else gray
+    return cv2.resize(darkest, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+
+
 def find_grid(gray: np.ndarray) -> Grid:
     """The hand-drawn 3x3 grid in a grayscale frame; NoGridFound when there is none to see."""
     h, w = gray.shape
     scale = min(1.0, WORK_SIDE / max(h, w))
-    small = (
-        gray
-        if scale == 1.0
-        else cv2.resize(gray, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
-    )
+    small = gray if scale == 1.0 else shrink_keeping_strokes(gray, scale)
     ink = ink_mask(small)
     short = min(small.shape)
     min_spacing = MIN_GRID_SHARE * short / 3
@@ -165,16 +174,17 @@ def find_grid(gray: np.ndarray) -> Grid:
             "draw the 3x3 grid with a dark pen and keep all of it in the picture"
         )
     center = np.array(small.shape[::-1], np.float64) / 2
-    best = _best_grid(lines, ink, min_spacing, short / 2, center)
+    pixels = _ink_pixels(ink)
+    best = _best_grid(lines, ink, pixels, min_spacing, short / 2, center)
     if best is None:
         raise NoGridFound(
             "no 3x3 grid in view: no two pairs of crossing pen lines run across a whole grid; "
             "keep all four lines of the grid in the picture"
         )
     four, support = best
-    refined = _refine(four, ink)
+    refined = _refine(four, pixels)
     lattice = _lattice(*refined)
-    lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, ink)
+    lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, pixels)
     assert lattice is not None
     grid = Grid(lattice=lattice / scale, support=support)
     _check_in_view(grid, w, h)
@@ -183,7 +193,7 @@ def find_grid(gray: np.ndarray) -> Grid:
 
 def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]]:
     """Distinct straight lines through the ink as (rho, theta, votes), strongest first."""
-    found = cv2.HoughLinesWithAccumulator(ink, 1, math.pi / 180, votes)
+    found = cv2.HoughLinesWithAccumulator(ink, 2, math.pi / 180, votes)  # 2 px, 1 degree
     if found is None:
         return []
     center = np.array(ink.shape[::-1], np.float64) / 2
@@ -236,6 +246,7 @@ Four = tuple[Line, Line, Line, Line]
 def _best_grid(
     lines: list[tuple[float, float, float]],
     ink: np.ndarray,
+    pixels: np.ndarray,
     min_spacing: float,
     max_spacing: float,
     center: np.ndarray,
@@ -262,7 +273,7 @@ def _best_grid(
     # The grid's lines are the longest in view: try the best-voted quadruples first, and only
     # so many of them, so that a cluttered sheet cannot blow the time budget.
     candidates.sort(key=lambda pq: -sum(x[2] for x in (*pq[0], *pq[1])))
-    best: tuple[float, Four, float] | None = None
+    passed: list[tuple[float, Four]] = []
     for p, q in candidates[:_MAX_GRIDS]:
         four = _order(p, q)
         lattice = _lattice(*four, min_side=0.8 * min_spacing)
@@ -275,10 +286,20 @@ def _best_grid(
             or middle.min() < _MIN_MIDDLE_SUPPORT
         ):
             continue
-        score = closeness + 1e-4 * sum(x[2] for x in (*p, *q))
-        if best is None or score > best[0]:
-            best = (score, four, float(closeness))
-    return None if best is None else (best[1], best[2])
+        passed.append((closeness + 1e-4 * sum(x[2] for x in (*p, *q)), four))
+    # A Hough line a few degrees off a wobbly grid line can score below a line that grazes
+    # several symbols; fitted to the ink, the grid's real lines win. So the leaders are
+    # refitted once and judged again.
+    best: tuple[float, Four] | None = None
+    for _, four in sorted(passed, key=lambda x: -x[0])[:_FINALISTS]:
+        fitted = _refine(four, pixels, bands=(0.15,))
+        lattice = _lattice(*fitted, min_side=0.8 * min_spacing)
+        if lattice is None:
+            continue
+        _, _, closeness = _line_support(lattice, ink)
+        if best is None or closeness > best[0]:
+            best = (closeness, fitted)
+    return None if best is None else (best[1], best[0])
 
 
 def _order(p: tuple, q: tuple) -> Four:
@@ -354,8 +375,8 @@ def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
 # ink is looked for within ±0.06 cells of the line, because hand-drawn lines wobble; ink
 # nearer the line counts for more, so that of two candidate lines the one on the ink wins.
 _ALONG = np.linspace(-0.88, 1.88, 24)
-_ACROSS = np.linspace(-0.06, 0.06, 7)
-_CLOSENESS = 1 - np.abs(_ACROSS) / 0.09
+_ACROSS = np.linspace(-0.08, 0.08, 9)
+_CLOSENESS = 1 - np.abs(_ACROSS) / 0.12
 _MIDDLE = (_ALONG > 0.1) & (_ALONG < 0.9)  # the stretch between the line's two crossings
 
 
@@ -379,16 +400,20 @@ def _line_support(lattice: np.ndarray, ink: np.ndarray) -> tuple[np.ndarray, np.
     return inked.mean(axis=1), inked[:, _MIDDLE].mean(axis=1), float(closeness.mean())
 
 
-def _refine(four: Four, ink: np.ndarray) -> Four:
+def _ink_pixels(ink: np.ndarray) -> np.ndarray:
+    """(N, 2) float x, y of the ink pixels."""
+    ys, xs = np.nonzero(ink)
+    return np.stack([xs, ys], axis=1).astype(np.float64)
+
+
+def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.12, 0.08)) -> Four:
     """Refit each line to the ink in a narrowing band around it.
 
     Hough's lines can be a few degrees off a wobbly hand-drawn line, and symbols touch the
     lines: each round fits a straight line to the ink near the current one, keeps the closer
-    three quarters of it (dropping bits of symbols) and fits again.
+    three quarters of it (dropping bits of symbols) and fits again. `pixels`: `_ink_pixels`.
     """
-    ys, xs = np.nonzero(ink)
-    pixels = np.stack([xs, ys], axis=1).astype(np.float64)
-    for band in (0.2, 0.12, 0.08):
+    for band in bands:
         lattice = _lattice(*four)
         if lattice is None:
             return four
@@ -406,17 +431,15 @@ def _refine(four: Four, ink: np.ndarray) -> Four:
     return four
 
 
-def _local_crossings(four: Four, lattice: np.ndarray, ink: np.ndarray) -> np.ndarray:
+def _local_crossings(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     """The lattice rebuilt on where the lines really cross: a hand-drawn line bends, so each
     crossing is found from the two lines fitted within half a cell of it."""
-    ys, xs = np.nonzero(ink)
-    pixels = np.stack([xs, ys], axis=1).astype(np.float64)
     a, d, n, size = _line_frames(lattice)
     local = {}
     for k in range(4):
         rel = pixels - a[k]
         along = rel @ d[k] / (d[k] @ d[k])
-        near = np.abs(rel @ n[k]) < 0.08 * size
+        near = np.abs(rel @ n[k]) < 0.12 * size
         for end in (0, 1):  # around the line's first and second crossing
             line = _fit_line(pixels[near & (np.abs(along - end) < 0.5)])
             local[k, end] = line if line is not None else four[k]

@@ -38,7 +38,8 @@ def load_image(path: str | Path) -> np.ndarray:
     if not path.is_file():
         raise InvalidInputError(f"image {path} does not exist (or is not a file); check the path")
     data = np.fromfile(path, np.uint8)
-    image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    with _quiet_opencv():
+        image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
     if image is None:
         raise InvalidInputError(
             f"{path} is not an image OpenCV can read (corrupt, truncated or another kind of "

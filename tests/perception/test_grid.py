@@ -58,7 +58,7 @@ def test_finds_the_grid_anywhere_in_view():
     for seed in range(30):
         photo = render_photo(np.random.default_rng(seed), style=TUNING_STYLE)
         errors.append(crossing_error(photo.scene, as_gray(photo.image)))
-    assert np.median(errors) < 0.03
+    assert np.median(errors) < 0.04
     assert max(errors) < 0.15
 
 
