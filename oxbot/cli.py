@@ -114,7 +114,7 @@ def see(
             reading = default_reader().read(frame)
         except OxbotError as exc:
             failed += 1
-            err_console.print(f"[bold red]error:[/] {escape(f'{path}: {exc}')}")
+            err_console.print(f"[bold red]error:[/] {escape(f'{path}: {exc}')}", soft_wrap=True)
             continue
         typer.echo(f"{path}: {' '.join(reading.labels)}")
         typer.echo(format_board(reading.labels))
