@@ -69,19 +69,21 @@ class PerceptionConfig:
     """Paper §3.3: accuracy measured on 1,000 randomly generated test images."""
     seed: int = 0
     """oxbot: seed of every random generator used in data generation and training."""
-    epochs: int = 8
+    epochs: int = 10
     """oxbot: passes over the generated images; enough for 99.9% within 30 s on 2 cores."""
     batch_size: int = 64
     """oxbot: images per optimiser step (the paper does not say)."""
-    learning_rate: float = 0.02
+    learning_rate: float = 0.01
     """oxbot: peak Adam step size of a one-cycle schedule (the paper does not say)."""
     weight_decay: float = 0.0001
     """oxbot: L2 penalty on the weights, as ConvNetJS's l2_decay (the paper does not say)."""
+    threads: int = 1
+    """oxbot: torch threads while training; more barely help a net this small, on shared cores."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "image_size", "conv1_filters", "conv2_filters", "kernel_size")
         _require_positive(self, "pool1", "pool2", "seeds_per_class", "train_images", "test_images")
-        _require_positive(self, "epochs", "batch_size", "learning_rate")
+        _require_positive(self, "epochs", "batch_size", "learning_rate", "threads")
         if self.weight_decay < 0:
             raise ConfigError(f"perception.weight_decay is {self.weight_decay}; use 0 or more")
 

@@ -63,19 +63,38 @@ def _place_symbol(drawing: _Drawing, rng: np.random.Generator, size: int) -> np.
     """The drawing's ink moved to a random place, size, angle and proportion in a new cell."""
     width = rng.uniform(0.35, 0.9) * size
     scale = width / max(drawing.extent, 4.0)
-    aspect = np.exp(rng.uniform(-0.15, 0.15))
-    angle = np.deg2rad(rng.uniform(-25, 25))
+    # Ovals may be squashed and slanted far; a cross squashed as far stops looking like one.
+    stretch = 0.4 if drawing.label == "circle" else 0.15
+    aspect = np.exp(rng.uniform(-stretch, stretch))
+    shear = rng.uniform(-stretch, stretch)  # slanted handwriting
+    angle = np.deg2rad(rng.uniform(-20, 20))
     # Shifted anywhere the drawing stays in the cell: grid finding cuts cells at the lines.
     slack = max(size - width * 1.1, 0.0) / 2
     target = (size - 1) / 2 + rng.uniform(-slack, slack, size=2)
     c, s = np.cos(angle), np.sin(angle)
-    linear = np.array([[c, -s], [s, c]]) @ np.diag([scale * aspect, scale / aspect])
+    linear = np.array([[c, -s], [s, c]]) @ np.array([[1.0, shear], [0.0, 1.0]])
+    linear = linear @ np.diag([scale * aspect, scale / aspect])
     shift = target - linear @ np.asarray(drawing.centre)
     matrix = np.hstack([linear, shift[:, None]]).astype(np.float32)
     ink = cv2.warpAffine(drawing.ink, matrix, (size, size), flags=cv2.INTER_LINEAR)
     if rng.random() < 0.25:  # a broader pen
         ink = cv2.dilate(ink, np.ones((2, 2), np.uint8))
-    return ink
+    return _inside(ink, size)
+
+
+def _inside(ink: np.ndarray, size: int) -> np.ndarray:
+    """The ink moved, if needed, to keep clear of the border band where grid remnants lie."""
+    ys, xs = np.nonzero(ink > 0.05)
+    if xs.size == 0:
+        return ink
+    low, high = _BORDER + 2, size - 1 - (_BORDER + 2)
+    dx = max(0, low - xs.min()) - max(0, xs.max() - high)
+    dy = max(0, low - ys.min()) - max(0, ys.max() - high)
+    if dx == 0 and dy == 0:
+        return ink
+    moved = np.roll(ink, (int(dy), int(dx)), axis=(0, 1))
+    # A drawing wider than the cell's inside wraps around: keep the warped one, clipped.
+    return moved if np.ptp(xs) <= high - low and np.ptp(ys) <= high - low else ink
 
 
 def _move_blank(drawing: _Drawing, rng: np.random.Generator, size: int) -> np.ndarray:
@@ -128,6 +147,10 @@ def generate(
             ink = _move_blank(drawing, rng, size)
         else:
             ink = _place_symbol(drawing, rng, size)
-        ink = np.clip(ink * rng.uniform(0.55, 1.4), 0.0, 1.0)
+        # Lighter or darker ink, but never so faint that a person could not see the drawing.
+        factor = rng.uniform(0.55, 1.4)
+        if label != "nothing":
+            factor = max(factor, 0.45 / max(float(ink.max()), 1e-3))
+        ink = np.clip(ink * factor, 0.0, 1.0)
         images[i] = _finish(darken(paper((size, size), rng), ink), rng, label)
     return images, labels

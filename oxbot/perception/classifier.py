@@ -21,6 +21,7 @@ import importlib.resources
 import io
 import logging
 import math
+import pickle
 import zipfile
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -168,11 +169,22 @@ def label_indices(labels: Sequence[str] | np.ndarray) -> np.ndarray:
     return np.array([lookup[str(v)] for v in array.tolist()], np.int64)
 
 
+def _turn_or_flip(x: torch.Tensor, k: int) -> torch.Tensor:
+    """One of the 8 quarter turns and mirror images of a batch (k in 0-7).
+
+    Circles, crosses and blanks keep their label under each, so every pass over the same
+    generated images shows the network new views of them at no cost.
+    """
+    x = torch.rot90(x, k % 4, dims=(2, 3)) if k % 4 else x
+    return x.flip(3) if k >= 4 else x
+
+
 class SymbolClassifier:
     """Classifies 40x40 cells as circle, cross or nothing; the paper's CNN+SVM (§2.1).
 
     Paper: the architecture and 10K generated training images; 99.9% on 1,000 generated
-    test images. oxbot: Adam, a few epochs, per-cell contrast normalisation (see `to_input`).
+    test images. oxbot: Adam with a one-cycle schedule over a few epochs, each batch seen in one
+    of its 8 quarter turns and mirror images, and per-cell contrast normalisation (`to_input`).
     """
 
     def __init__(self, config: PerceptionConfig | None = None, seed: int | None = None) -> None:
@@ -206,6 +218,17 @@ class SymbolClassifier:
         y = torch.from_numpy(label_indices(labels))
         if len(y) != len(cells):
             raise InvalidInputError(f"{len(cells)} images but {len(y)} labels; give one each")
+        threads = torch.get_num_threads()
+        torch.set_num_threads(self.config.threads)
+        try:
+            self._fit(cells, y, progress)
+        finally:
+            torch.set_num_threads(threads)
+        return self
+
+    def _fit(
+        self, cells: np.ndarray, y: torch.Tensor, progress: Callable[[int], None] | None
+    ) -> None:
         cfg = self.config
         x = to_input(cells)
         rng = np.random.default_rng(self.seed)
@@ -223,8 +246,9 @@ class SymbolClassifier:
             order = torch.from_numpy(rng.permutation(len(x)))
             for start in range(0, len(x), cfg.batch_size):
                 batch = order[start : start + cfg.batch_size]
+                inputs = _turn_or_flip(x[batch], int(rng.integers(8)))
                 optimiser.zero_grad(set_to_none=True)
-                loss = loss_fn(self.net(x[batch]), y[batch])
+                loss = loss_fn(self.net(inputs), y[batch])
                 loss.backward()
                 optimiser.step()
                 schedule.step()
@@ -234,7 +258,6 @@ class SymbolClassifier:
         self.net.eval()
         self.fitted = True
         self.metadata.update(trained_images=len(x), final_loss=float(loss.item()))
-        return self
 
     def decision_function(self, cells: Any) -> np.ndarray:
         """The SVM layer's score of each label for each cell, float32 (N, 3)."""
@@ -257,7 +280,7 @@ class SymbolClassifier:
     def save(self, path: str | Path, **metadata: Any) -> Path:
         """Write the model with its configuration, seed and `metadata`; never half-written."""
         path = Path(path)
-        self.metadata.update(metadata)
+        merged = {**self.metadata, **metadata}
         payload = {
             "format": FORMAT,
             "format_version": FORMAT_VERSION,
@@ -265,13 +288,14 @@ class SymbolClassifier:
             "architecture": {f: getattr(self.config, f) for f in ARCHITECTURE_FIELDS},
             "config": dataclasses.asdict(self.config),
             "seed": self.seed,
-            "metadata": self.metadata,
+            "metadata": merged,
             "state_dict": self.net.state_dict(),
         }
         buffer = io.BytesIO()
         torch.save(payload, buffer)
         with atomic_write(path) as handle:
             handle.write(buffer.getvalue())
+        self.metadata = merged
         log.info("saved the perceiver to %s", path)
         return path
 
@@ -285,15 +309,22 @@ class SymbolClassifier:
             )
         try:
             payload = torch.load(io.BytesIO(path.read_bytes()), weights_only=True)
-        except (RuntimeError, EOFError, zipfile.BadZipFile, ValueError, OSError) as exc:
+        except (
+            RuntimeError,
+            EOFError,
+            zipfile.BadZipFile,
+            ValueError,
+            OSError,
+            pickle.UnpicklingError,
+        ) as exc:
             raise ModelFileError(
                 f"model file {path} is truncated or not a model file ({type(exc).__name__}); "
                 f"retrain it with `oxbot train perceiver`"
             ) from None
         except Exception as exc:  # unpickling refuses unknown objects in many ways
             raise ModelFileError(
-                f"model file {path} could not be read ({type(exc).__name__}: {exc}); it is "
-                f"not an oxbot perceiver"
+                f"model file {path} could not be read ({type(exc).__name__}); it is not an "
+                f"oxbot perceiver"
             ) from None
         if not isinstance(payload, dict) or payload.get("format") != FORMAT:
             raise ModelFileError(

@@ -88,7 +88,7 @@ def _circle_strokes(rng: np.random.Generator) -> list[np.ndarray]:
         + rng.uniform(0, 0.07) * np.sin(2 * t + rng.uniform(0, 2 * np.pi))
         + rng.uniform(0, 0.05) * np.sin(3 * t + rng.uniform(0, 2 * np.pi))
     )
-    aspect = rng.uniform(0.65, 1.0)
+    aspect = rng.uniform(0.65, 1.0) if rng.random() < 0.75 else rng.uniform(0.35, 0.65)
     x, y = radius * np.cos(t), radius * aspect * np.sin(t)
     tilt = rng.uniform(0, np.pi)
     c, s = np.cos(tilt), np.sin(tilt)
@@ -96,11 +96,28 @@ def _circle_strokes(rng: np.random.Generator) -> list[np.ndarray]:
     return [_fit_unit_box(points)]
 
 
+def _cursive_x_strokes(rng: np.random.Generator) -> list[np.ndarray]:
+    """The cursive x: two arcs back to back, ")(", touching or just crossing in the middle."""
+    u = np.linspace(0.0, 1.0, 24)[:, None]
+    strokes = []
+    for side in (-1.0, 1.0):
+        reach = rng.uniform(0.7, 1.0)
+        start = np.array([side * reach, -1.0 + rng.uniform(0, 0.2)])
+        end = np.array([side * reach * rng.uniform(0.8, 1.1), 1.0 - rng.uniform(0, 0.2)])
+        control = np.array([-side * rng.uniform(0.75, 1.2), rng.uniform(-0.15, 0.15)])
+        strokes.append((1 - u) ** 2 * start + 2 * (1 - u) * u * control + u**2 * end)
+    return strokes
+
+
 def _cross_strokes(rng: np.random.Generator) -> list[np.ndarray]:
     """Two strokes crossing near the middle, of unequal length, maybe curved or hooked."""
+    if rng.random() < 0.12:
+        strokes = _cursive_x_strokes(rng)
+        scale, offset = _unit_box_transform(np.vstack(strokes))
+        return [(s - offset) * scale for s in strokes]
     strokes = []
     for base in (np.pi / 4, 3 * np.pi / 4):
-        angle = base + rng.uniform(-0.3, 0.3)
+        angle = base + rng.uniform(-0.25, 0.25)
         half = rng.uniform(0.65, 1.0)
         centre = rng.uniform(-0.12, 0.12, size=2)
         d = np.array([np.cos(angle), np.sin(angle)])
@@ -117,6 +134,9 @@ def _cross_strokes(rng: np.random.Generator) -> list[np.ndarray]:
             hook = curve[-1] + np.linspace(0.0, rng.uniform(0.08, 0.2), 5)[1:, None] * hook_dir
             curve = np.vstack([curve, hook])
         strokes.append(curve)
+        if rng.random() < 0.15:  # a sketchy hand goes over the stroke again, near or apart
+            apart = rng.uniform(0.03, 0.3) * rng.choice((-1.0, 1.0))
+            strokes.append(curve + apart * normal + rng.normal(0, 0.01, curve.shape))
     aspect = rng.uniform(0.7, 1.15)  # narrow or wide crosses, like an X written in a word
     strokes = [s * np.array([aspect, 1.0]) for s in strokes]
     points = np.vstack(strokes)
@@ -251,10 +271,11 @@ def add_grid_remnants(
     h, w = image.shape
     amount = np.zeros((h, w), np.float32)
     pen = Pen.random(rng, min(h, w) * 0.7)
+    pen = Pen(min(pen.width, 0.06 * min(h, w)), pen.darkness, pen.grain)  # grids: thin pens
     for side in range(4):
         if rng.random() >= probability:
             continue
-        depth = rng.uniform(-1.0, min(h, w) * 0.08)  # distance of the line from the border
+        depth = rng.uniform(-1.0, min(h, w) * 0.05)  # distance of the line from the border
         tilt = rng.uniform(-0.06, 0.06) * min(h, w)
         start, end = sorted(rng.uniform(-0.2, 1.2, size=2))
         if end - start < 0.2:
@@ -269,7 +290,7 @@ def add_grid_remnants(
             pts = [(depth, a), (depth + tilt, b)]
         else:  # right
             pts = [(w - 1 - depth, a), (w - 1 - depth - tilt, b)]
-        width = Pen(pen.width * rng.uniform(0.7, 1.6), pen.darkness, pen.grain)
+        width = Pen(pen.width * rng.uniform(0.7, 1.3), pen.darkness, pen.grain)
         amount = np.maximum(amount, ink_mask((h, w), [np.array(pts)], width, rng))
     return darken(image, amount * pen.darkness * rng.uniform(0.5, 1.0))
 
