@@ -165,6 +165,8 @@ class AgentConfig:
     """oxbot: Double DQN targets (van Hasselt et al. 2016); off, like the paper's DQN."""
     symmetries: bool = False
     """oxbot: augment each sampled experience with a random symmetry of the board; off."""
+    misheard_words: float = 0.0
+    """oxbot: share of sampled states given one extra low-confidence misheard word; off."""
     opponents: str = "random"
     """Paper §3.3: a semi-random simulated person; oxbot: a weighted mix, random:2,minimax:1."""
     robot_starts: str = "yes"
@@ -180,6 +182,8 @@ class AgentConfig:
         _require_positive(self, "eval_games")
         if self.learning_starts < 0 or self.eval_every < 0:
             raise ConfigError("agent.learning_starts and agent.eval_every must be 0 or more")
+        if not 0.0 <= self.misheard_words <= 1.0:
+            raise ConfigError(f"agent.misheard_words is {self.misheard_words}; use [0, 1]")
         if not 0.0 < self.exploration_fraction <= 1.0:
             raise ConfigError(
                 f"agent.exploration_fraction is {self.exploration_fraction}; use a value in (0, 1]"

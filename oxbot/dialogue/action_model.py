@@ -97,6 +97,7 @@ class ActionModel:
         flags = np.r_[layout.flags.start : layout.dialogue_flags.stop]
         # weighted Naive Bayes: a flag column repeated k times counts as k independent features
         self.columns = np.r_[words, np.repeat(flags, flag_weight)]
+        self._memo: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
     def fit(self, states: np.ndarray, labels: list[str]) -> ActionModel:
         """Learn from states (N, n_features) and the class label (`act_class`) of each act."""
@@ -107,6 +108,7 @@ class ActionModel:
         self._weights = (log_p - log_not_p).T.astype(np.float64)  # (n_columns, n_classes)
         self._bias = log_not_p.sum(axis=1) + self.classifier_.class_log_prior_
         # where each class's probability goes among the 18 actions (GameMove: each of 9 cells)
+        self._memo.clear()
         self._to_actions = np.zeros((len(self.classifier_.classes_), N_ACTIONS))
         for k, label in enumerate(self.classifier_.classes_):
             for a, act in enumerate(SYSTEM_ACTS):
@@ -127,6 +129,23 @@ class ActionModel:
         logits -= logits.max(axis=1, keepdims=True)
         p = np.exp(logits)
         return p / p.sum(axis=1, keepdims=True)
+
+    def offered(
+        self, state: np.ndarray, board: Board, robot_to_move: bool, threshold: float
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pr(a|s) and the action mask of one state (the same numbers as `predict_proba` and
+        `action_mask`), memoised on the heard words and flags, which repeat a lot."""
+        key = (state[self.columns] > self.binarize).tobytes()
+        by_act = self._memo.get(key)
+        if by_act is None:
+            by_act = (self.class_proba(state) @ self._to_actions)[0]
+            if len(self._memo) < 100_000:
+                self._memo[key] = by_act
+        probs = by_act.copy()
+        for cell, mark in enumerate(board):
+            if mark:
+                probs[cell] = 0.0
+        return probs, action_mask(probs, board, robot_to_move, threshold)
 
     def predict_proba(self, states: np.ndarray) -> np.ndarray:
         """Pr(a|s) for the 18 actions, (N, 18); a GameMove on an occupied cell has 0."""

@@ -54,7 +54,7 @@ import numpy as np
 from gymnasium import spaces
 
 from oxbot.config import DialogueConfig, OxbotConfig
-from oxbot.dialogue.action_model import ActionModel, action_mask
+from oxbot.dialogue.action_model import ActionModel
 from oxbot.dialogue.domain import SYSTEM_ACTS, Domain, load_domain, words_of
 from oxbot.dialogue.features import FeatureLayout
 from oxbot.dialogue.reward import end_reward, step_reward
@@ -241,10 +241,9 @@ class InteractiveGameEnv(gym.Env):
     # --- internals ---------------------------------------------------------------------------
 
     def _info(self, obs: np.ndarray) -> dict[str, Any]:
-        self._probs = self.action_model.predict_proba(obs)[0]
         robot_to_move = bool(obs[self.layout.flags.start] > 0)
-        mask = action_mask(
-            self._probs, self._board, robot_to_move, self.config.reward.mask_threshold
+        self._probs, mask = self.action_model.offered(
+            obs, self._board, robot_to_move, self.config.reward.mask_threshold
         )
         return {"action_mask": mask}
 

@@ -49,6 +49,19 @@ DIALOGUE_FLAGS: dict[str, str] = {
     "dialogue:gave_feedback": "Provide(feedback=",
 }
 """Context features: 1 once the robot has said the act (any feedback act for the last one)."""
+_FLAG_OF_ACT: dict[str, int] = {
+    act: k
+    for k, prefix in enumerate(DIALOGUE_FLAGS.values())
+    for act in (
+        "Salutation(greeting)",
+        "Provide(name)",
+        "Request(playGame)",
+        "Provide(feedback=win)",
+        "Provide(feedback=draw)",
+        "Provide(feedback=loose)",
+    )
+    if act.startswith(prefix)
+}
 
 # The 8 symmetries of the square as permutations of the cells: new[i] = old[perm[i]].
 _ROTATE = (6, 3, 0, 7, 4, 1, 8, 5, 2)
@@ -111,11 +124,10 @@ class FeatureLayout:
             if i is not None:
                 state[i] = confidence
         self.encode_game(state, board, robot_starts)
-        flags = state[self.dialogue_flags]
         for act in said:
-            for k, prefix in enumerate(DIALOGUE_FLAGS.values()):
-                if act.startswith(prefix):
-                    flags[k] = 1.0
+            k = _FLAG_OF_ACT.get(act)
+            if k is not None:
+                state[self.dialogue_flags.start + k] = 1.0
         return state
 
     def encode_game(self, state: np.ndarray, board: Board, robot_starts: bool) -> None:

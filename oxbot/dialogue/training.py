@@ -117,6 +117,26 @@ def epsilon_at(step: int, config: OxbotConfig) -> float:
     return max(a.epsilon_min, a.epsilon_start + (a.epsilon_min - a.epsilon_start) * step / span)
 
 
+def add_misheard_words(
+    states: np.ndarray, share: float, n_words: int, below: float, rng: np.random.Generator
+) -> np.ndarray:
+    """A copy of `states` where a `share` of rows hear one more absent word, with confidence
+    in [0.1, `below`).
+
+    Below the action model's threshold such a word changes neither the offered acts nor the
+    DR reward, and what the person says next does not depend on how the robot heard them: the
+    experience is exactly as valid for the altered state. It teaches the network to ignore the
+    recogniser's low-confidence guesses, which otherwise tip a close choice between moves.
+    """
+    states = states.copy()
+    chosen = np.flatnonzero(rng.random(len(states)) < share)
+    if len(chosen):
+        words = rng.integers(n_words, size=len(chosen))
+        absent = states[chosen, words] == 0
+        states[chosen[absent], words[absent]] = rng.uniform(0.1, below, size=int(absent.sum()))
+    return states
+
+
 def greedy_batch_policy(q_network: QNetwork):
     """The network as a batch policy for `evaluate` (greedy over the offered acts)."""
 
@@ -170,6 +190,7 @@ def train_agent(
     feature_perm, action_perm = layout.symmetry_permutations()
     mask_perm = np.argsort(action_perm, axis=1)  # new_mask = old_mask[mask_perm[k]]
     rows = np.arange(cfg.batch_size)[:, None]
+    binarize = config.dialogue.nb_binarize
 
     def episode_options() -> dict[str, Any]:
         name = opponent_names[rng.choice(len(opponent_names), p=opponent_weights)]
@@ -248,6 +269,8 @@ def train_agent(
                     s2 = s2[rows, feature_perm[k]]
                     a = action_perm[k, a]
                     m2 = m2[rows, mask_perm[k]]
+                if cfg.misheard_words:  # a word heard with low confidence changes nothing
+                    s = add_misheard_words(s, cfg.misheard_words, layout.n_words, binarize, rng)
                 s_t, s2_t = torch.from_numpy(s), torch.from_numpy(s2)
                 m2_t = torch.from_numpy(m2)
                 with torch.no_grad():

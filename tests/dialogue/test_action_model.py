@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from oxbot.dialogue.action_model import ActionModel, action_mask, act_class, seed_examples
+from oxbot.dialogue.action_model import ActionModel, act_class, action_mask, seed_examples
 from oxbot.dialogue.domain import SYSTEM_ACTS
 from oxbot.dialogue.env import shipped_components
 from oxbot.game.board import EMPTY_BOARD, play
@@ -63,3 +63,22 @@ def test_threshold_follows_the_paper():
     assert mask.tolist() == (probs > 0.001).tolist()
     assert SYSTEM_ACTS[int(np.argmax(probs))] == "Salutation(greeting)"
     assert isinstance(model, ActionModel)
+
+
+def test_the_memoised_mask_is_the_same_as_computing_it():
+    from oxbot.dialogue.env import InteractiveGameEnv
+
+    env = InteractiveGameEnv(opponent="blocker")
+    _, layout, model = shipped_components()
+    obs, info = env.reset(seed=4)
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        probs = model.predict_proba(obs)[0]
+        robot_to_move = bool(obs[layout.flags.start])
+        assert np.allclose(env.action_probabilities, probs)
+        assert (info["action_mask"] == action_mask(probs, env.board, robot_to_move, 0.001)).all()
+        obs, _, terminated, truncated, info = env.step(
+            int(rng.choice(np.flatnonzero(info["action_mask"])))
+        )
+        if terminated or truncated:
+            obs, info = env.reset()

@@ -71,7 +71,8 @@ def test_words_leave_out_the_drawing():
         (
             "dialogues.txt",
             "where=lowerright]",
-            'SYS:[GameMove(gridloc=middleleft)]"I take this one [who=rob what=draw where=middleleft]"',
+            'SYS:[GameMove(gridloc=middleleft)]"I take this one '
+            '[who=rob what=draw where=middleleft]"',
             "already taken",
         ),
         (
@@ -127,11 +128,11 @@ def test_an_empty_vocabulary_is_refused(domain_dir):
     ]
     templates.write_text("\n".join(lines) + "\n")
     (domain_dir / "user_responses.txt").write_text("# nothing\n")
-    with pytest.raises(DataError, match="vocabulary derived from .* is empty"):
+    with pytest.raises(DataError, match=r"vocabulary derived from .* is empty"):
         load_domain(domain_dir)
 
 
 def test_a_missing_file_is_named(domain_dir):
     (domain_dir / "dialogues.txt").unlink()
-    with pytest.raises(DataError, match="dialogues.txt does not exist"):
+    with pytest.raises(DataError, match=r"dialogues\.txt does not exist"):
         load_domain(domain_dir)

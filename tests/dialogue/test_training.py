@@ -68,3 +68,22 @@ def test_epsilon_falls_linearly_to_its_minimum():
     assert epsilon_at(0, cfg) == 1.0
     assert epsilon_at(250, cfg) == pytest.approx(0.505)
     assert epsilon_at(900, cfg) == 0.01
+
+
+def test_misheard_words_are_absent_words_below_the_action_models_threshold():
+    import numpy as np
+
+    from oxbot.dialogue.env import shipped_components
+    from oxbot.dialogue.training import add_misheard_words
+
+    _, layout, model = shipped_components()
+    rng = np.random.default_rng(0)
+    states = np.zeros((1000, layout.n_features), dtype=np.float32)
+    states[:, 0] = 1.0  # a word the robot said
+    heard = add_misheard_words(states, 0.5, layout.n_words, 0.5, rng)
+    changed = heard != states
+    assert 0.4 < changed.any(axis=1).mean() < 0.5  # half the rows, less the already-present word
+    assert changed.sum(axis=1).max() == 1
+    assert (heard[changed] >= 0.1).all() and (heard[changed] < 0.5).all()
+    assert not changed[:, layout.n_words :].any() and (heard[:, 0] == 1.0).all()
+    assert np.allclose(model.predict_proba(heard), model.predict_proba(states))
