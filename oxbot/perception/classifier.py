@@ -16,6 +16,7 @@ The classifier has scikit-learn's shape: configured in `__init__`, learned by `f
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib.resources
 import io
@@ -23,7 +24,7 @@ import logging
 import math
 import pickle
 import zipfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -169,6 +170,23 @@ def label_indices(labels: Sequence[str] | np.ndarray) -> np.ndarray:
     return np.array([lookup[str(v)] for v in array.tolist()], np.int64)
 
 
+SMALL_BATCH = 64
+"""oxbot: batches up to this many cells are classified on one torch thread."""
+
+
+@contextlib.contextmanager
+def torch_threads(n: int | None) -> Iterator[None]:
+    """Run the block with `n` torch threads (None: leave as is), then restore the old count."""
+    before = torch.get_num_threads()
+    if n is not None and n != before:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        if torch.get_num_threads() != before:
+            torch.set_num_threads(before)
+
+
 def _turn_or_flip(x: torch.Tensor, k: int) -> torch.Tensor:
     """One of the 8 quarter turns and mirror images of a batch (k in 0-7).
 
@@ -218,12 +236,8 @@ class SymbolClassifier:
         y = torch.from_numpy(label_indices(labels))
         if len(y) != len(cells):
             raise InvalidInputError(f"{len(cells)} images but {len(y)} labels; give one each")
-        threads = torch.get_num_threads()
-        torch.set_num_threads(self.config.threads)
-        try:
+        with torch_threads(self.config.threads):
             self._fit(cells, y, progress)
-        finally:
-            torch.set_num_threads(threads)
         return self
 
     def _fit(
@@ -262,7 +276,9 @@ class SymbolClassifier:
     def decision_function(self, cells: Any) -> np.ndarray:
         """The SVM layer's score of each label for each cell, float32 (N, 3)."""
         x = to_input(check_cells(cells, self.image_size))
-        with torch.inference_mode():
+        # A frame's 9 cells take well under a millisecond on one thread; spreading so little
+        # work over threads costs more than it saves, many times more when cores are shared.
+        with torch_threads(1 if len(x) <= SMALL_BATCH else None), torch.inference_mode():
             return self.net(x).numpy()
 
     def predict(self, cells: Any) -> list[str]:

@@ -30,9 +30,7 @@ import cv2
 import numpy as np
 
 from oxbot.errors import InvalidInputError
-
-LABELS: tuple[str, str, str] = ("circle", "cross", "nothing")
-"""SPEC §1: the classifier's labels, in this order when indexed 0, 1, 2."""
+from oxbot.game.board import LABELS
 
 _SUPERSAMPLE = 4  # strokes are drawn 4x larger, then averaged down: cheap anti-aliasing
 

@@ -133,3 +133,10 @@ def test_failed_save_keeps_the_old_file_whole(shipped, tmp_path):
         shipped.save(path, callback=lambda: None)
     assert path.read_bytes() == before
     assert [p.name for p in tmp_path.iterdir()] == ["model.pt"]
+
+
+def test_predict_leaves_torch_threads_as_they_were(shipped, cells):
+    before = torch.get_num_threads()
+    shipped.predict(cells[0][:9])
+    shipped.predict(np.concatenate([cells[0]] * 4))  # a big batch keeps the caller's threads
+    assert torch.get_num_threads() == before
