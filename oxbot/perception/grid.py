@@ -45,6 +45,10 @@ CELL_MARGIN = 0.05
 """Share of a cell's side cropped away along each grid line, to keep its ink out."""
 SHEET_CELL = round(CELL_SIZE / (1 - 2 * CELL_MARGIN))
 """Side of one cell, in pixels, on the rectified sheet (a 40x40 crop plus the margins)."""
+OUTER_REACH = 1.0
+"""Outer cells reach this many middle cells out from the grid's lines: nothing bounds them,
+perspective makes the near ones longer, and a symbol drawn out to the edge of the paper should
+not be cut; a little more blank paper costs nothing."""
 MIN_GRID_SHARE = 0.18
 """The grid's side must be at least this share of the frame's shorter side."""
 
@@ -52,7 +56,7 @@ _INK_CONTRAST = 0.22  # ink is at least this much darker than the paper around i
 _MAX_LINES = 16  # distinct Hough lines considered
 _MAX_HOUGH = 200  # strongest Hough lines looked at (they come sorted by votes)
 _FINALISTS = 3  # best quadruples refitted to the ink before the final choice
-_MAX_GRIDS = 24  # quadruples of lines checked against the ink, best voted first
+_MAX_GRIDS = 12  # quadruples of lines checked against the ink, best voted first
 _MAX_TILT = math.radians(27)  # SPEC §2: rotation up to ±15°, plus perspective and wobble
 _PARALLEL = math.radians(12)  # the two lines of a pair differ by at most this angle
 _CROSSING = math.radians(30)  # the two pairs cross at 90° give or take this angle
@@ -186,9 +190,8 @@ def find_grid(gray: np.ndarray) -> Grid:
     lattice = _lattice(*refined)
     lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, pixels)
     assert lattice is not None
-    grid = Grid(lattice=lattice / scale, support=support)
-    _check_in_view(grid, w, h)
-    return grid
+    _check_in_view(Grid(lattice=lattice / scale, support=support), w, h)
+    return Grid(lattice=_extend(lattice / scale, OUTER_REACH), support=support)
 
 
 def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]]:
@@ -346,14 +349,15 @@ def _lattice(
     return _extend(q)
 
 
-def _extend(q: np.ndarray) -> np.ndarray:
-    """Fill in the outer lattice points from the four inner ones, in place."""
-    for r in (1, 2):  # along each horizontal line, one cell further out on either side
-        q[r, 0] = 2 * q[r, 1] - q[r, 2]
-        q[r, 3] = 2 * q[r, 2] - q[r, 1]
+def _extend(q: np.ndarray, reach: float = 1.0) -> np.ndarray:
+    """Fill in the outer lattice points from the four inner ones, in place: `reach` times the
+    middle cell further out along each line."""
+    for r in (1, 2):  # along each horizontal line, a cell further out on either side
+        q[r, 0] = q[r, 1] + reach * (q[r, 1] - q[r, 2])
+        q[r, 3] = q[r, 2] + reach * (q[r, 2] - q[r, 1])
     for c in (1, 2):  # along each vertical line
-        q[0, c] = 2 * q[1, c] - q[2, c]
-        q[3, c] = 2 * q[2, c] - q[1, c]
+        q[0, c] = q[1, c] + reach * (q[1, c] - q[2, c])
+        q[3, c] = q[2, c] + reach * (q[2, c] - q[1, c])
     for r0, rn in ((0, 1), (3, 2)):  # the outer corners complete parallelograms
         for c0, cn in ((0, 1), (3, 2)):
             q[r0, c0] = q[r0, cn] + q[rn, c0] - q[rn, cn]
@@ -418,12 +422,13 @@ def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.1
         if lattice is None:
             return four
         a, d, n, size = _line_frames(lattice)
+        # All four lines at once: where each pixel lies along (in cells) and across each line.
+        along = (pixels @ d.T - (a * d).sum(axis=1)) / (d * d).sum(axis=1)
+        across = np.abs(pixels @ n.T - (a * n).sum(axis=1))
+        near = (across < band * size) & (along > -1.3) & (along < 2.3)
         fitted = []
         for k in range(4):
-            rel = pixels - a[k]
-            along = rel @ d[k] / (d[k] @ d[k])
-            near = (np.abs(rel @ n[k]) < band * size) & (along > -1.3) & (along < 2.3)
-            line = _fit_line(pixels[near])
+            line = _fit_line(pixels[near[:, k]])
             if line is None:
                 return four
             fitted.append(line)
@@ -466,11 +471,14 @@ def _fit_line(points: np.ndarray) -> Line | None:
     for refit in (False, True):
         mean = points.mean(axis=0)
         centered = points - mean
-        _, vectors = np.linalg.eigh(centered.T @ centered)
-        normal = vectors[:, 0]  # the direction of least spread
+        sxx, syy = centered[:, 0] @ centered[:, 0], centered[:, 1] @ centered[:, 1]
+        sxy = centered[:, 0] @ centered[:, 1]
+        along = 0.5 * math.atan2(2 * sxy, sxx - syy)  # direction of most spread
+        normal = np.array([-math.sin(along), math.cos(along)])
         if not refit:
             residual = np.abs(centered @ normal)
-            points = points[residual <= np.quantile(residual, 0.75)]
+            cut = np.partition(residual, (3 * len(residual)) // 4)[(3 * len(residual)) // 4]
+            points = points[residual <= cut]
             if len(points) < 8:
                 return None
     return float(mean @ normal), math.atan2(normal[1], normal[0])
