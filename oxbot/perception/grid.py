@@ -46,9 +46,8 @@ CELL_MARGIN = 0.05
 SHEET_CELL = round(CELL_SIZE / (1 - 2 * CELL_MARGIN))
 """Side of one cell, in pixels, on the rectified sheet (a 40x40 crop plus the margins)."""
 OUTER_REACH = 1.0
-"""Outer cells reach this many middle cells out from the grid's lines: nothing bounds them,
-perspective makes the near ones longer, and a symbol drawn out to the edge of the paper should
-not be cut; a little more blank paper costs nothing."""
+"""Outer cells reach this many middle cells out along the lines. Nothing bounds them, so it is
+a guess; 1.1 and 1.2 read fewer tuning boards right (the symbols shrink), so it is 1.0."""
 MIN_GRID_SHARE = 0.18
 """The grid's side must be at least this share of the frame's shorter side."""
 
