@@ -45,9 +45,6 @@ CELL_MARGIN = 0.05
 """Share of a cell's side cropped away along each grid line, to keep its ink out."""
 SHEET_CELL = round(CELL_SIZE / (1 - 2 * CELL_MARGIN))
 """Side of one cell, in pixels, on the rectified sheet (a 40x40 crop plus the margins)."""
-OUTER_REACH = 1.0
-"""Outer cells reach this many middle cells out along the lines. Nothing bounds them, so it is
-a guess; 1.1 and 1.2 read fewer tuning boards right (the symbols shrink), so it is 1.0."""
 MIN_GRID_SHARE = 0.18
 """The grid's side must be at least this share of the frame's shorter side."""
 
@@ -189,8 +186,9 @@ def find_grid(gray: np.ndarray) -> Grid:
     lattice = _lattice(*refined)
     lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, pixels)
     assert lattice is not None
-    _check_in_view(Grid(lattice=lattice / scale, support=support), w, h)
-    return Grid(lattice=_extend(lattice / scale, OUTER_REACH), support=support)
+    grid = Grid(lattice=lattice / scale, support=support)
+    _check_in_view(grid, w, h)
+    return grid
 
 
 def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]]:
@@ -348,15 +346,15 @@ def _lattice(
     return _extend(q)
 
 
-def _extend(q: np.ndarray, reach: float = 1.0) -> np.ndarray:
-    """Fill in the outer lattice points from the four inner ones, in place: `reach` times the
-    middle cell further out along each line."""
+def _extend(q: np.ndarray) -> np.ndarray:
+    """Fill in the outer lattice points from the four inner ones, in place: one middle cell
+    further out along each line."""
     for r in (1, 2):  # along each horizontal line, a cell further out on either side
-        q[r, 0] = q[r, 1] + reach * (q[r, 1] - q[r, 2])
-        q[r, 3] = q[r, 2] + reach * (q[r, 2] - q[r, 1])
+        q[r, 0] = 2 * q[r, 1] - q[r, 2]
+        q[r, 3] = 2 * q[r, 2] - q[r, 1]
     for c in (1, 2):  # along each vertical line
-        q[0, c] = q[1, c] + reach * (q[1, c] - q[2, c])
-        q[3, c] = q[2, c] + reach * (q[2, c] - q[1, c])
+        q[0, c] = 2 * q[1, c] - q[2, c]
+        q[3, c] = 2 * q[2, c] - q[1, c]
     for r0, rn in ((0, 1), (3, 2)):  # the outer corners complete parallelograms
         for c0, cn in ((0, 1), (3, 2)):
             q[r0, c0] = q[r0, cn] + q[rn, c0] - q[rn, cn]
@@ -440,12 +438,13 @@ def _local_crossings(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.
     crossing is found from the two lines fitted within half a cell of it."""
     a, d, n, size = _line_frames(lattice)
     local = {}
+    along, near = {}, {}
     for k in range(4):
         rel = pixels - a[k]
-        along = rel @ d[k] / (d[k] @ d[k])
-        near = np.abs(rel @ n[k]) < 0.12 * size
+        along[k] = rel @ d[k] / (d[k] @ d[k])
+        near[k] = np.abs(rel @ n[k]) < 0.12 * size
         for end in (0, 1):  # around the line's first and second crossing
-            line = _fit_line(pixels[near & (np.abs(along - end) < 0.5)])
+            line = _fit_line(pixels[near[k] & (np.abs(along[k] - end) < 0.5)])
             local[k, end] = line if line is not None else four[k]
     inner = {}
     for r, top_or_bottom in ((1, 2), (2, 3)):
@@ -460,7 +459,38 @@ def _local_crossings(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.
     q = lattice.copy()
     for (r, c), point in inner.items():
         q[r, c] = point
-    return _extend(q)
+    q = _extend(q)
+    # The outer cells end one middle cell further along each line, in the direction the line
+    # takes out there (a bowed line turns), where the line is drawn that far.
+    ends = {  # line k, its end (0 first crossing, 1 second): (the crossing, the other, outer)
+        (0, 0): ((1, 1), (2, 1), (0, 1)),
+        (0, 1): ((2, 1), (1, 1), (3, 1)),
+        (1, 0): ((1, 2), (2, 2), (0, 2)),
+        (1, 1): ((2, 2), (1, 2), (3, 2)),
+        (2, 0): ((1, 1), (1, 2), (1, 0)),
+        (2, 1): ((1, 2), (1, 1), (1, 3)),
+        (3, 0): ((2, 1), (2, 2), (2, 0)),
+        (3, 1): ((2, 2), (2, 1), (2, 3)),
+    }
+    for (k, end), (here, there, outer) in ends.items():
+        outside = (
+            (along[k] > -0.9) & (along[k] < 0.1)
+            if end == 0
+            else (along[k] > 0.9) & (along[k] < 1.9)
+        )
+        line = _fit_line(pixels[near[k] & outside])
+        if line is None:
+            continue
+        step = q[here] - q[there]  # one middle cell, pointing outwards
+        direction = np.array([-math.sin(line[1]), math.cos(line[1])])
+        direction *= np.sign(direction @ step) or 1.0
+        if direction @ step < 0.9 * np.linalg.norm(step):
+            continue  # turns more than about 25 degrees: not the same line
+        q[outer] = q[here] + direction * np.linalg.norm(step)
+    for r0, rn in ((0, 1), (3, 2)):  # the outer corners complete parallelograms
+        for c0, cn in ((0, 1), (3, 2)):
+            q[r0, c0] = q[r0, cn] + q[rn, c0] - q[rn, cn]
+    return q
 
 
 def _fit_line(points: np.ndarray) -> Line | None:
@@ -552,29 +582,35 @@ def remove_grid_lines(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
 
 
 def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool) -> None:
-    """Trace a near-vertical line through `strip` (rows along the line) and paint it over."""
-    # The line's centre in each row: the darkness-weighted mean position, smoothed along it.
+    """Trace a near-vertical line through `strip` (rows along the line) and paint it over.
+
+    The line is followed as a smooth curve fitted to the rows where it is dark, dropping rows
+    whose darkness lies off the curve: beyond the ends of a line that stops short, a symbol
+    near the cell's edge must not be taken for the line and painted over.
+    """
     weight = np.clip(strip - 40, 0, None).astype(np.float32)
     total = weight.sum(axis=1)
-    if (total > 0).sum() < strip.shape[0] // 3:
+    known = total > 0
+    if known.sum() < strip.shape[0] // 3:
         return
     pos = np.arange(strip.shape[1], dtype=np.float32)
-    center = np.where(total > 0, (weight * pos).sum(axis=1) / np.maximum(total, 1e-6), np.nan)
-    rows = np.arange(strip.shape[0])
-    known = ~np.isnan(center)
-    center = np.interp(rows, rows[known], center[known])
-    center = cv2.blur(center.astype(np.float32).reshape(-1, 1), (1, 9)).ravel()
-    # The line's half-width: the inked extent around the centre, typically.
-    inked = (strip > 60).sum(axis=1)
-    half = float(np.median(inked[known])) / 2 + 1.5 if known.any() else 2.0
-    dist = np.abs(pos[None, :] - center[:, None])
-    cover = dist <= half
-    if vertical:
-        region = out[:, offset : offset + strip.shape[1]]
-        region[cover] = np.maximum(region[cover], 245)
-    else:
-        region = out[offset : offset + strip.shape[1], :].T
-        region[cover] = np.maximum(region[cover], 245)
+    rows = np.arange(strip.shape[0], dtype=np.float32)
+    center = (weight * pos).sum(axis=1) / np.maximum(total, 1e-6)
+    keep = known.copy()
+    for _ in range(3):  # a smooth curve through the rows that agree with it
+        if keep.sum() < 6:
+            return
+        curve = np.polyval(np.polyfit(rows[keep], center[keep], 2), rows)
+        keep = known & (np.abs(center - curve) < 2.5)
+    # The line's half-width: its typical inked extent, plus a pixel of anti-aliasing.
+    half = float(np.median((strip[keep] > 60).sum(axis=1))) / 2 + 1.5
+    cover = (np.abs(pos[None, :] - curve[:, None]) <= half) & (strip > 25)
+    region = (
+        out[:, offset : offset + strip.shape[1]]
+        if vertical
+        else out[offset : offset + strip.shape[1], :].T
+    )
+    region[cover] = np.maximum(region[cover], 245)
 
 
 def cut_cells(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
