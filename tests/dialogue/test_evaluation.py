@@ -3,7 +3,7 @@ import time
 import pytest
 
 from oxbot.dialogue.agent import load_policy
-from oxbot.dialogue.evaluation import check_dialogue, evaluate
+from oxbot.dialogue.evaluation import check_dialogue, evaluate, losing_positions
 from oxbot.game import win_probability_vs_random
 from oxbot.game.board import EMPTY_BOARD, ROBOT
 
@@ -82,3 +82,17 @@ def test_acceptance_ten_thousand_games_per_condition():
                 optimum = win_probability_vs_random(EMPTY_BOARD, ROBOT, robot_starts)
                 assert r.win_rate >= optimum - 0.01, r.summary()
     assert time.perf_counter() - started < 240
+
+
+@pytest.mark.parametrize("robot_starts", [True, False])
+def test_no_person_can_beat_the_shipped_policy(robot_starts):
+    """Every reply to every move, each utterance heard cleanly and through the noisy ASR."""
+    policy = load_policy()
+    assert losing_positions(policy.act_batch, robot_starts, noisy_variants=20, seed=1) == 0
+
+
+def test_the_tree_check_finds_a_policy_that_can_be_beaten():
+    def first_empty_cell(states, masks):  # offered act with the lowest index: a poor player
+        return masks.argmax(axis=1)
+
+    assert losing_positions(first_empty_cell, True, noisy_variants=0) > 0
