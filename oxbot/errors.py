@@ -41,3 +41,7 @@ class NoGridFound(OxbotError):
 
 class FrameSourceError(OxbotError):
     """A camera, video file or image folder cannot be opened or read."""
+
+
+class SpeechUnavailable(OxbotError):
+    """Speech synthesis or recognition cannot run here (espeak-ng or pocketsphinx missing)."""

@@ -1,0 +1,1 @@
+"""The integrated robot: typed messages between concurrent components (paper §3.1)."""

@@ -1,0 +1,209 @@
+"""The messages the robot's components exchange, one typed dataclass per topic.
+
+In the spirit of ROS topics: each message type names its topic, carries plain data, and turns
+into JSON and back (`to_json` / `from_json`), with audio and images as base64 bytes beside
+their format. A networked transport can therefore replace the in-process bus without touching
+any component.
+"""
+
+from __future__ import annotations
+
+import base64
+import dataclasses
+import json
+import time
+import typing
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Literal
+
+from oxbot.errors import InvalidInputError
+
+Direction = Literal["left", "right", "up", "down", "centre"]
+Speaker = Literal["sys", "usr"]
+
+
+@dataclass(frozen=True)
+class Message:
+    """Base of every message: its topic and the time it was made."""
+
+    topic: ClassVar[str] = ""
+    stamp: float = field(default_factory=time.monotonic, kw_only=True)
+
+
+@dataclass(frozen=True)
+class SpeechAudio(Message):
+    """A push-to-talk recording to recognise."""
+
+    topic: ClassVar[str] = "speech/audio"
+    audio: bytes
+    format: Literal["wav"] = "wav"
+
+
+@dataclass(frozen=True)
+class SpeechHypotheses(Message):
+    """What the person said: an N-best list of (text, confidence), best first."""
+
+    topic: ClassVar[str] = "speech/hypotheses"
+    nbest: tuple[tuple[str, float], ...]
+    source: Literal["microphone", "text"] = "microphone"
+
+
+@dataclass(frozen=True)
+class Frame(Message):
+    """An image of the game sheet (camera frame or the web page's canvas)."""
+
+    topic: ClassVar[str] = "vision/frame"
+    image: bytes
+    format: Literal["png", "jpeg", "raw"] = "png"
+
+
+@dataclass(frozen=True)
+class GameMove(Message):
+    """A drawing the tracker accepted: [who=usr what=draw where=middle]."""
+
+    topic: ClassVar[str] = "vision/game_move"
+    who: Literal["usr", "rob"]
+    what: Literal["draw"]
+    where: str
+    symbol: Literal["circle", "cross"]
+
+
+@dataclass(frozen=True)
+class BoardProblem(Message):
+    """Something impossible seen on the sheet (two new symbols, an occupied cell, ...)."""
+
+    topic: ClassVar[str] = "vision/problem"
+    reason: str
+
+
+@dataclass(frozen=True)
+class HeadDirection(Message):
+    """Where the person's head points, from their own point of view."""
+
+    topic: ClassVar[str] = "vision/head"
+    direction: Direction
+
+
+@dataclass(frozen=True)
+class HeadMove(Message):
+    """Where the robot turns its head (mirroring the person)."""
+
+    topic: ClassVar[str] = "robot/head"
+    direction: Direction
+
+
+@dataclass(frozen=True)
+class Utterance(Message):
+    """Words for the robot to speak, with the dialogue act they verbalise."""
+
+    topic: ClassVar[str] = "speech/say"
+    text: str
+    act: str
+
+
+@dataclass(frozen=True)
+class SpeakingStarted(Message):
+    """The robot's speech audio starts now; `audio` is the WAV, for a page to play."""
+
+    topic: ClassVar[str] = "speech/started"
+    text: str
+    audio: bytes = b""
+    format: Literal["wav"] = "wav"
+    seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class SpeakingFinished(Message):
+    """The robot has finished saying `text`."""
+
+    topic: ClassVar[str] = "speech/finished"
+    text: str
+
+
+@dataclass(frozen=True)
+class ArmCommand(Message):
+    """Draw the robot's symbol in a cell."""
+
+    topic: ClassVar[str] = "arm/command"
+    where: str
+    symbol: Literal["circle", "cross"]
+
+
+@dataclass(frozen=True)
+class ArmStroke(Message):
+    """One stroke the arm has drawn: points in the cell's unit square, (0,0) upper left."""
+
+    topic: ClassVar[str] = "arm/stroke"
+    where: str
+    points: tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True)
+class ArmDone(Message):
+    """The arm finished drawing and is back at rest."""
+
+    topic: ClassVar[str] = "arm/done"
+    where: str
+
+
+@dataclass(frozen=True)
+class DialogueAct(Message):
+    """A turn of the conversation, for the log: who, which act, which words."""
+
+    topic: ClassVar[str] = "dialogue/act"
+    speaker: Speaker
+    act: str
+    text: str
+
+
+@dataclass(frozen=True)
+class ComponentFailed(Message):
+    """A component raised; the runtime reports it and carries on."""
+
+    topic: ClassVar[str] = "robot/failure"
+    component: str
+    error: str
+
+
+MESSAGE_TYPES: dict[str, type[Message]] = {cls.__name__: cls for cls in Message.__subclasses__()}
+"""Every message type by class name, for decoding JSON."""
+
+
+def to_json(message: Message) -> str:
+    """The message as JSON: its type, topic and fields, bytes as base64."""
+    data = {}
+    for f in dataclasses.fields(message):
+        value = getattr(message, f.name)
+        data[f.name] = (
+            base64.b64encode(value).decode("ascii") if isinstance(value, bytes) else value
+        )
+    return json.dumps({"type": type(message).__name__, "topic": message.topic, "data": data})
+
+
+def from_json(text: str | bytes) -> Message:
+    """The message `to_json` made; InvalidInputError if it is not one."""
+    try:
+        envelope = json.loads(text)
+        cls = MESSAGE_TYPES[envelope["type"]]
+        data = dict(envelope["data"])
+    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError) as exc:
+        raise InvalidInputError(
+            f"not a message of oxbot's bus ({type(exc).__name__}: {exc}); "
+            f"known types: {', '.join(sorted(MESSAGE_TYPES))}"
+        ) from None
+    hints = typing.get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        if f.name not in data:
+            continue
+        if hints[f.name] is bytes:
+            data[f.name] = base64.b64decode(data[f.name])
+        elif isinstance(data[f.name], list):
+            data[f.name] = _tuples(data[f.name])
+    try:
+        return cls(**data)
+    except TypeError as exc:
+        raise InvalidInputError(f"malformed {cls.__name__} message: {exc}") from None
+
+
+def _tuples(value: Any) -> Any:
+    return tuple(_tuples(v) for v in value) if isinstance(value, list) else value

@@ -1,0 +1,173 @@
+"""Speech recognition with pocketsphinx, restricted to what people say in this game.
+
+The paper used Google's recogniser through push-to-talk and passed its N-best lists on. oxbot
+decodes offline with pocketsphinx and its en-us acoustic model (shipped in the PyPI wheel, no
+download). A general English language model mishears short answers ("yes let's go for it" came
+back as "yeah snow for"), so decoding is restricted to the domain in two passes:
+
+1. a JSGF grammar whose sentences are the domain's user phrases — exact and fast;
+2. when the grammar finds no complete sentence, an n-gram model built from the same phrases,
+   which still allows other word orders and fragments of them.
+
+Confidences: a word's confidence is its posterior in the decoder's lattice (`seg().prob`); the
+best path's mean word posterior says how sure the decoder is overall, and each N-best entry
+gets that certainty scaled by its path score relative to the best score. Complete domain
+phrases rank before fragments; the list is ordered and every value lies in [0, 1].
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import logging
+import os
+import re
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from oxbot.errors import InvalidInputError, SpeechUnavailable
+from oxbot.speech.audio import RATE, pcm16
+
+if TYPE_CHECKING:
+    from oxbot.dialogue.domain import Domain
+
+log = logging.getLogger(__name__)
+
+FILLERS = {"<s>", "</s>", "<sil>", "[NOISE]", "<unk>"}
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """One entry of an N-best list."""
+
+    text: str
+    confidence: float
+    words: tuple[tuple[str, float], ...] = ()
+    """Each word with its confidence in [0, 1]; filled for the best hypothesis."""
+
+
+def normalise(text: str) -> str:
+    """Lower case, letters, digits and apostrophes only: the form the recogniser speaks in."""
+    return " ".join(re.sub(r"[^a-z0-9' ]+", " ", text.lower()).split())
+
+
+class Recognizer:
+    """pocketsphinx decoding restricted to `phrases` (what the person is expected to say)."""
+
+    def __init__(self, phrases: Sequence[str], nbest: int = 5) -> None:
+        try:
+            from pocketsphinx import Decoder
+            from pocketsphinx.lm import ArpaBoLM
+        except ImportError:
+            raise SpeechUnavailable(
+                "pocketsphinx is not installed; run `make run` or `pip install pocketsphinx`"
+            ) from None
+        self.phrases = sorted({normalise(p) for p in phrases if normalise(p)})
+        self._phrase_set = set(self.phrases)
+        if not self.phrases:
+            raise InvalidInputError("the recogniser needs at least one non-empty phrase")
+        self.nbest = nbest
+        self._decoder = Decoder(samprate=RATE, loglevel="FATAL")
+        self.vocabulary = self._known_words()
+        usable = [p for p in self.phrases if all(w in self.vocabulary for w in p.split())]
+        if not usable:
+            raise InvalidInputError(
+                "none of the phrases can be pronounced with the en-us dictionary; "
+                f"first phrase: {self.phrases[0]!r}"
+            )
+        grammar = "#JSGF V1.0;\ngrammar oxbot;\npublic <utterance> = "
+        grammar += " | ".join(usable) + " ;\n"
+        self._decoder.add_jsgf_string("phrases", grammar)
+        lm = ArpaBoLM(text="\n".join(usable), case="lower", add_start=True)
+        lm.compute()
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "domain.lm"
+            lm.write_file(str(path))
+            self._decoder.add_lm_file("words", str(path))
+
+    def _known_words(self) -> set[str]:
+        words = {w for p in self.phrases for w in p.split()}
+        known = {w for w in words if self._decoder.lookup_word(w)}
+        if words - known:
+            log.warning("not in the pronunciation dictionary, ignored: %s", sorted(words - known))
+        return known
+
+    def recognize(self, wav: str | os.PathLike[str] | bytes) -> list[Hypothesis]:
+        """N-best hypotheses for a WAV (path or bytes), best first; empty if nothing was heard."""
+        return self.decode(pcm16(wav))
+
+    def decode(self, samples: np.ndarray) -> list[Hypothesis]:
+        """N-best hypotheses for mono int16 samples at 16 kHz, best first."""
+        samples = np.asarray(samples)
+        if samples.dtype != np.int16 or samples.ndim != 1:
+            raise InvalidInputError(
+                f"audio must be 1-D int16 samples at 16 kHz; got {samples.dtype} {samples.shape}"
+            )
+        if len(samples) < RATE // 10:
+            return []  # under 0.1 s: a click of the button, not speech
+        for search in ("phrases", "words"):
+            hypotheses = self._run(search, samples.tobytes())
+            if hypotheses:
+                return hypotheses
+        return []
+
+    def _run(self, search: str, data: bytes) -> list[Hypothesis]:
+        decoder = self._decoder
+        decoder.activate_search(search)
+        decoder.start_utt()
+        decoder.process_raw(data, full_utt=True)
+        decoder.end_utt()
+        best = decoder.hyp()
+        if best is None or not normalise(best.hypstr):
+            return []
+        words = tuple(
+            (seg.word.split("(")[0], float(np.clip(seg.prob, 0.0, 1.0)))
+            for seg in decoder.seg()
+            if seg.word not in FILLERS
+        )
+        certainty = float(np.mean([c for _, c in words])) if words else 0.0
+        scores: dict[str, float] = {normalise(best.hypstr): best.score}
+        for entry in itertools.islice(decoder.nbest(), 4 * self.nbest):
+            text = normalise(entry.hypstr) if entry is not None else ""
+            if text and entry.score > 0:
+                scores[text] = max(scores.get(text, 0.0), entry.score)
+        # A grammar search that ran out of audio returns a fragment of a phrase; a complete
+        # phrase further down the list is the better answer.
+        ranked = sorted(scores, key=lambda t: (t not in self._phrase_set, -scores[t]))
+        ranked = ranked[: self.nbest]
+        top = max(scores.values())
+        confidences = np.minimum.accumulate([certainty * scores[t] / top for t in ranked])
+        posterior = dict(words)
+        return [
+            Hypothesis(
+                text,
+                float(conf),
+                tuple((w, posterior.get(w, float(conf))) for w in text.split()) if i == 0 else (),
+            )
+            for i, (text, conf) in enumerate(zip(ranked, confidences, strict=True))
+        ]
+
+
+def user_phrases(domain: Domain) -> list[str]:
+    """Everything the person says in a domain: user response alternatives and seed dialogues."""
+    spoken = [u for alternatives in domain.responses.values() for u in alternatives]
+    spoken += [u for dialogue in domain.dialogues for u in dialogue if u.speaker == "USR"]
+    return sorted({" ".join(u.words) for u in spoken if u.words})
+
+
+@functools.cache
+def default_recognizer() -> Recognizer:
+    """The recogniser for the shipped domain: every phrase a person says in its files."""
+    from oxbot.dialogue.domain import load_domain
+
+    return Recognizer(user_phrases(load_domain()))
+
+
+def recognize(wav: str | os.PathLike[str] | bytes) -> list[tuple[str, float]]:
+    """SPEC §5: a 16 kHz mono WAV (path or bytes) -> N-best list of (text, confidence)."""
+    return [(h.text, h.confidence) for h in default_recognizer().recognize(wav)]

@@ -1,0 +1,51 @@
+import dataclasses
+
+import pytest
+
+from oxbot.errors import InvalidInputError
+from oxbot.robot.messages import (
+    MESSAGE_TYPES,
+    ArmStroke,
+    Frame,
+    GameMove,
+    SpeakingStarted,
+    SpeechHypotheses,
+    from_json,
+    to_json,
+)
+
+EXAMPLES = [
+    SpeechHypotheses(nbest=(("yes let's play", 0.9), ("yes", 0.4))),
+    Frame(image=b"\x89PNG\r\n\x1a\n\x00\xff", format="png"),
+    GameMove(who="usr", what="draw", where="middle", symbol="cross"),
+    SpeakingStarted(text="Your turn.", audio=b"RIFF....WAVE", seconds=0.8),
+    ArmStroke(where="upperleft", points=((0.1, 0.2), (0.5, 0.5))),
+]
+
+
+@pytest.mark.parametrize("message", EXAMPLES, ids=lambda m: type(m).__name__)
+def test_messages_round_trip_through_json(message):
+    assert from_json(to_json(message)) == message
+
+
+def test_every_message_type_has_its_own_topic():
+    topics = [cls.topic for cls in MESSAGE_TYPES.values()]
+    assert all(topics) and len(set(topics)) == len(topics)
+
+
+def test_messages_are_immutable():
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        EXAMPLES[2].where = "lowerleft"  # type: ignore[misc]
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "not json",
+        '{"type": "Teleport", "data": {}}',
+        '{"type": "GameMove", "data": {"who": "usr"}}',
+    ],
+)
+def test_malformed_messages_are_refused_clearly(text):
+    with pytest.raises(InvalidInputError, match="message"):
+        from_json(text)
