@@ -259,7 +259,7 @@ def train_agent_command(
     ] = True,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
 ) -> None:
-    """Train the DQN interaction manager (config section [agent]) against the user simulator."""
+    """Train the DQN interaction manager against the user simulator (agent config section)."""
     from oxbot.dialogue.training import train_agent
 
     result = train_agent(_config(ctx), out, resume=resume, show_progress=not quiet)
