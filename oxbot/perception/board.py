@@ -22,9 +22,10 @@ from oxbot.atomic import atomic_write
 from oxbot.errors import InvalidInputError
 from oxbot.game.board import CELL_NAMES
 from oxbot.perception.grid import (
+    SHEET_CELL,
     Grid,
     as_gray,
-    cut_cells,
+    cut_cells_around_ink,
     find_grid,
     rectify,
     remove_grid_lines,
@@ -52,7 +53,8 @@ class BoardReading:
     grid: Grid
     """Where the grid was found in the frame."""
     sheet: np.ndarray
-    """The rectified sheet, uint8 (150, 150), before the grid lines were painted over."""
+    """The rectified sheet with a ring of half a cell around the grid, uint8 (176, 176), before
+    the grid lines were painted over."""
     cleaned: np.ndarray
     """The rectified sheet with the grid lines painted over."""
     cells: np.ndarray
@@ -66,9 +68,10 @@ def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarr
     """
     gray = as_gray(frame)
     grid = find_grid(gray)
-    sheet = rectify(gray, grid)
-    cleaned = remove_grid_lines(sheet)
-    return cut_cells(cleaned), grid, sheet, cleaned
+    border = SHEET_CELL // 2
+    sheet = rectify(gray, grid, border=border)
+    cleaned = remove_grid_lines(sheet, border=border)
+    return cut_cells_around_ink(cleaned, border=border), grid, sheet, cleaned
 
 
 class BoardReader:

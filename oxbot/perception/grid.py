@@ -16,9 +16,11 @@ rotated up to ±15° and under mild perspective (SPEC §2), so it is found first
    ink within half a cell of it. The four crossings and one more cell along each line give a
    4x4 lattice of cell corners (`Grid`), in *cell units* (inner lines at 1 and 2, cells
    filling [0, 3]²).
-4. *Cells*: each cell is warped to a square, the paper's uneven light divided out, the
-   remains of the four lines traced and painted over, and each cell cut out with a small
-   margin, so neighbouring grid ink stays out, at 40x40.
+4. *Cells*: each cell (and a ring of half a cell around the grid) is warped to a square, the
+   paper's uneven light divided out, the four lines traced and painted over where they are
+   drawn, and each cell cut at 40x40 as a square around its own ink (the connected pieces
+   whose centres lie in it), so that a symbol is whole and neighbouring ink stays out; a cell
+   without ink is cut at its place.
 
 `NoGridFound` is raised rather than a guess when no such four lines exist (a blank sheet, an
 empty desk) or when the grid runs off the frame.
@@ -532,11 +534,14 @@ def _check_in_view(grid: Grid, width: int, height: int) -> None:
 # --- from a found grid to nine cells ---
 
 
-def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL) -> np.ndarray:
-    """The grid seen from straight above: uint8 (3*cell, 3*cell), paper evened out to white.
+def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
+    """The grid seen from straight above: uint8 (3*cell + 2*border,) * 2, paper evened out.
 
     Each cell's quadrilateral is warped to a `cell` x `cell` square on its own; neighbouring
-    cells share their edges, so the sheet is continuous across the grid lines.
+    cells share their edges, so the sheet is continuous across the grid lines. `border` > 0
+    adds a ring that wide around the outer cells, continuing the lattice outwards (by
+    `border / cell` of the outer cells' sides), so that a symbol that sticks out of an outer
+    cell is on the sheet whole.
     """
     lattice = grid.lattice
     frame_cell = grid.cell_size()
@@ -544,20 +549,42 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL) -> np.ndarray:
         f = 1.25 * cell / frame_cell
         gray = cv2.resize(gray, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
         lattice = lattice * f
-    square = np.array([[0, 0], [cell, 0], [cell, cell], [0, cell]], np.float32)
-    sheet = np.empty((3 * cell, 3 * cell), np.uint8)
-    shifted = Grid(lattice=lattice, support=grid.support)
-    for i in range(9):
-        r, c = divmod(i, 3)
-        to_frame = cv2.getPerspectiveTransform(square, shifted.cell_quad(i).astype(np.float32))
-        sheet[r * cell : (r + 1) * cell, c * cell : (c + 1) * cell] = cv2.warpPerspective(
-            gray,
-            to_frame,
-            (cell, cell),
-            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-            borderMode=cv2.BORDER_REPLICATE,
-        )
+    edges = [0, cell, 2 * cell, 3 * cell]
+    if border > 0:
+        lattice = _ring(lattice, border / cell)
+        edges = [0] + [border + e for e in edges] + [3 * cell + 2 * border]
+    side = edges[-1]
+    sheet = np.empty((side, side), np.uint8)
+    n = len(edges) - 1
+    for r in range(n):
+        for c in range(n):
+            x0, x1, y0, y1 = edges[c], edges[c + 1], edges[r], edges[r + 1]
+            w, h = x1 - x0, y1 - y0
+            rect = np.array([[0, 0], [w, 0], [w, h], [0, h]], np.float32)
+            quad = np.array(
+                [lattice[r, c], lattice[r, c + 1], lattice[r + 1, c + 1], lattice[r + 1, c]],
+                np.float32,
+            )
+            to_frame = cv2.getPerspectiveTransform(rect, quad)
+            sheet[y0:y1, x0:x1] = cv2.warpPerspective(
+                gray,
+                to_frame,
+                (w, h),
+                flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                borderMode=cv2.BORDER_REPLICATE,
+            )
     return even_out_light(sheet)
+
+
+def _ring(q: np.ndarray, share: float) -> np.ndarray:
+    """A (4, 4, 2) lattice grown to (6, 6, 2): a ring `share` of a cell further out."""
+    out = np.empty((6, 6, 2))
+    out[1:5, 1:5] = q
+    out[0, 1:5] = q[0] + share * (q[0] - q[1])
+    out[5, 1:5] = q[3] + share * (q[3] - q[2])
+    out[:, 0] = out[:, 1] + share * (out[:, 1] - out[:, 2])
+    out[:, 5] = out[:, 4] + share * (out[:, 4] - out[:, 3])
+    return out
 
 
 def even_out_light(sheet: np.ndarray) -> np.ndarray:
@@ -569,12 +596,12 @@ def even_out_light(sheet: np.ndarray) -> np.ndarray:
     return np.clip(out, 0, 255).astype(np.uint8)
 
 
-def remove_grid_lines(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
+def remove_grid_lines(sheet: np.ndarray, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
     """The rectified sheet with the four grid lines traced and painted over with paper."""
     out = sheet.copy()
     band = max(3, round(0.18 * cell))
     dark = 255 - sheet.astype(np.int16)
-    for at in (cell, 2 * cell):
+    for at in (border + cell, border + 2 * cell):
         lo, hi = at - band, at + band + 1
         _erase_line(out, dark[:, lo:hi], lo, vertical=True)
         _erase_line(out, dark[lo:hi, :].T, lo, vertical=False)
@@ -603,14 +630,43 @@ def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool)
         curve = np.polyval(np.polyfit(rows[keep], center[keep], 2), rows)
         keep = known & (np.abs(center - curve) < 2.5)
     # The line's half-width: its typical inked extent, plus a pixel of anti-aliasing.
-    half = float(np.median((strip[keep] > 60).sum(axis=1))) / 2 + 1.5
-    cover = (np.abs(pos[None, :] - curve[:, None]) <= half) & (strip > 25)
+    inked = strip > 60
+    half = float(np.median(inked[keep].sum(axis=1))) / 2 + 1.5
+    # Paint over only where the line is drawn: runs of rows whose ink is one narrow stroke on
+    # the curve (a symbol beside or across the line interrupts a run only briefly). Beyond a
+    # line that stops short, a symbol in its way stays whole.
+    first = np.argmax(inked, axis=1)
+    last = strip.shape[1] - 1 - np.argmax(inked[:, ::-1], axis=1)
+    good = keep & inked.any(axis=1) & (last - first + 1 <= 2 * half + 2)
+    drawn = _drawn_rows(good, min_run=8, max_gap=6)
+    cover = (np.abs(pos[None, :] - curve[:, None]) <= half) & (strip > 25) & drawn[:, None]
     region = (
         out[:, offset : offset + strip.shape[1]]
         if vertical
         else out[offset : offset + strip.shape[1], :].T
     )
     region[cover] = np.maximum(region[cover], 245)
+
+
+def _drawn_rows(good: np.ndarray, min_run: int, max_gap: int, grow: int = 2) -> np.ndarray:
+    """The rows between the line's ends: from the first to the last run of at least `min_run`
+    good rows, taking in shorter runs of 3 or more beyond them while less than `max_gap`
+    rows apart, grown by `grow` rows at both ends."""
+    padded = np.concatenate([[False], good, [False]]).astype(np.int8)
+    change = np.diff(padded)
+    starts, ends = np.nonzero(change == 1)[0], np.nonzero(change == -1)[0]
+    runs = [(a, b) for a, b in zip(starts, ends, strict=True) if b - a >= 3]
+    long = [k for k, (a, b) in enumerate(runs) if b - a >= min_run]
+    out = np.zeros(good.shape, bool)
+    if not long:
+        return out
+    lo, hi = long[0], long[-1]
+    while lo > 0 and runs[lo][0] - runs[lo - 1][1] < max_gap:
+        lo -= 1
+    while hi < len(runs) - 1 and runs[hi + 1][0] - runs[hi][1] < max_gap:
+        hi += 1
+    out[max(runs[lo][0] - grow, 0) : runs[hi][1] + grow] = True
+    return out
 
 
 def cut_cells(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
@@ -625,3 +681,102 @@ def cut_cells(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
             crop = cv2.resize(crop, (CELL_SIZE, CELL_SIZE), interpolation=cv2.INTER_AREA)
         cells[i] = crop
     return cells
+
+
+INK_LEVEL = 170
+"""oxbot: on the evened-out sheet (paper near 245), pixels darker than this are ink."""
+SYMBOL_SHARE = 0.72
+"""oxbot: a cell cut around its ink is this much wider than the ink (the classifier was trained
+on symbols 35-90% as wide as the cell, placed anywhere in it, but whole)."""
+
+MIN_SYMBOL = 0.35
+"""oxbot: ink narrower than this share of a cell is no symbol (people draw them at least 0.4
+of the cell wide); such a cell is cut at its place."""
+LINE_REACH = 0.12
+"""oxbot: ink within this share of a cell of where a grid line runs may be left of the line."""
+LINE_PIECE_SHARE = 0.7
+"""oxbot: a piece of ink this much of which lies that near the grid lines is left of them."""
+
+
+def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
+    """The nine cells of a grid-free sheet, each cut as a square around its own ink.
+
+    A cell of the game holds at most one symbol, so the ink is split into connected pieces,
+    each piece belongs to the cell its centre lies in, and a cell with ink is cut as a square
+    around all of its pieces, with the other cells' ink painted over: the symbol is whole and
+    alone even when it sticks out of its cell (the outer cells, which no line bounds outside,
+    are guessed from the middle one). Pieces of grid line that line removal left (long, thin,
+    along a cell's side) are nobody's. A cell without ink is cut at its place, as `cut_cells`.
+    `sheet`: uint8 (3*cell + 2*border,) * 2, from `rectify` and `remove_grid_lines`.
+    """
+    cells = cut_cells(sheet[border : border + 3 * cell, border : border + 3 * cell], cell)
+    ink = (sheet < INK_LEVEL).astype(np.uint8)
+    joined = cv2.dilate(ink, np.ones((3, 3), np.uint8))
+    count, labels, stats, centres = cv2.connectedComponentsWithStats(joined, connectivity=8)
+    near_lines = np.zeros(sheet.shape, bool)
+    reach = round(LINE_REACH * cell)
+    for at in (border + cell, border + 2 * cell):
+        near_lines[:, at - reach : at + reach + 1] = True
+        near_lines[at - reach : at + reach + 1, :] = True
+    owner: dict[int, list[int]] = {}
+    side_max = sheet.shape[0]
+    for k in range(1, count):
+        x, y, w, h, area = stats[k]
+        if area < 12 or max(w, h) > 1.15 * cell or _is_line_piece(labels, k, stats[k], cell):
+            continue
+        on_lines = np.count_nonzero(
+            near_lines[y : y + h, x : x + w] & (labels[y : y + h, x : x + w] == k)
+        )
+        if on_lines > LINE_PIECE_SHARE * area:
+            continue  # what is left of a grid line
+        if x == 0 or y == 0 or x + w == side_max or y + h == side_max:
+            continue  # the desk, a shadow, the paper's edge or what is beyond the ring
+        col = math.floor((centres[k][0] - border) / cell)
+        row = math.floor((centres[k][1] - border) / cell)
+        if not (0 <= row < 3 and 0 <= col < 3):
+            # The ring around the grid belongs to the outer cells next to it: a symbol
+            # drawn out there, but no specks or bits of line.
+            if max(w, h) < 0.3 * cell:
+                continue
+            col, row = min(max(col, 0), 2), min(max(row, 0), 2)
+        owner.setdefault(row * 3 + col, []).append(k)
+    for i, pieces in owner.items():
+        box = stats[pieces]
+        x0, y0 = box[:, 0].min(), box[:, 1].min()
+        x1 = (box[:, 0] + box[:, 2]).max()
+        y1 = (box[:, 1] + box[:, 3]).max()
+        extent = max(x1 - x0, y1 - y0)
+        if extent < MIN_SYMBOL * cell:
+            continue  # a speck or a bit of line: cut the cell at its place
+        side = round(min(max(extent / SYMBOL_SHARE, 0.6 * cell), 1.6 * cell))
+        left = round((x0 + x1 - side) / 2)
+        top = round((y0 + y1 - side) / 2)
+        crop = np.full((side, side), 245, np.uint8)
+        sx0, sy0 = max(left, 0), max(top, 0)
+        sx1, sy1 = min(left + side, side_max), min(top + side, side_max)
+        if sx1 <= sx0 or sy1 <= sy0:
+            continue
+        part = sheet[sy0:sy1, sx0:sx1].copy()
+        lab = labels[sy0:sy1, sx0:sx1]
+        others = (lab > 0) & ~np.isin(lab, pieces)
+        part[others] = 245
+        crop[sy0 - top : sy1 - top, sx0 - left : sx1 - left] = part
+        cells[i] = cv2.resize(crop, (CELL_SIZE, CELL_SIZE), interpolation=cv2.INTER_AREA)
+    return cells
+
+
+def _is_line_piece(labels: np.ndarray, k: int, stat: np.ndarray, cell: int) -> bool:
+    """Whether connected piece `k` is a remnant of a grid line: long, thin and running within
+    25 degrees of a cell's side (a symbol's single stroke runs aslant)."""
+    x, y, w, h, _ = stat
+    if max(w, h) < 0.25 * cell:
+        return False
+    m = cv2.moments((labels[y : y + h, x : x + w] == k).astype(np.uint8), binaryImage=True)
+    mu20, mu02, mu11 = m["mu20"], m["mu02"], m["mu11"]
+    half, det = (mu20 + mu02) / 2, mu20 * mu02 - mu11 * mu11
+    root = math.sqrt(max(half * half - det, 0.0))
+    major, minor = half + root, max(half - root, 1e-6)
+    if major / minor < 12:
+        return False
+    angle = abs(math.degrees(0.5 * math.atan2(2 * mu11, mu20 - mu02)))  # 0 along x
+    return min(angle, abs(90 - angle)) < 25
