@@ -1,0 +1,85 @@
+import time
+
+import numpy as np
+import pytest
+
+from oxbot.robot.arm import ArmComponent, ArmConfig, cell_strokes, drawing_seconds
+from oxbot.robot.bus import Bus
+from oxbot.robot.messages import ArmCommand, ArmDone, ArmStroke, ComponentFailed
+
+FAST = ArmConfig(speed_factor=50.0)
+
+
+def collect(inbox, until, seconds=5.0):
+    """Messages from `inbox` up to and including the first for which `until` is true."""
+    got, deadline = [], time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        message = inbox.get(timeout=0.05)
+        if message is not None:
+            got.append(message)
+            if until(message):
+                return got
+    raise AssertionError(f"timed out after {got}")
+
+
+@pytest.mark.parametrize("symbol", ["circle", "cross"])
+def test_a_symbol_takes_one_to_two_seconds_at_a_real_pen_speed(symbol):
+    for seed in range(20):
+        strokes = cell_strokes(symbol, np.random.default_rng(seed))
+        assert 0.9 <= drawing_seconds(strokes, ArmConfig()) <= 2.2
+
+
+def test_strokes_stay_inside_the_cell_with_a_margin():
+    for symbol in ("circle", "cross"):
+        points = np.vstack(cell_strokes(symbol, np.random.default_rng(3), fill=0.7))
+        assert points.min() >= 0.15 - 1e-9 and points.max() <= 0.85 + 1e-9
+        assert np.allclose((points.min(axis=0) + points.max(axis=0)) / 2, 0.5, atol=0.05)
+
+
+def test_the_arm_draws_stroke_by_stroke_then_says_done():
+    bus = Bus()
+    inbox = bus.subscribe(ArmStroke, ArmDone)
+    arm = ArmComponent(bus, FAST, np.random.default_rng(0))
+    with arm:
+        bus.publish(ArmCommand(where="upper left", symbol="cross"))
+        first = inbox.get(timeout=5.0)
+        assert arm.drawing
+        got = [first, *collect(inbox, lambda m: isinstance(m, ArmDone))]
+        time.sleep(0.05)
+        assert not arm.drawing
+    strokes, done = got[:-1], got[-1]
+    assert done == ArmDone(where="upperleft", stamp=done.stamp)
+    assert len(strokes) >= 2  # a cross has two strokes, a sketchy one more
+    assert all(isinstance(s, ArmStroke) and s.where == "upperleft" for s in strokes)
+    assert all(0.0 <= v <= 1.0 for s in strokes for p in s.points for v in p)
+
+
+def test_drawing_takes_the_time_a_pen_needs():
+    config = ArmConfig(speed_factor=4.0)
+    expected = drawing_seconds(cell_strokes("circle", np.random.default_rng(7)), config) / 4.0
+    bus = Bus()
+    done = bus.subscribe(ArmDone)
+    with ArmComponent(bus, config, np.random.default_rng(7)):
+        start = time.monotonic()
+        bus.publish(ArmCommand(where="middle", symbol="circle"))
+        assert done.get(timeout=5.0) is not None
+        elapsed = time.monotonic() - start
+    assert expected * 0.95 <= elapsed <= expected + 0.25
+
+
+def test_commands_queue_and_a_bad_cell_is_reported_without_stopping_the_arm():
+    bus = Bus()
+    inbox = bus.subscribe(ArmStroke, ArmDone, ComponentFailed)
+    with ArmComponent(bus, FAST, np.random.default_rng(1)) as arm:
+        bus.publish(ArmCommand(where="middle", symbol="circle"))
+        bus.publish(ArmCommand(where="nowhere", symbol="circle"))
+        bus.publish(ArmCommand(where="9", symbol="cross"))
+        got = collect(inbox, lambda m: isinstance(m, ArmDone) and m.where == "lowerright")
+    drawn = [m for m in got if not isinstance(m, ComponentFailed)]
+    cells = [m.where for m in drawn]
+    first_done = next(i for i, m in enumerate(drawn) if isinstance(m, ArmDone))
+    assert set(cells[:first_done]) == {"middle"}
+    assert cells[first_done] == "middle" and set(cells[first_done + 1 :]) == {"lowerright"}
+    failures = [m for m in got if isinstance(m, ComponentFailed)]
+    assert len(failures) == 1 and "nowhere" in failures[0].error
+    assert arm.failures == 1
