@@ -1,0 +1,89 @@
+import logging
+import time
+
+import numpy as np
+import pytest
+
+from oxbot.robot.bus import Bus
+from oxbot.robot.messages import (
+    SpeakingFinished,
+    SpeakingStarted,
+    SpeechAudio,
+    SpeechHypotheses,
+    Utterance,
+)
+from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
+from oxbot.speech import RATE, Audio, Recognizer, read_wav, synthesize, to_wav_bytes
+
+
+def take(inbox, n, seconds=10.0):
+    got, deadline = [], time.monotonic() + seconds
+    while len(got) < n and time.monotonic() < deadline:
+        message = inbox.get(timeout=0.05)
+        if message is not None:
+            got.append(message)
+    return got
+
+
+def say(text):
+    return Utterance(text=text, act="Salutation(greeting)")
+
+
+def test_speech_is_bracketed_by_started_and_finished_after_the_audio():
+    bus = Bus()
+    inbox = bus.subscribe(SpeakingStarted, SpeakingFinished)
+    with SpeechSynthesisComponent(bus, speed_factor=4.0):
+        bus.publish(say("hello, shall we play a game?"))
+        started, finished = take(inbox, 2)
+    assert isinstance(started, SpeakingStarted) and isinstance(finished, SpeakingFinished)
+    assert started.text == finished.text == "hello, shall we play a game?"
+    assert started.audio[:4] == b"RIFF" and started.format == "wav"
+    assert started.seconds == pytest.approx(read_wav(started.audio).seconds)
+    assert 1.0 < started.seconds < 4.0
+    assert finished.stamp - started.stamp >= started.seconds / 4.0 * 0.95
+
+
+def test_utterances_queue_and_never_overlap():
+    bus = Bus()
+    inbox = bus.subscribe(SpeakingStarted, SpeakingFinished)
+    texts = ["one", "two", "three"]
+    with SpeechSynthesisComponent(bus, speed_factor=8.0):
+        for text in texts:
+            bus.publish(say(text))
+        got = take(inbox, 6)
+    assert [(type(m).__name__, m.text) for m in got] == [
+        (kind, text) for text in texts for kind in ("SpeakingStarted", "SpeakingFinished")
+    ]
+
+
+def test_without_espeak_the_robot_speaks_text_after_one_warning(monkeypatch, tmp_path, caplog):
+    monkeypatch.setenv("PATH", str(tmp_path))  # a system where espeak-ng is not installed
+    bus = Bus()
+    inbox = bus.subscribe(SpeakingStarted, SpeakingFinished)
+    with caplog.at_level(logging.WARNING), SpeechSynthesisComponent(bus):
+        for text in ("hello", "your turn", "good bye"):
+            bus.publish(say(text))
+        got = take(inbox, 6, seconds=3.0)
+    assert [(type(m).__name__, m.text) for m in got] == [
+        (kind, text)
+        for text in ("hello", "your turn", "good bye")
+        for kind in ("SpeakingStarted", "SpeakingFinished")
+    ]
+    assert all(m.audio == b"" and m.seconds == 0.0 for m in got if isinstance(m, SpeakingStarted))
+    warnings = [r for r in caplog.records if r.levelno >= logging.WARNING]
+    assert len(warnings) == 1 and "espeak-ng is not installed" in warnings[0].getMessage()
+
+
+def test_recordings_become_nbest_hypotheses():
+    recognizer = Recognizer(["yes please", "no thanks", "maybe later"])
+    bus = Bus()
+    heard = bus.subscribe(SpeechHypotheses)
+    click = to_wav_bytes(Audio(np.zeros(RATE // 20, np.int16), RATE))
+    with SpeechRecognitionComponent(bus, recognizer):
+        bus.publish(SpeechAudio(audio=synthesize("no thanks")))
+        bus.publish(SpeechAudio(audio=click))
+        answer, nothing = take(heard, 2)
+    assert answer.source == "microphone"
+    assert answer.nbest[0][0] == "no thanks"
+    assert all(0.0 <= confidence <= 1.0 for _, confidence in answer.nbest)
+    assert nothing.nbest == ()
