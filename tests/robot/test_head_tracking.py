@@ -1,10 +1,13 @@
+import logging
 import time
 
+import cv2
 import numpy as np
 import pytest
 from skimage import data
 
 from oxbot.errors import InvalidInputError
+from oxbot.perception.sources import ImageFolderSource
 from oxbot.robot.bus import Bus
 from oxbot.robot.head_tracking import HeadTracker, HeadTrackingComponent, HeadTrackingConfig
 from oxbot.robot.messages import HeadDirection
@@ -95,3 +98,38 @@ def test_the_component_publishes_only_changes(astronaut):
     assert got == ["centre", "left", "centre"]
     assert heads.drain() == []
     assert component.failures == 0
+
+
+def test_the_component_reads_a_frame_source_until_it_ends(astronaut, tmp_path, caplog):
+    moves = [(0, 0), (0, 0), (150, 0), (0, 100)]
+    for i, (dx, dy) in enumerate(moves):
+        cv2.imwrite(
+            str(tmp_path / f"{i:02d}.png"),
+            cv2.cvtColor(scene(astronaut, dx, dy), cv2.COLOR_RGB2BGR),
+        )
+    bus = Bus()
+    heads = bus.subscribe(HeadDirection)
+    tracker = HeadTracker(HeadTrackingConfig(calibration_detections=1))
+    with (
+        caplog.at_level(logging.INFO),
+        HeadTrackingComponent(bus, tracker, ImageFolderSource(tmp_path)),
+    ):
+        got = [heads.get(timeout=5.0) for _ in range(3)]
+        time.sleep(0.3)
+    assert [m.direction for m in got] == ["centre", "left", "down"]
+    assert any("no more frames" in r.getMessage() for r in caplog.records)
+
+
+def test_a_missing_source_turns_head_tracking_off_with_one_warning(tmp_path, caplog):
+    bus = Bus()
+    inbox = bus.subscribe()
+    with (
+        caplog.at_level(logging.WARNING),
+        HeadTrackingComponent(
+            bus, source=ImageFolderSource(tmp_path / "no camera here")
+        ) as component,
+    ):
+        time.sleep(0.5)  # five ticks
+    assert inbox.drain() == [] and component.failures == 0
+    warnings = [r for r in caplog.records if r.levelno >= logging.WARNING]
+    assert len(warnings) == 1 and "head tracking is off" in warnings[0].getMessage()
