@@ -19,12 +19,14 @@ def test_read_board_is_public_next_to_load_classifier():
     assert callable(perception.load_classifier)
 
 
-HELD_OUT_FLOOR = 0.85
-"""What the reader with the shipped classifier does today, less a margin: a regression guard."""
+HELD_OUT_FLOOR = 0.90
+"""What the reader with the shipped classifier does today (93.5%, 187/200), less a margin: a
+regression guard. SPEC §2's goal is 98%; it is not reached yet (README, "Reading the board")."""
 
 
-def test_all_9_cells_right_in_98_percent_of_held_out_photos():
-    """SPEC §2 goal, on 200 photos of the style the reader was not tuned on."""
+def test_all_9_cells_right_in_most_held_out_photos():
+    """All 9 cells right in at least HELD_OUT_FLOOR of 200 photos of the style the reader was
+    not tuned on (SPEC §2 goal: 98%)."""
     rng = np.random.default_rng(2024)
     right, wrong = 0, []
     for i in range(200):
@@ -40,9 +42,7 @@ def test_all_9_cells_right_in_98_percent_of_held_out_photos():
             pairs = enumerate(zip(photo.labels, labels, strict=True))
             wrong.append((i, [(cell, true, seen) for cell, (true, seen) in pairs if true != seen]))
     share = right / 200
-    assert share >= HELD_OUT_FLOOR, wrong
-    if share < 0.98:  # the goal is not reached yet: say so in every test run, without failing
-        pytest.xfail(f"all 9 cells right in {share:.1%} of held-out photos; goal 98%: {wrong}")
+    assert share >= HELD_OUT_FLOOR, (f"all 9 cells right in {share:.1%}", wrong)
 
 
 def test_read_board_takes_rgb_or_gray_and_gives_9_labels_row_major():
