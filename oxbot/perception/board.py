@@ -18,8 +18,6 @@ from typing import Protocol
 import cv2
 import numpy as np
 
-from oxbot.atomic import atomic_write
-from oxbot.errors import InvalidInputError
 from oxbot.game.board import CELL_NAMES
 from oxbot.perception.grid import (
     SHEET_CELL,
@@ -30,6 +28,7 @@ from oxbot.perception.grid import (
     rectify,
     remove_grid_lines,
 )
+from oxbot.perception.seeds import write_png
 
 SINGLE_STROKE = 15.0
 """oxbot: ink whose spread along its main axis is this many times its spread across it is one
@@ -174,11 +173,6 @@ def save_debug(
         images[f"{stem}_cell{i}_{CELL_NAMES[i]}_{label}.png"] = cell
     written = []
     for name, image in images.items():
-        ok, png = cv2.imencode(".png", image)
-        if not ok:  # pragma: no cover - OpenCV encodes any uint8 image
-            raise InvalidInputError(f"could not encode {name} as PNG")
-        path = folder / name
-        with atomic_write(path) as handle:
-            handle.write(png.tobytes())
-        written.append(path)
+        write_png(folder / name, image)
+        written.append(folder / name)
     return written

@@ -79,7 +79,7 @@ def read_cell(path: str | Path, size: int = 40) -> np.ndarray:
 
 
 def write_png(path: str | Path, image: np.ndarray) -> None:
-    """Save a grayscale image as PNG, atomically."""
+    """Save a uint8 image (grayscale, or colour in OpenCV's BGR order) as PNG, atomically."""
     ok, encoded = cv2.imencode(".png", image)
     if not ok:
         raise DataError(f"could not encode an image of shape {image.shape} as PNG")
