@@ -330,6 +330,12 @@ def evaluate_agent_command(
             typer.echo(format_transcript(transcript), err=as_json)
 
 
+# --- the integrated robot: oxbot play (issues 6 and 7) ---
+
+
+# --- reproducing the paper: oxbot reproduce (issue 8) ---
+
+
 app.add_typer(train_app, name="train")
 app.add_typer(evaluate_app, name="evaluate")
 
