@@ -46,6 +46,8 @@ class SpeechHypotheses(Message):
     topic: ClassVar[str] = "speech/hypotheses"
     nbest: tuple[tuple[str, float], ...]
     source: Literal["microphone", "text"] = "microphone"
+    words: tuple[tuple[str, float], ...] = ()
+    """The best hypothesis word by word with each word's confidence (typed text: 1 each)."""
 
 
 @dataclass(frozen=True)
@@ -66,6 +68,22 @@ class GameMove(Message):
     what: Literal["draw"]
     where: str
     symbol: Literal["circle", "cross"]
+
+
+@dataclass(frozen=True)
+class BoardSeen(Message):
+    """One reading of the sheet, for a "what the robot sees" panel.
+
+    `labels` is empty when no grid was found. `cells` are the 9 crops the classifier saw, as
+    40x40 PNGs; `agreeing` says how many readings in a row showed the same new drawing(s)
+    (the tracker accepts at 3).
+    """
+
+    topic: ClassVar[str] = "vision/board"
+    labels: tuple[str, ...]
+    agreeing: int = 0
+    cells: tuple[bytes, ...] = ()
+    format: Literal["png"] = "png"
 
 
 @dataclass(frozen=True)
@@ -154,6 +172,25 @@ class DialogueAct(Message):
     speaker: Speaker
     act: str
     text: str
+
+
+@dataclass(frozen=True)
+class Decision(Message):
+    """The interaction manager's choice: the acts it was offered, their Q-values, the act."""
+
+    topic: ClassVar[str] = "dialogue/decision"
+    offered: tuple[str, ...]
+    q_values: tuple[float, ...]
+    """Q(s, a) for all 18 acts in `oxbot.dialogue.domain.SYSTEM_ACTS` order."""
+    chosen: str
+
+
+@dataclass(frozen=True)
+class DialogueEnded(Message):
+    """The robot said goodbye; `outcome` is the game's result from its side, if it finished."""
+
+    topic: ClassVar[str] = "dialogue/ended"
+    outcome: Literal["win", "draw", "loss"] | None
 
 
 @dataclass(frozen=True)
