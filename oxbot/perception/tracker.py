@@ -15,8 +15,8 @@ The tracker keeps the board it has accepted. Each reading is compared with it:
 - the robot's own drawings are known in advance (`robot_draws`), so they never become the
   person's moves;
 - a stable change that is not a legal move — two new symbols at once, a symbol drawn over an
-  occupied cell, the other player's symbol — is reported as an `ImpossibleEvent` once, and
-  never accepted.
+  occupied cell, the other player's symbol, a symbol drawn out of turn or after the game
+  ended — is reported as an `ImpossibleEvent` once, and never accepted.
 """
 
 from __future__ import annotations
@@ -30,7 +30,17 @@ import numpy as np
 
 from oxbot.config import TrackerConfig
 from oxbot.errors import InvalidInputError, NoGridFound
-from oxbot.game.board import CELL_NAMES, LABELS, ROBOT, USER, cell_index, symbol_of
+from oxbot.game.board import (
+    CELL_NAMES,
+    EMPTY,
+    LABELS,
+    ROBOT,
+    USER,
+    cell_index,
+    outcome,
+    symbol_of,
+    to_move,
+)
 from oxbot.perception.sources import FrameSource
 
 PLURAL = {"circle": "circles", "cross": "crosses"}
@@ -55,7 +65,9 @@ class GameMove:
         return f"[who={self.who} ∧ what={self.what} ∧ where={self.where}]"
 
 
-ImpossibleKind = Literal["two_new_symbols", "occupied_cell", "wrong_symbol"]
+ImpossibleKind = Literal[
+    "two_new_symbols", "occupied_cell", "wrong_symbol", "out_of_turn", "game_over"
+]
 
 
 @dataclass(frozen=True)
@@ -87,9 +99,16 @@ class MoveTracker:
     breaks any run of identical readings.
     """
 
-    def __init__(self, robot_starts: bool = True, config: TrackerConfig | None = None) -> None:
+    def __init__(
+        self,
+        robot_starts: bool = True,
+        config: TrackerConfig | None = None,
+        check_turns: bool = True,
+    ) -> None:
         self.config = config if config is not None else TrackerConfig()
         self.robot_starts = robot_starts
+        self.check_turns = check_turns
+        """Refuse a drawing out of turn or after the game ended (off: track drawings only)."""
         self.user_symbol = symbol_of(USER, robot_starts)
         self.robot_symbol = symbol_of(ROBOT, robot_starts)
         self.reset()
@@ -106,6 +125,11 @@ class MoveTracker:
     def board(self) -> tuple[str, ...]:
         """The accepted labels of the 9 cells, the robot's announced drawings included."""
         return tuple(self._board)
+
+    @property
+    def agreeing(self) -> int:
+        """How many readings in a row have shown the same new drawing(s) (0: none)."""
+        return self._count
 
     def robot_draws(self, cell: int | str) -> None:
         """Tell the tracker that the robot draws (or drew) its symbol in `cell`.
@@ -178,6 +202,24 @@ class MoveTracker:
                 f"{len(changes)} new symbols appeared at once ({where}); a turn is one symbol",
             )
         cell, symbol = changes[0]
+        board = tuple(
+            EMPTY if label == "nothing" else ROBOT if i in self._robot_cells else USER
+            for i, label in enumerate(self._board)
+        )
+        if self.check_turns and outcome(board) is not None:
+            return self._impossible(
+                "game_over",
+                cells,
+                symbols,
+                f"a {symbol} appeared in {CELL_NAMES[cell]}, but the game is over",
+            )
+        if self.check_turns and to_move(board, self.robot_starts) != USER:
+            return self._impossible(
+                "out_of_turn",
+                cells,
+                symbols,
+                f"a {symbol} appeared in {CELL_NAMES[cell]}, but it is the robot's turn",
+            )
         if symbol != self.user_symbol:
             starter = "the robot" if self.robot_starts else "the person"
             return self._impossible(

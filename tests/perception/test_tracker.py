@@ -28,7 +28,7 @@ def feed(tracker: MoveTracker, *readings) -> list:
 
 
 def test_tracker_needs_three_identical_readings():
-    tracker = MoveTracker(robot_starts=True)
+    tracker = MoveTracker(robot_starts=True, check_turns=False)
     seen = board(middle="cross")
     events = feed(tracker, seen, seen, seen, seen)
     assert events[:2] == [None, None]
@@ -45,14 +45,14 @@ def test_tracker_period_and_count_come_from_the_paper():
     config = TrackerConfig()
     assert config.period_s == pytest.approx(0.1)
     assert config.stable_readings == 3
-    tracker = MoveTracker(config=TrackerConfig(stable_readings=5))
+    tracker = MoveTracker(config=TrackerConfig(stable_readings=5), check_turns=False)
     seen = board(lowerleft="cross")
     assert feed(tracker, *[seen] * 4) == [None] * 4
     assert isinstance(tracker.update(seen), GameMove)
 
 
 def test_tracker_ignores_flicker_and_missing_frames():
-    tracker = MoveTracker(robot_starts=True)
+    tracker = MoveTracker(robot_starts=True, check_turns=False)
     seen = board(upperleft="cross")
     # Two readings, a misread, two readings, a frame without a grid, two readings: no move.
     events = feed(tracker, seen, seen, EMPTY, seen, seen, None, seen, seen)
@@ -61,7 +61,7 @@ def test_tracker_ignores_flicker_and_missing_frames():
 
 
 def test_tracker_ignores_a_symbol_that_disappears():
-    tracker = MoveTracker(robot_starts=True)
+    tracker = MoveTracker(robot_starts=True, check_turns=False)
     feed(tracker, *[board(middle="cross")] * 3)
     # A hand covers the cross for a while: the board keeps it, nothing is reported.
     assert feed(tracker, *[EMPTY] * 5) == [None] * 5
@@ -82,7 +82,7 @@ def test_tracker_ignores_the_robots_drawings():
 
 
 def test_tracker_reports_two_new_symbols_once_and_accepts_neither():
-    tracker = MoveTracker(robot_starts=True)
+    tracker = MoveTracker(robot_starts=True, check_turns=False)
     two = board(upperleft="cross", lowerright="cross")
     events = feed(tracker, *[two] * 6)
     reported = [e for e in events if e is not None]
@@ -105,7 +105,9 @@ def test_tracker_reports_a_symbol_in_an_occupied_cell():
 
 
 def test_tracker_reports_the_wrong_symbol_for_the_person():
-    tracker = MoveTracker(robot_starts=True)  # the robot starts: it draws circles
+    tracker = MoveTracker(
+        robot_starts=True, check_turns=False
+    )  # the robot starts: it draws circles
     events = feed(tracker, *[board(middle="circle")] * 3)
     assert isinstance(events[2], ImpossibleEvent)
     assert events[2].kind == "wrong_symbol"
@@ -113,8 +115,38 @@ def test_tracker_reports_the_wrong_symbol_for_the_person():
     assert tracker.board[4] == "nothing"
 
 
+def test_tracker_refuses_drawings_out_of_turn_and_after_the_game():
+    tracker = MoveTracker(robot_starts=True)  # the robot draws first
+    events = feed(tracker, *[board(middle="cross")] * 3)
+    assert isinstance(events[2], ImpossibleEvent) and events[2].kind == "out_of_turn"
+    assert tracker.board == tuple(EMPTY)
+    tracker.robot_draws("middle")
+    events = feed(tracker, *[board(middle="circle", upperleft="cross")] * 3)
+    assert isinstance(events[2], GameMove) and events[2].where == "upperleft"
+    # A second cross before the robot has answered is out of turn.
+    events = feed(tracker, *[board(middle="circle", upperleft="cross", lowerleft="cross")] * 3)
+    assert isinstance(events[2], ImpossibleEvent) and events[2].kind == "out_of_turn"
+    # The robot completes the diagonal: nothing more is a move.
+    tracker.robot_draws("upperright")
+    tracker.robot_draws("lowerleft")
+    after = list(tracker.board)
+    after[1] = "cross"
+    events = feed(tracker, *[after] * 3)
+    assert isinstance(events[2], ImpossibleEvent) and events[2].kind == "game_over"
+
+
+def test_tracker_counts_agreeing_readings():
+    tracker = MoveTracker(robot_starts=False)
+    seen = board(middle="circle")
+    counts = []
+    for reading in [seen, seen, EMPTY, seen, seen, seen]:
+        tracker.update(reading)
+        counts.append(tracker.agreeing)
+    assert counts == [1, 2, 0, 1, 2, 0]  # back to 0 once the move is accepted
+
+
 def test_the_starter_draws_circles():
-    tracker = MoveTracker(robot_starts=False)  # the person starts, with circles
+    tracker = MoveTracker(robot_starts=False, check_turns=False)  # the person starts, with circles
     events = feed(tracker, *[board(middle="circle")] * 3)
     assert isinstance(events[2], GameMove) and events[2].symbol == "circle"
     events = feed(tracker, *[board(middle="circle", upperleft="cross")] * 3)
@@ -223,7 +255,7 @@ def test_watch_reads_a_live_source_once_per_period():
         frames.push(np.zeros((64, 64, 3), np.uint8))
     frames.finish()
     seen = board(middle="cross")
-    tracker = MoveTracker(robot_starts=True)
+    tracker = MoveTracker(robot_starts=True, check_turns=False)
     with frames:
         events = list(
             watch(frames, tracker, read=lambda _: seen, clock=lambda: now[0], sleep=sleep)
