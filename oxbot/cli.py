@@ -333,6 +333,38 @@ def evaluate_agent_command(
 # --- the integrated robot: oxbot play (issues 6 and 7) ---
 
 
+@app.command("play")
+def play(
+    terminal: bool = typer.Option(
+        False, "--terminal", help="Play in this terminal instead of the web page."
+    ),
+    camera: str = typer.Option(
+        None, "--camera", help="Watch real paper: a camera index (0), a video or image folder."
+    ),
+    person_starts: bool = typer.Option(False, "--person-starts", help="You draw first."),
+    mute: bool = typer.Option(False, "--mute", help="Print the robot's words only."),
+    host: str = typer.Option("127.0.0.1", help="Web page: the address to listen on."),
+    port: int = typer.Option(8000, help="Web page: the port to listen on."),
+    speed: float = typer.Option(1.0, help="Run speech, the arm and the waits this much faster."),
+) -> None:
+    """Play with the whole robot: the web page at http://HOST:PORT, or --terminal."""
+    from oxbot.robot.session import RobotOptions
+
+    options = RobotOptions(robot_starts=not person_starts, speed_factor=speed)
+    if terminal:
+        from oxbot.perception.sources import open_source
+        from oxbot.robot.session import Robot
+        from oxbot.robot.terminal import Speakers, TerminalRobot
+
+        source = open_source(camera) if camera is not None else None
+        robot = Robot(options, sheet_camera=source)
+        TerminalRobot(robot, speakers=Speakers(not mute), typed_moves=source is None).run()
+        return
+    from oxbot.web.server import serve
+
+    serve(host=host, port=port, speed_factor=speed)
+
+
 # --- reproducing the paper: oxbot reproduce (issue 8) ---
 
 

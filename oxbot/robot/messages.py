@@ -31,6 +31,14 @@ class Message:
 
 
 @dataclass(frozen=True)
+class NewGame(Message):
+    """Start again: a clean sheet and a new dialogue."""
+
+    topic: ClassVar[str] = "game/new"
+    robot_starts: bool = True
+
+
+@dataclass(frozen=True)
 class SpeechAudio(Message):
     """A push-to-talk recording to recognise."""
 
@@ -92,6 +100,8 @@ class BoardProblem(Message):
 
     topic: ClassVar[str] = "vision/problem"
     reason: str
+    kind: str = ""
+    """What went wrong, for code: the tracker's `ImpossibleKind` or the manager's own."""
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,183 @@
+"""Game-move recognition as a component: frames of the sheet in, the person's moves out.
+
+Paper §3.1: the arm camera's image is classified every 100 ms and a drawing is accepted once
+seen 3 times in a row. Here the frame source (`oxbot.perception.sources`: a webcam, a video, an
+image folder) or frames pushed by other code (the web page's canvas, Frame messages) feed
+`BoardReader` and `MoveTracker` at the tracker's period. A pushed frame stays the current view
+of the sheet until the next one arrives, as a camera would keep seeing it, and is read again
+at every tick; its labels are computed once, since the same image always reads the same.
+
+Publishes: BoardSeen for every reading that differs from the previous one (labels, crops, the
+tracker's count), GameMove for each accepted drawing, BoardProblem for impossible ones. Listens
+to ArmCommand, because the tracker must know the robot's own drawings before they appear, and
+to NewGame, which starts a clean sheet.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+
+import cv2
+import numpy as np
+
+from oxbot.config import TrackerConfig
+from oxbot.errors import FrameSourceError, InvalidInputError, NoGridFound
+from oxbot.perception.board import BoardReader, default_reader
+from oxbot.perception.sources import FrameSource
+from oxbot.perception.tracker import GameMove as AcceptedDrawing
+from oxbot.perception.tracker import ImpossibleEvent, MoveTracker
+from oxbot.robot.bus import Bus, Component
+from oxbot.robot.messages import (
+    ArmCommand,
+    BoardProblem,
+    BoardSeen,
+    Frame,
+    GameMove,
+    Message,
+    NewGame,
+)
+
+log = logging.getLogger(__name__)
+
+
+def decode_frame(message: Frame) -> np.ndarray:
+    """The RGB image of a Frame message; InvalidInputError if its bytes are not that image."""
+    if message.format == "raw":
+        raise InvalidInputError("raw frames carry no shape; send the sheet as PNG or JPEG")
+    data = np.frombuffer(message.image, dtype=np.uint8)
+    image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    if image is None:
+        raise InvalidInputError(
+            f"the frame's {len(message.image)} bytes are not a {message.format.upper()} image"
+        )
+    return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+
+
+def encode_cells(cells: np.ndarray) -> tuple[bytes, ...]:
+    """The classifier's 40x40 crops as PNGs, for a page to show."""
+    return tuple(cv2.imencode(".png", cell)[1].tobytes() for cell in cells)
+
+
+def move_message(drawing: AcceptedDrawing) -> GameMove:
+    """The bus message for a drawing the tracker accepted (the one place the two meet)."""
+    return GameMove(who=drawing.who, what=drawing.what, where=drawing.where, symbol=drawing.symbol)
+
+
+class GameMoveComponent(Component):
+    """Reads the sheet every `config.period_s` seconds and publishes the person's moves.
+
+    With a `source` the component reads it at every tick (a source that cannot be opened or
+    that ends turns the component off with one warning). Without one it reads the last frame
+    handed over by `push(frame)` or a Frame message.
+    """
+
+    listens_to = (Frame, ArmCommand, NewGame)
+
+    def __init__(
+        self,
+        bus: Bus,
+        robot_starts: bool = True,
+        source: FrameSource | None = None,
+        reader: BoardReader | None = None,
+        config: TrackerConfig | None = None,
+        name: str | None = None,
+    ) -> None:
+        self.config = config if config is not None else TrackerConfig()
+        self.period = self.config.period_s
+        super().__init__(bus, name)
+        self.reader = reader
+        self.source = source
+        self.tracker = MoveTracker(robot_starts, self.config)
+        self._lock = threading.Lock()
+        self._latest: np.ndarray | None = None
+        self._version = 0  # counts pushed frames, so a frame is read only once
+        self._cached: tuple[int, tuple[str, ...] | None, tuple[bytes, ...]] | None = None
+        self._last_seen: tuple[tuple[str, ...], int] | None = None
+        self._off = False
+
+    def push(self, frame: np.ndarray) -> None:
+        """Hand over the current view of the sheet: uint8 (H, W, 3) RGB or (H, W) gray."""
+        if not isinstance(frame, np.ndarray) or frame.dtype != np.uint8 or frame.size == 0:
+            raise InvalidInputError("a frame must be a non-empty uint8 array, (H, W, 3) or (H, W)")
+        if not (frame.ndim == 2 or (frame.ndim == 3 and frame.shape[2] == 3)):
+            raise InvalidInputError(f"a frame has shape {frame.shape}; give (H, W, 3) or (H, W)")
+        with self._lock:
+            self._latest = frame.copy()
+            self._version += 1
+
+    def handle(self, message: Message) -> None:
+        if isinstance(message, Frame):
+            self.push(decode_frame(message))
+        elif isinstance(message, ArmCommand):
+            self.tracker.robot_draws(message.where)
+        elif isinstance(message, NewGame):
+            with self._lock:
+                self._latest = None
+                self._cached = None
+            self.tracker = MoveTracker(message.robot_starts, self.config)
+            self._last_seen = None
+
+    def tick(self) -> None:
+        current = self._next_frame()
+        if current is None:
+            return
+        labels, cells = self._read(*current)
+        event = self.tracker.update(labels)
+        seen = (labels or (), self.tracker.agreeing)
+        if seen != self._last_seen:
+            self._last_seen = seen
+            self.bus.publish(BoardSeen(labels=seen[0], agreeing=seen[1], cells=cells))
+        if isinstance(event, AcceptedDrawing):
+            log.info("accepted %s", event)
+            self.bus.publish(move_message(event))
+        elif isinstance(event, ImpossibleEvent):
+            log.info("impossible: %s", event)
+            self.bus.publish(BoardProblem(reason=event.message, kind=event.kind))
+
+    def restart(self) -> None:
+        with self._lock:
+            self._cached = None
+
+    def stop(self, timeout: float = 2.0) -> None:
+        super().stop(timeout)
+        if self.source is not None:
+            self.source.close()
+
+    def _next_frame(self) -> tuple[np.ndarray, int] | None:
+        """The frame to read now and its version (-1: from a source, never cached)."""
+        if self.source is None:
+            with self._lock:
+                return None if self._latest is None else (self._latest, self._version)
+        if self._off:
+            return None
+        try:
+            self.source.open()
+            frame = self.source.read()
+        except FrameSourceError as exc:
+            self._off = True
+            log.warning("game-move recognition is off: %s; type your moves instead", exc)
+            return None
+        if frame is None:
+            self._off = True
+            log.info("%s has no more frames", self.source.name)
+            return None
+        return frame, -1
+
+    def _read(
+        self, frame: np.ndarray, version: int
+    ) -> tuple[tuple[str, ...] | None, tuple[bytes, ...]]:
+        """The frame's labels (None: no grid) and crops; a pushed frame is read only once."""
+        cached = self._cached
+        if cached is not None and cached[0] == version:
+            return cached[1], cached[2]
+        if self.reader is None:
+            self.reader = default_reader()
+        try:
+            reading = self.reader.read(frame)
+            labels, cells = reading.labels, encode_cells(reading.cells)
+        except NoGridFound:
+            labels, cells = None, ()
+        if version >= 0:
+            self._cached = (version, labels, cells)
+        return labels, cells

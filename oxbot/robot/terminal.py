@@ -1,0 +1,202 @@
+"""The whole robot in a terminal: `oxbot play --terminal`.
+
+The person types answers, or says them (`talk`, with a microphone), and types cells to draw
+in — or draws on real paper under a webcam (`--camera 0`). The robot's turns are printed the
+way the paper's Figure 1 prints them, `Rob: Your turn. [Request(userGameMove)]`, and spoken
+through the speakers when there are any. Without a microphone, speakers, espeak-ng or a camera
+the game goes on in text, after one clear warning each.
+"""
+
+from __future__ import annotations
+
+import logging
+import shutil
+import subprocess
+import threading
+from collections.abc import Callable
+
+from rich.console import Console
+from rich.markup import escape
+
+from oxbot.errors import IllegalMoveError, InvalidInputError, OxbotError
+from oxbot.game.board import cell_index, render
+from oxbot.robot.messages import (
+    BoardProblem,
+    ComponentFailed,
+    DialogueAct,
+    DialogueEnded,
+    Message,
+    SpeakingStarted,
+)
+from oxbot.robot.session import Robot
+
+log = logging.getLogger(__name__)
+
+ReadLine = Callable[[str], str]
+QUIT_WORDS = {"quit", "exit", "q"}
+HELP = (
+    "Answer by typing (Enter sends), 'talk' to speak into the microphone, a cell to draw in it "
+    "(1-9 or upperleft ... lowerright), 'new' for a new game, 'quit' to leave."
+)
+
+
+class Speakers:
+    """Plays WAVs with sox's `play`, one at a time; off after one warning if it cannot."""
+
+    def __init__(self, enabled: bool = True) -> None:
+        self.enabled = enabled and self._available()
+        self._lock = threading.Lock()
+
+    @staticmethod
+    def _available() -> bool:
+        if shutil.which("play") is None:
+            log.warning("sox's `play` is not installed, so the robot's speech is text only")
+            return False
+        return True
+
+    def play(self, wav: bytes) -> None:
+        if not self.enabled or not wav:
+            return
+        threading.Thread(target=self._play, args=(wav,), daemon=True).start()
+
+    def _play(self, wav: bytes) -> None:
+        with self._lock:
+            result = subprocess.run(
+                ["play", "-q", "-t", "wav", "-"], input=wav, capture_output=True, check=False
+            )
+        if result.returncode != 0 and self.enabled:
+            self.enabled = False
+            log.warning(
+                "no sound output (%s); the robot's speech is text only",
+                result.stderr.decode(errors="replace").strip().splitlines()[-1:] or "play failed",
+            )
+
+
+class Microphone:
+    """Push-to-talk recordings with sox's `rec`: `start()`, then `stop()` returns the WAV."""
+
+    def __init__(self) -> None:
+        self.available = shutil.which("rec") is not None
+        self._process: subprocess.Popen[bytes] | None = None
+
+    def start(self) -> None:
+        if not self.available:
+            raise InvalidInputError("there is no microphone recorder (sox's `rec`); type instead")
+        self._process = subprocess.Popen(
+            ["rec", "-q", "-r", "16000", "-c", "1", "-b", "16", "-t", "wav", "-"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+        )
+
+    def stop(self) -> bytes:
+        process, self._process = self._process, None
+        if process is None:
+            return b""
+        if process.poll() is None:
+            process.terminate()
+        wav, err = process.communicate(timeout=5)
+        if len(wav) <= 44:
+            self.available = False
+            message = err.decode(errors="replace").strip().splitlines()
+            raise InvalidInputError(
+                f"no microphone could be opened ({message[-1] if message else 'no audio'}); "
+                "type your answers instead"
+            )
+        return wav
+
+
+class TerminalRobot:
+    """Runs a Robot with the terminal as its face, ears and (without a camera) the sheet."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        read_line: ReadLine = input,
+        console: Console | None = None,
+        speakers: Speakers | None = None,
+        microphone: Microphone | None = None,
+        typed_moves: bool = True,
+    ) -> None:
+        self.robot = robot
+        self.read_line = read_line
+        self.console = console if console is not None else Console(highlight=False)
+        self.speakers = speakers if speakers is not None else Speakers()
+        self.microphone = microphone if microphone is not None else Microphone()
+        self.typed_moves = typed_moves
+        self._events = robot.bus.subscribe(
+            DialogueAct, BoardProblem, DialogueEnded, ComponentFailed, SpeakingStarted
+        )
+        self._printer = threading.Thread(target=self._print_events, daemon=True)
+        self._stopping = threading.Event()
+
+    def run(self) -> None:
+        """Play until the person quits or the input ends."""
+        self.console.print(f"[dim]{escape(HELP)}[/]")
+        self._printer.start()
+        self.robot.start()
+        try:
+            while True:
+                try:
+                    line = self.read_line("").strip()
+                except EOFError:
+                    return
+                if line.lower() in QUIT_WORDS:
+                    return
+                self._take(line)
+        finally:
+            self._stopping.set()
+            self.robot.stop()
+            self._printer.join(1)
+
+    def _take(self, line: str) -> None:
+        if not line:
+            return
+        try:
+            if line.lower() == "new":
+                self.robot.new_game()
+            elif line.lower() == "talk":
+                self._talk()
+            elif self.typed_moves and _is_cell(line):
+                self.robot.draw(line)
+            else:
+                self.robot.say(line)
+        except OxbotError as exc:
+            self.console.print(f"[red]{escape(str(exc))}[/]")
+
+    def _talk(self) -> None:
+        self.microphone.start()
+        self.read_line("recording... press Enter to stop ")
+        self.robot.hear(self.microphone.stop())
+
+    def _print_events(self) -> None:
+        while not self._stopping.is_set():
+            message = self._events.get(timeout=0.1)
+            if message is not None:
+                self._show(message)
+
+    def _show(self, message: Message) -> None:
+        c = self.console
+        if isinstance(message, DialogueAct):
+            who = "[bold cyan]Rob:[/]" if message.speaker == "sys" else "[bold green]Usr:[/]"
+            c.print(f"{who} {escape(message.text)} [dim]{escape(f'[{message.act}]')}[/]")
+            if message.act.startswith("GameMove"):  # the manager's board already has it
+                c.print(escape(render(self.robot.board, self.robot.manager.robot_starts)))
+        elif isinstance(message, BoardProblem):
+            c.print(f"[yellow]On the sheet: {escape(message.reason)}[/]")
+        elif isinstance(message, SpeakingStarted):
+            self.speakers.play(message.audio)
+        elif isinstance(message, ComponentFailed):
+            c.print(
+                f"[red]{escape(message.component)} failed ({escape(message.error)}); restarted[/]"
+            )
+        elif isinstance(message, DialogueEnded):
+            result = {"win": "I won", "loss": "you won", "draw": "a draw", None: "unfinished"}
+            c.print(f"[bold]Game over: {result[message.outcome]}.[/] Type 'new' or 'quit'.")
+
+
+def _is_cell(text: str) -> bool:
+    try:
+        cell_index(text)
+    except IllegalMoveError:
+        return False
+    return True
