@@ -124,11 +124,12 @@ class GameMoveComponent(Component):
             return
         labels, cells = self._read(*current)
         event = self.tracker.update(labels)
-        seen = (labels or (), self.tracker.agreeing)
+        accepted = isinstance(event, AcceptedDrawing)
+        seen = (labels or (), self.config.stable_readings if accepted else self.tracker.agreeing)
         if seen != self._last_seen:
             self._last_seen = seen
             self.bus.publish(BoardSeen(labels=seen[0], agreeing=seen[1], cells=cells))
-        if isinstance(event, AcceptedDrawing):
+        if accepted:
             log.info("accepted %s", event)
             self.bus.publish(move_message(event))
         elif isinstance(event, ImpossibleEvent):

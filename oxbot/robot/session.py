@@ -74,6 +74,22 @@ def _shared_policy():
     return load_policy()
 
 
+@functools.cache
+def warm_up() -> None:
+    """Load the shared models once (policy, classifier, recogniser: a few seconds), so that
+    the first game does not wait for them mid-sentence."""
+    from oxbot.errors import SpeechUnavailable
+    from oxbot.perception.board import default_reader
+    from oxbot.speech.recognition import default_recognizer
+
+    _shared_policy()
+    default_reader()
+    try:
+        default_recognizer()
+    except SpeechUnavailable as exc:
+        log.warning("speech recognition is off, type your answers instead: %s", exc)
+
+
 class Robot:
     """One robot: its components running on their own bus (see the module docstring).
 
@@ -126,6 +142,7 @@ class Robot:
     def start(self) -> Robot:
         """Start every component and the first game: the robot begins to talk."""
         if not self._started:
+            warm_up()
             start_all(self.components)
             self._started = True
             self.new_game()

@@ -1,0 +1,125 @@
+"""Game-move recognition as a component: rendered sheet photos in, moves out (real perception)."""
+
+import time
+
+import cv2
+import numpy as np
+import pytest
+
+from oxbot.config import TrackerConfig
+from oxbot.errors import InvalidInputError
+from oxbot.perception.render import TUNING_STYLE, random_scene
+from oxbot.perception.sources import ImageFolderSource
+from oxbot.robot.bus import Bus
+from oxbot.robot.game_moves import GameMoveComponent, decode_frame
+from oxbot.robot.messages import (
+    ArmCommand,
+    BoardProblem,
+    BoardSeen,
+    ComponentFailed,
+    Frame,
+    GameMove,
+    NewGame,
+)
+
+
+def collect(subscription, until, timeout=5.0):
+    """Messages until one satisfies `until` (included) or `timeout` seconds pass."""
+    got, deadline = [], time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        message = subscription.get(0.05)
+        if message is not None:
+            got.append(message)
+            if until(message):
+                return got
+    raise AssertionError(f"timed out; got {[type(m).__name__ for m in got]}")
+
+
+@pytest.fixture
+def scene():
+    rng = np.random.default_rng(21)
+    return random_scene(rng, TUNING_STYLE), rng
+
+
+def test_a_pushed_sheet_becomes_one_move_after_three_readings(scene):
+    sheet, rng = scene
+    bus = Bus()
+    events = bus.subscribe(GameMove, BoardSeen, BoardProblem)
+    with GameMoveComponent(bus, robot_starts=True) as vision:
+        bus.publish(ArmCommand(where="middle", symbol="circle"))  # the robot's circle first
+        time.sleep(0.05)
+        sheet = sheet.with_symbol(4, "circle", rng)
+        vision.push(sheet.photo(rng))
+        sheet = sheet.with_symbol(0, "cross", rng)
+        started = time.monotonic()
+        vision.push(sheet.photo(rng))
+        got = collect(events, lambda m: isinstance(m, GameMove))
+        elapsed = time.monotonic() - started
+    move = got[-1]
+    assert (move.who, move.where, move.symbol) == ("usr", "upperleft", "cross")
+    seen = [m for m in got if isinstance(m, BoardSeen)]
+    assert [m.agreeing for m in seen[-3:]] == [1, 2, 3]
+    assert seen[-1].labels[0] == "cross" and seen[-1].labels[4] == "circle"
+    assert len(seen[-1].cells) == 9
+    assert all(
+        cv2.imdecode(np.frombuffer(c, np.uint8), 0).shape == (40, 40) for c in seen[-1].cells
+    )
+    assert 0.2 <= elapsed < 1.0  # 3 readings at 100 ms
+    assert not [m for m in got if isinstance(m, BoardProblem)]
+
+
+def test_a_frame_message_is_read_like_a_pushed_frame_and_problems_are_reported(scene):
+    sheet, rng = scene
+    bus = Bus()
+    events = bus.subscribe(GameMove, BoardProblem)
+    sheet = sheet.with_symbol(2, "cross", rng).with_symbol(6, "cross", rng)
+    png = cv2.imencode(".png", sheet.photo(rng)[..., ::-1])[1].tobytes()
+    with GameMoveComponent(bus, robot_starts=True, config=TrackerConfig(period_s=0.05)):
+        bus.publish(Frame(image=png, format="png"))
+        got = collect(events, lambda m: isinstance(m, BoardProblem))
+    assert got[-1].kind == "two_new_symbols"
+    assert not [m for m in got if isinstance(m, GameMove)]
+
+
+def test_a_new_game_forgets_the_sheet(scene):
+    sheet, rng = scene
+    bus = Bus()
+    events = bus.subscribe(GameMove)
+    sheet = sheet.with_symbol(4, "circle", rng)
+    with GameMoveComponent(bus, robot_starts=False, config=TrackerConfig(period_s=0.05)) as vision:
+        vision.push(sheet.photo(rng))
+        assert collect(events, lambda m: isinstance(m, GameMove))[-1].where == "middle"
+        bus.publish(NewGame(robot_starts=False))
+        time.sleep(0.1)
+        vision.push(sheet.photo(rng))  # the same circle on a new game is a new move
+        assert collect(events, lambda m: isinstance(m, GameMove))[-1].where == "middle"
+
+
+def test_a_camera_source_is_read_at_every_tick(scene, tmp_path):
+    sheet, rng = scene
+    sheet = sheet.with_symbol(8, "circle", rng)
+    for i in range(5):
+        cv2.imwrite(str(tmp_path / f"{i}.png"), sheet.photo(rng)[..., ::-1])
+    bus = Bus()
+    events = bus.subscribe(GameMove)
+    source = ImageFolderSource(tmp_path)
+    with GameMoveComponent(bus, robot_starts=False, source=source):
+        assert collect(events, lambda m: isinstance(m, GameMove))[-1].where == "lowerright"
+
+
+def test_bad_frames_are_refused_clearly():
+    with pytest.raises(InvalidInputError, match="not a PNG image"):
+        decode_frame(Frame(image=b"\x89PNG nonsense", format="png"))
+    with pytest.raises(InvalidInputError, match="PNG or JPEG"):
+        decode_frame(Frame(image=b"", format="raw"))
+    bus = Bus()
+    failures = bus.subscribe(ComponentFailed)
+    with GameMoveComponent(bus) as vision:
+        with pytest.raises(InvalidInputError, match="uint8"):
+            vision.push(np.zeros((4, 4), np.float64))
+        with pytest.raises(InvalidInputError, match="shape"):
+            vision.push(np.zeros((4, 4, 4), np.uint8))
+        bus.publish(Frame(image=b"junk", format="jpeg"))
+        failure = collect(failures, lambda m: True)[-1]
+        assert "not a JPEG image" in failure.error
+        assert vision.running
