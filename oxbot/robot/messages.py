@@ -9,6 +9,7 @@ any component.
 from __future__ import annotations
 
 import base64
+import binascii
 import dataclasses
 import json
 import time
@@ -218,13 +219,16 @@ MESSAGE_TYPES: dict[str, type[Message]] = {cls.__name__: cls for cls in Message.
 
 def to_json(message: Message) -> str:
     """The message as JSON: its type, topic and fields, bytes as base64."""
-    data = {}
-    for f in dataclasses.fields(message):
-        value = getattr(message, f.name)
-        data[f.name] = (
-            base64.b64encode(value).decode("ascii") if isinstance(value, bytes) else value
-        )
+    data = {f.name: _encode(getattr(message, f.name)) for f in dataclasses.fields(message)}
     return json.dumps({"type": type(message).__name__, "topic": message.topic, "data": data})
+
+
+def _encode(value: Any) -> Any:
+    if isinstance(value, bytes):
+        return base64.b64encode(value).decode("ascii")
+    if isinstance(value, tuple):
+        return [_encode(v) for v in value]
+    return value
 
 
 def from_json(text: str | bytes) -> Message:
@@ -242,10 +246,17 @@ def from_json(text: str | bytes) -> Message:
     for f in dataclasses.fields(cls):
         if f.name not in data:
             continue
-        if hints[f.name] is bytes:
-            data[f.name] = base64.b64decode(data[f.name])
-        elif isinstance(data[f.name], list):
-            data[f.name] = _tuples(data[f.name])
+        try:
+            if hints[f.name] is bytes:
+                data[f.name] = base64.b64decode(data[f.name], validate=True)
+            elif hints[f.name] == tuple[bytes, ...] and isinstance(data[f.name], list):
+                data[f.name] = tuple(base64.b64decode(v, validate=True) for v in data[f.name])
+            elif isinstance(data[f.name], list):
+                data[f.name] = _tuples(data[f.name])
+        except (binascii.Error, TypeError, ValueError):
+            raise InvalidInputError(
+                f"field {f.name!r} of a {cls.__name__} message is not base64 bytes"
+            ) from None
     try:
         return cls(**data)
     except TypeError as exc:

@@ -6,8 +6,12 @@ from oxbot.errors import InvalidInputError
 from oxbot.robot.messages import (
     MESSAGE_TYPES,
     ArmStroke,
+    BoardSeen,
+    Decision,
+    DialogueEnded,
     Frame,
     GameMove,
+    NewGame,
     SpeakingStarted,
     SpeechHypotheses,
     from_json,
@@ -20,6 +24,12 @@ EXAMPLES = [
     GameMove(who="usr", what="draw", where="middle", symbol="cross"),
     SpeakingStarted(text="Your turn.", audio=b"RIFF....WAVE", seconds=0.8),
     ArmStroke(where="upperleft", points=((0.1, 0.2), (0.5, 0.5))),
+    SpeechHypotheses(nbest=(("yes", 1.0),), source="text", words=(("yes", 1.0),)),
+    BoardSeen(labels=("nothing",) * 8 + ("cross",), agreeing=2, cells=(b"\x89PNG",) * 9),
+    Decision(offered=("Provide(name)",), q_values=(0.5,) * 18, chosen="Provide(name)"),
+    DialogueEnded(outcome="draw"),
+    DialogueEnded(outcome=None),
+    NewGame(robot_starts=False),
 ]
 
 
@@ -44,6 +54,8 @@ def test_messages_are_immutable():
         "not json",
         '{"type": "Teleport", "data": {}}',
         '{"type": "GameMove", "data": {"who": "usr"}}',
+        '{"type": "Frame", "data": {"image": "not base64!"}}',
+        '{"type": "BoardSeen", "data": {"labels": [], "cells": [42]}}',
     ],
 )
 def test_malformed_messages_are_refused_clearly(text):
