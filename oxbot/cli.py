@@ -358,7 +358,7 @@ def play(
 
         source = open_source(camera) if camera is not None else None
         robot = Robot(options, sheet_camera=source)
-        TerminalRobot(robot, speakers=Speakers(not mute), typed_moves=source is None).run()
+        TerminalRobot(robot, speakers=Speakers(not mute)).run()
         return
     from oxbot.web.server import serve
 

@@ -96,6 +96,11 @@ class GameMoveComponent(Component):
         self._last_seen: tuple[tuple[str, ...], int] | None = None
         self._off = False
 
+    @property
+    def off(self) -> bool:
+        """True once the frame source failed or ended: moves must come another way."""
+        return self._off
+
     def push(self, frame: np.ndarray) -> None:
         """Hand over the current view of the sheet: uint8 (H, W, 3) RGB or (H, W) gray."""
         if not isinstance(frame, np.ndarray) or frame.dtype != np.uint8 or frame.size == 0:

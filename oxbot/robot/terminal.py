@@ -115,14 +115,12 @@ class TerminalRobot:
         console: Console | None = None,
         speakers: Speakers | None = None,
         microphone: Microphone | None = None,
-        typed_moves: bool = True,
     ) -> None:
         self.robot = robot
         self.read_line = read_line
         self.console = console if console is not None else Console(highlight=False)
         self.speakers = speakers if speakers is not None else Speakers()
         self.microphone = microphone if microphone is not None else Microphone()
-        self.typed_moves = typed_moves
         self._events = robot.bus.subscribe(
             DialogueAct, BoardProblem, DialogueEnded, ComponentFailed, SpeakingStarted
         )
@@ -162,6 +160,11 @@ class TerminalRobot:
                 self.robot.say(line)
         except OxbotError as exc:
             self.console.print(f"[red]{escape(str(exc))}[/]")
+
+    @property
+    def typed_moves(self) -> bool:
+        """Cells are typed unless a camera watches the sheet (and works)."""
+        return self.robot.vision.source is None or self.robot.vision.off
 
     def _talk(self) -> None:
         self.microphone.start()
