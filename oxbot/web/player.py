@@ -1,0 +1,146 @@
+"""A scripted person over the page's WebSocket: plays one whole game without a browser.
+
+It does what the page does, with the page's own sheet (`oxbot.web.sheet.Sheet`): it sends the
+sheet as a PNG, answers the robot's invitation by typing, and when asked for a move draws its
+symbol in an empty cell — first stroke, then the whole symbol — sending a frame every 100 ms
+while it draws, as the page does. Load tests (`tests/web/test_sessions.py`) and the latency
+benchmark (`bench/bench_web.py`) run many of these at once.
+
+    record = asyncio.run(play_game("ws://127.0.0.1:8000/ws", seed=1))
+    record.outcome, record.latencies, record.errors
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import json
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from oxbot.web.sheet import Sheet
+
+ANSWER = "yes let's play"
+"""What the scripted person answers to the robot's invitation."""
+
+
+@dataclass
+class GameRecord:
+    """What one scripted game saw."""
+
+    session: int = 0
+    user_symbol: str = ""
+    transcript: list[tuple[str, str, str]] = field(default_factory=list)
+    """(speaker, act, text) of every DialogueAct, in order."""
+    drawn: list[str] = field(default_factory=list)
+    """The cells the scripted person drew in, in order."""
+    accepted: list[str] = field(default_factory=list)
+    """The cells of the person's moves the robot accepted (GameMove who=usr)."""
+    robot_cells: list[str] = field(default_factory=list)
+    """The cells of the robot's own moves (its GameMove acts)."""
+    latencies: list[float] = field(default_factory=list)
+    """Seconds from the last frame of a finished drawing to its accepted GameMove."""
+    problems: list[str] = field(default_factory=list)
+    errors: list[str] = field(default_factory=list)
+    failures: list[str] = field(default_factory=list)
+    outcome: str | None = None
+    ended: bool = False
+    seconds: float = 0.0
+
+
+def data_url(png: bytes) -> str:
+    return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+
+
+async def play_game(
+    url: str,
+    seed: int = 0,
+    timeout: float = 120.0,
+    frame_period: float = 0.1,
+    answer: str = ANSWER,
+) -> GameRecord:
+    """Play one game against the robot at `url` (ws://host:port/ws) and return its record."""
+    import websockets
+
+    rng = np.random.default_rng(seed)
+    sheet = Sheet(seed)
+    record = GameRecord()
+    start = time.monotonic()
+    drawn_at: float | None = None
+    async with websockets.connect(url, max_size=2**24) as ws:
+
+        async def send(message: dict) -> None:
+            await ws.send(json.dumps(message))
+
+        async def draw_move() -> None:
+            nonlocal drawn_at
+            taken = set(record.drawn) | set(record.robot_cells)
+            free = [c for c in cells if c not in taken]
+            if not free:
+                return
+            where = free[int(rng.integers(len(free)))]
+            record.drawn.append(where)
+            strokes = 2 if record.user_symbol == "cross" else 1
+            symbol = record.user_symbol
+            # the page sends the sheet every 100 ms while it changes: stroke by stroke here
+            for k in range(1, strokes):
+                partial = Sheet.__new__(Sheet)
+                partial.rng, partial.image = sheet.rng, sheet.image.copy()
+                state = sheet.rng.bit_generator.state
+                partial.draw(where, symbol, strokes=k)
+                sheet.rng.bit_generator.state = state
+                await send({"type": "frame", "image": data_url(partial.png())})
+                await asyncio.sleep(frame_period)
+            sheet.draw(where, symbol)
+            await send({"type": "frame", "image": data_url(sheet.png())})
+            drawn_at = time.monotonic()
+
+        cells: list[str] = []
+        while not record.ended:
+            left = timeout - (time.monotonic() - start)
+            if left <= 0:
+                record.failures.append(f"no goodbye within {timeout:.0f} s")
+                break
+            try:
+                raw = await asyncio.wait_for(ws.recv(), left)
+            except TimeoutError:
+                continue
+            message = json.loads(raw)
+            kind, data = message["type"], message.get("data", {})
+            if kind == "Hello":
+                record.session, record.user_symbol = data["session"], data["user_symbol"]
+                cells = list(data["cells"])
+                await send({"type": "frame", "image": data_url(sheet.png())})
+            elif kind == "DialogueAct":
+                record.transcript.append((data["speaker"], data["act"], data["text"]))
+                act = data["act"]
+                if data["speaker"] != "sys":
+                    continue
+                if act == "Request(playGame)":
+                    await send({"type": "say", "text": answer})
+                elif act.startswith("GameMove(gridloc="):
+                    record.robot_cells.append(act[len("GameMove(gridloc=") : -1])
+                elif act == "Request(userGameMove)" and len(record.accepted) == len(record.drawn):
+                    await draw_move()
+            elif kind == "NewGame":
+                await send({"type": "frame", "image": data_url(sheet.png())})
+            elif kind == "GameMove" and data["who"] == "usr":
+                record.accepted.append(data["where"])
+                if drawn_at is not None:
+                    record.latencies.append(time.monotonic() - drawn_at)
+                    drawn_at = None
+            elif kind == "BoardProblem":
+                record.problems.append(data["reason"])
+            elif kind == "Error":
+                record.errors.append(data["message"])
+            elif kind == "ComponentFailed":
+                record.failures.append(f"{data['component']}: {data['error']}")
+            elif kind == "DialogueEnded":
+                record.outcome, record.ended = data["outcome"], True
+    record.seconds = time.monotonic() - start
+    return record
+
+
+__all__ = ["GameRecord", "play_game"]

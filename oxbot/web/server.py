@@ -1,0 +1,490 @@
+"""The web page's server: one page, and one WebSocket per game session (`oxbot play`).
+
+Each browser tab opens `/ws` and gets its own `Robot` (oxbot.robot.session): its own bus,
+components, tracker and dialogue. Everything the robot publishes goes to the tab as the bus's
+JSON (`oxbot.robot.messages.to_json`), in publish order; what the tab sends is checked here
+and handed to the robot:
+
+client → server (JSON text messages)::
+
+    {"type": "frame", "image": "data:image/png;base64,..."}   the sheet (canvas), ~10 Hz
+    {"type": "look", "image": "data:image/jpeg;base64,..."}   a webcam frame, head tracking
+    {"type": "say", "text": "yes let's play"}                  typed answer
+    {"type": "talk", "rate": 16000, "pcm": "<base64 int16>"}   push-to-talk, 16 kHz mono
+    {"type": "new_game", "image": "data:..."}                  a fresh sheet and game
+
+server → client: {"type": "Hello", "data": {...}} first (the session's symbols, the cell
+names and the 18 acts), then every bus message, and {"type": "Error", "data": {"message",
+"about"}} for anything the server refused. A bad message never closes the socket and never
+reaches another session.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import binascii
+import contextlib
+import io
+import itertools
+import json
+import logging
+import threading
+import time
+import wave
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import resources
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+from fastapi import FastAPI, WebSocket, WebSocketDisconnect
+from fastapi.responses import HTMLResponse, JSONResponse, Response
+from PIL import Image, UnidentifiedImageError
+
+from oxbot.errors import InvalidInputError, OxbotError
+from oxbot.robot.messages import to_json
+
+if TYPE_CHECKING:
+    from oxbot.robot.session import RobotOptions
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class WebLimits:
+    """What one session may send; anything beyond gets an error message, not a crash."""
+
+    max_message_bytes: int = 4_000_000
+    """Largest text message accepted (a 1280x720 PNG as a data URL is about 1-2 MB)."""
+    max_image_side: int = 2048
+    """Largest width or height of a sheet or webcam image, in pixels."""
+    min_image_side: int = 64
+    """Smallest width or height: a smaller image cannot show a readable grid."""
+    audio_rate: int = 16_000
+    """The recogniser's sample rate (pocketsphinx en-us): the page resamples to it."""
+    max_audio_seconds: float = 30.0
+    """Longest push-to-talk recording."""
+    max_text_chars: int = 500
+    """Longest typed answer."""
+    max_sessions: int = 32
+    """Sessions (tabs) served at once; more are refused with a message."""
+
+
+class RobotLike(Protocol):
+    """What the server needs of a robot: oxbot.robot.session.Robot's public surface."""
+
+    bus: Any
+    finished: bool
+
+    def start(self) -> Any: ...
+    def stop(self) -> Any: ...
+    def say(self, text: str) -> Any: ...
+    def hear(self, wav: bytes) -> Any: ...
+    def show(self, frame: np.ndarray) -> Any: ...
+    def look(self, frame: np.ndarray) -> Any: ...
+    def new_game(self) -> Any: ...
+
+
+def default_robot_factory(options: RobotOptions) -> Callable[[], RobotLike]:
+    """A factory of real robots with these options, one per session."""
+
+    def make() -> RobotLike:
+        from oxbot.robot.session import Robot
+
+        return Robot(options)
+
+    return make
+
+
+# --- checking what a tab sends ---
+
+
+def decode_image(payload: object, limits: WebLimits) -> np.ndarray:
+    """A data URL or base64 string of a PNG/JPEG/WebP as uint8 RGB (H, W, 3).
+
+    Raises InvalidInputError naming what is wrong (not a string, not base64, not an image,
+    too big or too small).
+    """
+    if not isinstance(payload, str) or not payload:
+        raise InvalidInputError("'image' must be a data URL or base64 string of a PNG or JPEG")
+    if payload.startswith("data:"):
+        header, _, payload = payload.partition(",")
+        if ";base64" not in header:
+            raise InvalidInputError("an image data URL must be base64-encoded")
+    try:
+        raw = base64.b64decode(payload, validate=True)
+    except (binascii.Error, ValueError):
+        raise InvalidInputError("'image' is not valid base64") from None
+    try:
+        with Image.open(io.BytesIO(raw)) as image:
+            if image.format not in ("PNG", "JPEG", "WEBP"):
+                raise InvalidInputError(f"images must be PNG, JPEG or WebP, not {image.format}")
+            width, height = image.size  # read from the header, before decoding any pixels
+            if max(width, height) > limits.max_image_side:
+                raise InvalidInputError(
+                    f"image is {width}x{height}; the largest side accepted is "
+                    f"{limits.max_image_side} pixels"
+                )
+            if min(width, height) < limits.min_image_side:
+                raise InvalidInputError(
+                    f"image is {width}x{height}; a readable sheet needs at least "
+                    f"{limits.min_image_side} pixels a side"
+                )
+            return np.asarray(image.convert("RGB"), dtype=np.uint8)
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+        if isinstance(exc, InvalidInputError):
+            raise
+        raise InvalidInputError(f"'image' is not a readable PNG or JPEG image ({exc})") from None
+
+
+def pcm_to_wav(payload: object, rate: object, limits: WebLimits) -> bytes:
+    """Base64 little-endian int16 mono PCM at `limits.audio_rate` as WAV bytes."""
+    if rate != limits.audio_rate:
+        raise InvalidInputError(
+            f"push-to-talk audio must be {limits.audio_rate} Hz mono 16-bit PCM; got rate "
+            f"{rate!r} (the page resamples with AudioContext({{sampleRate: "
+            f"{limits.audio_rate}}}))"
+        )
+    if not isinstance(payload, str):
+        raise InvalidInputError("'pcm' must be a base64 string of 16-bit samples")
+    try:
+        raw = base64.b64decode(payload, validate=True)
+    except (binascii.Error, ValueError):
+        raise InvalidInputError("'pcm' is not valid base64") from None
+    if len(raw) % 2:
+        raise InvalidInputError("'pcm' holds an odd number of bytes; samples are 16-bit")
+    seconds = len(raw) / 2 / limits.audio_rate
+    if seconds > limits.max_audio_seconds:
+        raise InvalidInputError(
+            f"recording is {seconds:.1f} s; push-to-talk takes at most "
+            f"{limits.max_audio_seconds:.0f} s"
+        )
+    if seconds < 0.1:
+        raise InvalidInputError("recording is shorter than 0.1 s; hold the button while talking")
+    buffer = io.BytesIO()
+    with wave.open(buffer, "wb") as out:
+        out.setnchannels(1)
+        out.setsampwidth(2)
+        out.setframerate(limits.audio_rate)
+        out.writeframes(raw)
+    return buffer.getvalue()
+
+
+# --- one session per tab ---
+
+
+class Session:
+    """One tab's game: its robot, the bridge from the robot's bus to the socket, and the
+    handling of what the tab sends."""
+
+    ids = itertools.count(1)
+
+    def __init__(self, robot: RobotLike, limits: WebLimits) -> None:
+        self.id = next(self.ids)
+        self.robot = robot
+        self.limits = limits
+        self.outbox: asyncio.Queue[str | None] = asyncio.Queue()
+        self._loop = asyncio.get_running_loop()
+        self._subscription = robot.bus.subscribe()
+        self._closing = threading.Event()
+        self._bridge = threading.Thread(
+            target=self._forward, name=f"oxbot-web-{self.id}", daemon=True
+        )
+        self.errors = 0
+
+    def start(self) -> None:
+        self._bridge.start()
+        self.robot.start()
+
+    def close(self) -> None:
+        """Stop the robot and the bridge (blocking: run it in a worker thread)."""
+        self._closing.set()
+        try:
+            self.robot.stop()
+        finally:
+            self._subscription.close()
+            self._bridge.join(2.0)
+
+    def _forward(self) -> None:
+        """Bus → socket, in publish order (runs in its own thread)."""
+        while not self._closing.is_set():
+            message = self._subscription.get(timeout=0.1)
+            if message is None:
+                continue
+            try:
+                text = to_json(message)
+            except (TypeError, ValueError) as exc:  # a message the page cannot take
+                log.warning("session %d: cannot send a %s: %s", self.id, type(message), exc)
+                continue
+            self._loop.call_soon_threadsafe(self.outbox.put_nowait, text)
+
+    def error(self, message: str, about: str = "") -> None:
+        self.errors += 1
+        self.outbox.put_nowait(
+            json.dumps({"type": "Error", "data": {"message": message, "about": about}})
+        )
+
+    def handle(self, text: str) -> None:
+        """Act on one message from the tab; an InvalidInputError says what was wrong."""
+        if len(text) > self.limits.max_message_bytes:
+            raise InvalidInputError(
+                f"message is {len(text)} bytes; the limit is {self.limits.max_message_bytes}"
+            )
+        try:
+            message = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InvalidInputError(f"message is not JSON ({exc})") from None
+        if not isinstance(message, dict) or not isinstance(message.get("type"), str):
+            raise InvalidInputError('a message is a JSON object with a "type" string')
+        kind = message["type"]
+        handler = getattr(self, f"_on_{kind}", None) if kind in CLIENT_TYPES else None
+        if handler is None:
+            raise InvalidInputError(
+                f"unknown message type {kind!r}; known: {', '.join(CLIENT_TYPES)}"
+            )
+        if kind in GAME_TYPES and self.robot.finished:
+            raise InvalidInputError(
+                f"the game is over (the robot said goodbye), so {kind!r} is refused; "
+                'send {"type": "new_game"} to play again'
+            )
+        handler(message)
+
+    def _on_frame(self, message: dict) -> None:
+        self.robot.show(decode_image(message.get("image"), self.limits))
+
+    def _on_look(self, message: dict) -> None:
+        self.robot.look(decode_image(message.get("image"), self.limits))
+
+    def _on_say(self, message: dict) -> None:
+        text = message.get("text")
+        if not isinstance(text, str) or not text.strip():
+            raise InvalidInputError("'text' must be a non-empty string")
+        if len(text) > self.limits.max_text_chars:
+            raise InvalidInputError(
+                f"'text' has {len(text)} characters; at most {self.limits.max_text_chars}"
+            )
+        self.robot.say(text.strip())
+
+    def _on_talk(self, message: dict) -> None:
+        self.robot.hear(pcm_to_wav(message.get("pcm"), message.get("rate"), self.limits))
+
+    def _on_new_game(self, message: dict) -> None:
+        image = message.get("image")
+        frame = decode_image(image, self.limits) if image is not None else None
+        self.robot.new_game()  # forgets the old sheet
+        if frame is not None:
+            # the fresh sheet; should the robot forget it too (it handles NewGame in its own
+            # thread), the page sends it again when the NewGame message comes back
+            self.robot.show(frame)
+
+
+CLIENT_TYPES = ("frame", "look", "say", "talk", "new_game")
+"""The message types a tab may send."""
+GAME_TYPES = ("frame", "say", "talk")
+"""The ones refused once the robot has said goodbye (until a new game)."""
+
+
+# --- the app ---
+
+
+def _static(name: str) -> bytes:
+    return resources.files("oxbot.web").joinpath("static", name).read_bytes()
+
+
+STATIC_TYPES = {
+    "app.js": "text/javascript",
+    "style.css": "text/css",
+    "tap.js": "text/javascript",
+}
+
+
+def create_app(
+    speed_factor: float = 1.0,
+    robot_starts: bool = True,
+    limits: WebLimits | None = None,
+    robot_options: RobotOptions | None = None,
+) -> FastAPI:
+    """The FastAPI app: `/` the page, `/static/*` its files, `/ws` a game session per socket,
+    `/health` how many sessions run.
+
+    `speed_factor` makes the robots' arm, speech and waits that many times faster than real
+    time (tests); `robot_options`, when given, is every session's RobotOptions as is (and
+    overrides `speed_factor` and `robot_starts`).
+    """
+    from oxbot.robot.session import RobotOptions
+
+    if robot_options is None:
+        if speed_factor <= 0:
+            raise InvalidInputError(f"speed_factor must be positive; got {speed_factor}")
+        robot_options = RobotOptions(robot_starts=robot_starts, speed_factor=speed_factor)
+    speed_factor, robot_starts = robot_options.speed_factor, robot_options.robot_starts
+    limits = limits or WebLimits()
+    make_robot = default_robot_factory(robot_options)
+    ready = threading.Event()
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI):
+        # the shared models (policy, classifier, recogniser) take seconds to load: load them
+        # once, while the person opens the page, not in the first tab's greeting
+        threading.Thread(target=_warm_up, args=(ready,), name="oxbot-web-warm-up").start()
+        yield
+
+    app = FastAPI(title="oxbot", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
+    sessions: dict[int, Session] = {}
+    app.state.sessions = sessions
+    app.state.limits = limits
+
+    @app.get("/", response_class=HTMLResponse)
+    def page() -> HTMLResponse:
+        return HTMLResponse(_static("index.html"))
+
+    @app.get("/static/{name}")
+    def static(name: str) -> Response:
+        if name not in STATIC_TYPES:
+            return JSONResponse({"error": f"no such file: {name}"}, status_code=404)
+        return Response(_static(name), media_type=STATIC_TYPES[name])
+
+    @app.get("/health")
+    def health() -> dict:
+        return {"ok": True, "sessions": len(sessions), "speed_factor": speed_factor}
+
+    @app.websocket("/ws")
+    async def game(websocket: WebSocket) -> None:
+        await websocket.accept()
+        if len(sessions) >= limits.max_sessions:
+            await websocket.send_text(_error_text(f"the server is full ({len(sessions)} games)"))
+            await websocket.close(code=1013)
+            return
+        if not ready.is_set():
+            await websocket.send_text(
+                json.dumps({"type": "Status", "data": {"message": "The robot is waking up…"}})
+            )
+            await asyncio.to_thread(ready.wait)
+        try:
+            robot = await asyncio.to_thread(make_robot)
+        except Exception as exc:  # the robot cannot be built: say why, to this tab only
+            log.exception("cannot create a robot")
+            await websocket.send_text(_error_text(f"the robot cannot start: {exc}"))
+            await websocket.close(code=1011)
+            return
+        session = Session(robot, limits)
+        sessions[session.id] = session
+        log.info("session %d opened (%d running)", session.id, len(sessions))
+        await websocket.send_text(json.dumps({"type": "Hello", "data": _hello(session, app)}))
+        sender = asyncio.create_task(_send_all(websocket, session))
+        try:
+            await asyncio.to_thread(session.start)
+            await _receive_all(websocket, session)
+        finally:
+            sender.cancel()
+            sessions.pop(session.id, None)
+            await asyncio.to_thread(session.close)
+            log.info("session %d closed (%d running)", session.id, len(sessions))
+
+    app.state.speed_factor = speed_factor
+    app.state.robot_starts = robot_starts
+    return app
+
+
+def _warm_up(ready: threading.Event) -> None:
+    try:
+        from oxbot.robot.session import warm_up
+
+        warm_up()
+    except Exception:  # the sessions will meet the same problem and report it
+        log.exception("loading the robot's models failed")
+    finally:
+        ready.set()
+
+
+def _hello(session: Session, app: FastAPI) -> dict:
+    from oxbot.dialogue.domain import SYSTEM_ACTS
+    from oxbot.game.board import CELL_NAMES
+    from oxbot.web import sheet
+
+    starts = app.state.robot_starts
+    return {
+        "session": session.id,
+        "robot_starts": starts,
+        "user_symbol": "cross" if starts else "circle",
+        "robot_symbol": "circle" if starts else "cross",
+        "cells": list(CELL_NAMES),
+        "acts": list(SYSTEM_ACTS),
+        "speed_factor": app.state.speed_factor,
+        "sheet": {"side": sheet.SIDE, "margin": sheet.MARGIN, "pen": sheet.PEN_WIDTH},
+        "audio_rate": session.limits.audio_rate,
+    }
+
+
+def _error_text(message: str, about: str = "") -> str:
+    return json.dumps({"type": "Error", "data": {"message": message, "about": about}})
+
+
+async def _send_all(websocket: WebSocket, session: Session) -> None:
+    """Outbox → socket, until the session ends."""
+    try:
+        while True:
+            text = await session.outbox.get()
+            if text is None:
+                return
+            await websocket.send_text(text)
+    except (WebSocketDisconnect, RuntimeError):
+        return  # the tab went away; the receiver sees it too and ends the session
+
+
+async def _receive_all(websocket: WebSocket, session: Session) -> None:
+    """Socket → robot, until the tab closes. Bad messages get an Error on this socket."""
+    while True:
+        event = await websocket.receive()
+        if event["type"] == "websocket.disconnect":
+            return
+        text = event.get("text")
+        if text is None:
+            session.error(
+                "binary messages are not part of the protocol; send JSON text "
+                '(images as base64 data URLs, audio as {"type": "talk", ...})',
+                about="binary",
+            )
+            continue
+        started = time.perf_counter()
+        try:
+            if _heavy(text):  # decoding a sheet image: keep it off the event loop
+                await asyncio.to_thread(session.handle, text)
+            else:
+                session.handle(text)
+        except OxbotError as exc:
+            session.error(str(exc), about=_kind(text))
+        except Exception as exc:  # a robot bug must not end the tab's game or another's
+            log.exception("session %d: message failed", session.id)
+            session.error(f"the server failed on this message: {type(exc).__name__}: {exc}")
+        log.debug(
+            "session %d handled in %.1f ms", session.id, 1e3 * (time.perf_counter() - started)
+        )
+
+
+def _heavy(text: str) -> bool:
+    """Messages whose decoding takes long enough to keep off the event loop."""
+    return len(text) > 20_000
+
+
+def _kind(text: str) -> str:
+    try:
+        kind = json.loads(text).get("type", "")
+    except (ValueError, AttributeError):
+        return ""
+    return kind if isinstance(kind, str) else ""
+
+
+def serve(
+    host: str = "127.0.0.1", port: int = 8000, speed_factor: float = 1.0, robot_starts: bool = True
+) -> None:
+    """Run the page's server until interrupted (`oxbot play`); binds to localhost by default."""
+    import uvicorn
+
+    app = create_app(speed_factor=speed_factor, robot_starts=robot_starts)
+    log.info("oxbot: open http://%s:%d in a browser to play", host, port)
+    uvicorn.run(app, host=host, port=port, log_level="info", ws_max_size=16 * 1024 * 1024)
+
+
+__all__ = ["Session", "WebLimits", "create_app", "decode_image", "pcm_to_wav", "serve"]

@@ -1,0 +1,482 @@
+// oxbot's page: the game sheet, the robot's face, the conversation and what the robot sees.
+// Plain JS, no build step. One WebSocket per tab (/ws); the server runs a robot for it and
+// sends every message of the robot's bus; see oxbot/web/server.py for the protocol.
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+const SIDE = 360, MARGIN = 30;          // oxbot/web/sheet.py: SIDE, MARGIN
+const INK = "#1e223c", ROBOT_INK = "#8b1e3f";
+const GRID_WIDTH = 4, PEN_WIDTH = 5;
+const FRAME_PERIOD_MS = 100;            // paper §2.1: the board is read every 100 ms
+
+const state = {
+  ws: null, hello: null, ended: false, speaking: false,
+  grid: [],              // the grid's strokes (canvas pixels)
+  committed: [],         // the person's strokes that became moves
+  pending: [],           // the person's strokes since the last accepted move
+  drawing: null,         // the stroke under the pen
+  dirty: false,          // the sheet changed since the last frame sent
+  sound: true, camera: null, cameraTimer: null,
+  audio: null, analyser: null, gain: null, source: null, mouthUntil: 0,
+  stats: { framesSent: 0, lastStrokeEnd: 0, moves: [] },
+};
+window.oxbot = state;     // for tests and the curious: the page's state
+
+// --- the sheet ---------------------------------------------------------------------------
+
+const board = $("board"), bctx = board.getContext("2d");
+const overlay = $("robot-ink"), octx = overlay.getContext("2d");
+
+function gridLines() {
+  const step = (SIDE - 2 * MARGIN) / 3;
+  return [0, 1, 2, 3].map((i) => MARGIN + i * step);
+}
+
+function wobbly(x0, y0, x1, y1) {
+  // a hand-drawn straight line: a gentle bow and a little tremor (as sheet.py's _wobbly)
+  const n = 40, dx = x1 - x0, dy = y1 - y0, len = Math.hypot(dx, dy);
+  const nx = -dy / len, ny = dx / len, bow = (Math.random() * 2 - 1) * 3;
+  let walk = 0; const tremor = [];
+  for (let i = 0; i < n; i++) { walk += (Math.random() * 2 - 1) * 0.4; tremor.push(walk); }
+  const pts = [];
+  for (let i = 0; i < n; i++) {
+    const t = i / (n - 1), off = bow * Math.sin(Math.PI * t) + tremor[i] - t * tremor[n - 1];
+    pts.push([x0 + t * dx + off * nx, y0 + t * dy + off * ny]);
+  }
+  return pts;
+}
+
+function newGrid() {
+  const L = gridLines(), r = (a, b) => a + Math.random() * (b - a), strokes = [];
+  for (const i of [1, 2]) {
+    for (const vertical of [true, false]) {
+      const pos = L[i] + r(-3, 3), a = L[0] - r(-4, 10), b = L[3] + r(-4, 10), tilt = r(-4, 4);
+      strokes.push(vertical ? wobbly(pos, a, pos + tilt, b) : wobbly(a, pos, b, pos + tilt));
+    }
+  }
+  return strokes;
+}
+
+function strokePath(ctx, pts, width, color) {
+  if (pts.length === 0) return;
+  ctx.strokeStyle = color; ctx.lineWidth = width; ctx.lineCap = "round"; ctx.lineJoin = "round";
+  ctx.beginPath(); ctx.moveTo(pts[0][0], pts[0][1]);
+  if (pts.length === 1) ctx.lineTo(pts[0][0] + 0.1, pts[0][1] + 0.1);
+  for (const [x, y] of pts.slice(1)) ctx.lineTo(x, y);
+  ctx.stroke();
+}
+
+function redrawSheet() {
+  bctx.fillStyle = "#faf8f0"; bctx.fillRect(0, 0, SIDE, SIDE);
+  for (const s of state.grid) strokePath(bctx, s, GRID_WIDTH, INK);
+  for (const s of [...state.committed, ...state.pending]) strokePath(bctx, s, PEN_WIDTH, INK);
+  if (state.drawing) strokePath(bctx, state.drawing, PEN_WIDTH, INK);
+}
+
+function sheetImage() { return board.toDataURL("image/png"); }
+
+function canvasPoint(e) {
+  const r = board.getBoundingClientRect();
+  return [(e.clientX - r.left) * SIDE / r.width, (e.clientY - r.top) * SIDE / r.height];
+}
+
+board.addEventListener("pointerdown", (e) => {
+  if (!state.ws || e.button > 0) return;
+  board.setPointerCapture(e.pointerId);
+  state.drawing = [canvasPoint(e)];
+  redrawSheet(); state.dirty = true;
+});
+board.addEventListener("pointermove", (e) => {
+  if (!state.drawing) return;
+  const events = e.getCoalescedEvents ? e.getCoalescedEvents() : [e];
+  for (const ev of events.length ? events : [e]) state.drawing.push(canvasPoint(ev));
+  redrawSheet(); state.dirty = true;
+});
+function endStroke() {
+  if (!state.drawing) return;
+  state.pending.push(state.drawing); state.drawing = null;
+  redrawSheet();
+  state.stats.lastStrokeEnd = performance.now();
+  sendFrame();          // the finished stroke goes out at once, not at the next tick
+}
+board.addEventListener("pointerup", endStroke);
+board.addEventListener("pointercancel", endStroke);
+
+function sendFrame() {
+  if (!send({ type: "frame", image: sheetImage() })) return;
+  state.dirty = false; state.stats.framesSent++;
+}
+setInterval(() => { if (state.dirty && !state.ended) sendFrame(); }, FRAME_PERIOD_MS);
+
+$("undo").addEventListener("click", () => {
+  if (!state.pending.length) return;
+  state.pending.pop(); redrawSheet(); sendFrame();
+});
+
+// the robot's ink: drawn on an overlay, stroke by stroke, as the simulated arm draws it
+function cellBox(where) {
+  const i = state.hello ? state.hello.cells.indexOf(where) : -1, L = gridLines();
+  if (i < 0) return null;
+  const row = Math.floor(i / 3), col = i % 3;
+  return [L[col], L[row], L[col + 1], L[row + 1]];
+}
+
+function drawArmStroke(where, points) {
+  const box = cellBox(where);
+  if (!box) return;
+  const [l, t, r, b] = box;
+  const pts = points.map(([u, v]) => [l + u * (r - l), t + v * (b - t)]);
+  const speed = state.hello ? state.hello.speed_factor : 1;
+  const ms = Math.max(30, 250 / speed), start = performance.now();
+  const step = (now) => {
+    const k = Math.min(1, (now - start) / ms), n = Math.max(2, Math.ceil(k * pts.length));
+    strokePath(octx, pts.slice(0, n), PEN_WIDTH, ROBOT_INK);
+    if (k < 1) requestAnimationFrame(step);
+  };
+  requestAnimationFrame(step);
+}
+
+// --- the connection -----------------------------------------------------------------------
+
+function send(message) {
+  if (!state.ws || state.ws.readyState !== WebSocket.OPEN) return false;
+  state.ws.send(JSON.stringify(message));
+  return true;
+}
+
+function connect() {
+  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
+  state.ws = ws;
+  setStatus("Connecting…");
+  ws.onopen = () => { setStatus("Connected."); };
+  ws.onmessage = (e) => { try { onMessage(JSON.parse(e.data)); } catch (err) { console.error(err); } };
+  ws.onclose = () => {
+    if (state.ws === ws) {
+      state.ws = null; setStatus("Disconnected. Press Start to play again.");
+      $("start").textContent = "Start"; enableAnswers(false);
+    }
+  };
+}
+
+function startOrNewGame() {
+  ensureAudio();
+  if (!state.ws) { resetSheet(); connect(); return; }
+  resetSheet();
+  send({ type: "new_game", image: sheetImage() });
+  addNote("New game.");
+}
+
+function resetSheet() {
+  state.grid = newGrid(); state.committed = []; state.pending = []; state.drawing = null;
+  state.ended = false; octx.clearRect(0, 0, SIDE, SIDE); redrawSheet();
+  showProblem(""); $("turn").textContent = "";
+}
+
+$("start").addEventListener("click", startOrNewGame);
+
+// --- what the server says -------------------------------------------------------------------
+
+const handlers = {
+  Hello(d) {
+    state.hello = d;
+    $("start").textContent = "New game";
+    $("symbol-hint").textContent = `You draw ${d.user_symbol === "cross" ? "crosses (X)" : "circles (O)"}; `
+      + `the robot draws ${d.robot_symbol === "cross" ? "crosses" : "circles"}.`;
+    enableAnswers(true); buildDecisionTable(d.acts); sendFrame();
+    setStatus(`Game ${d.session}: connected.`);
+  },
+  DialogueAct(d) {
+    addLog(d.speaker, d.act, d.text);
+    if (d.speaker === "sys" && d.act === "Request(userGameMove)") {
+      $("turn").textContent = `Your turn: draw a ${state.hello ? state.hello.user_symbol : "symbol"}.`;
+    } else if (d.speaker === "sys" && d.act.startsWith("GameMove")) {
+      $("turn").textContent = "The robot is drawing…";
+    }
+  },
+  SpeakingStarted(d) { $("bubble").textContent = d.text; speak(d.audio, d.seconds); },
+  SpeakingFinished() { state.speaking = false; },
+  NewGame() { sendFrame(); },   // the robot starts a clean sheet: show it the page's
+  ArmStroke(d) { drawArmStroke(d.where, d.points); },
+  ArmDone() {},
+  BoardSeen(d) { showSeen(d); },
+  BoardProblem(d) {
+    showProblem(d.reason); addNote(d.reason);
+    // paper does not forget, but a page can: wipe the impossible ink so play can go on
+    const wiped = state.pending.length;
+    setTimeout(() => {
+      if (state.pending.length >= wiped && wiped) {
+        state.pending.splice(0, wiped); redrawSheet(); sendFrame();
+      }
+    }, 1200);
+  },
+  GameMove(d) {
+    state.stats.moves.push({ ...d, at: performance.now() });
+    if (d.who === "usr") {
+      state.committed.push(...state.pending); state.pending = [];
+      showProblem(""); $("turn").textContent = "";
+    }
+  },
+  Decision(d) { showDecision(d); },
+  HeadMove(d) { lookTowards(d.direction); },
+  DialogueEnded(d) {
+    state.ended = true;
+    const text = { win: "The robot won.", loss: "You won!", draw: "A draw." }[d.outcome] || "The game ended.";
+    $("turn").textContent = `${text} Press New game to play again.`;
+    addNote(`Game over: ${d.outcome || "unfinished"}.`);
+  },
+  ComponentFailed(d) { addNote(`${d.component} failed: ${d.error}`); },
+  Status(d) { setStatus(d.message); },
+  Error(d) { showProblem(d.message); addNote(`server: ${d.message}`); },
+};
+
+function onMessage(m) {
+  const h = handlers[m.type];
+  if (h) h(m.data || {});
+}
+
+function setStatus(text) { $("status").textContent = text; }
+
+function enableAnswers(on) { $("say").disabled = !on; $("talk").disabled = !on; }
+
+function showProblem(text) {
+  const p = $("problem");
+  p.hidden = !text; p.textContent = text;
+}
+
+function addLog(speaker, act, text) {
+  const li = document.createElement("li");
+  li.className = speaker;
+  li.dataset.act = act; li.dataset.speaker = speaker;
+  const who = document.createElement("span"); who.className = "who";
+  who.textContent = speaker === "sys" ? "SYS: " : "USR: ";
+  const a = document.createElement("span"); a.className = "act"; a.textContent = `[${act}] `;
+  const t = document.createElement("span"); t.className = "text"; t.textContent = text;
+  li.append(who, a, t);
+  appendLog(li);
+}
+
+function addNote(text) {
+  const li = document.createElement("li"); li.className = "note"; li.textContent = `— ${text}`;
+  appendLog(li);
+}
+
+function appendLog(li) { const log = $("log"); log.append(li); log.scrollTop = log.scrollHeight; }
+
+// --- typed and spoken answers -------------------------------------------------------------
+
+$("say").addEventListener("keydown", (e) => {
+  if (e.key !== "Enter") return;
+  const text = e.target.value.trim();
+  if (text && send({ type: "say", text })) e.target.value = "";
+});
+
+const talk = { stream: null, ctx: null, node: null, chunks: [], busy: false };
+
+async function startTalking(e) {
+  if (talk.busy || !state.ws) return;
+  talk.busy = true; talk.chunks = [];
+  $("talk").classList.add("recording"); $("talk").textContent = "Listening… release to send";
+  try {
+    // the microphone is opened at each press (a fake test microphone restarts its file then)
+    talk.stream = await navigator.mediaDevices.getUserMedia({
+      audio: { echoCancellation: false, noiseSuppression: false, autoGainControl: false } });
+    talk.ctx = new AudioContext({ sampleRate: state.hello ? state.hello.audio_rate : 16000 });
+    await talk.ctx.audioWorklet.addModule("/static/tap.js");
+    talk.node = new AudioWorkletNode(talk.ctx, "tap");
+    talk.node.port.onmessage = (m) => talk.chunks.push(m.data);
+    talk.ctx.createMediaStreamSource(talk.stream).connect(talk.node);
+    if (!talk.pressed) await stopTalking();   // released while the microphone opened
+  } catch (err) {
+    addNote(`the microphone cannot be used: ${err}`); resetTalk();
+  }
+}
+
+function resetTalk() {
+  if (talk.stream) talk.stream.getTracks().forEach((t) => t.stop());
+  if (talk.ctx) talk.ctx.close();
+  talk.stream = talk.ctx = talk.node = null; talk.busy = false;
+  $("talk").classList.remove("recording"); $("talk").textContent = "Hold to talk";
+}
+
+async function stopTalking() {
+  if (!talk.ctx) return;
+  const rate = talk.ctx.sampleRate, chunks = talk.chunks;
+  resetTalk();
+  let samples = concat(chunks);
+  const wanted = state.hello ? state.hello.audio_rate : 16000;
+  if (rate !== wanted) samples = await resample(samples, rate, wanted);
+  if (samples.length < wanted * 0.1) { addNote("too short: hold the button while you talk"); return; }
+  send({ type: "talk", rate: wanted, pcm: toBase64(toInt16(samples).buffer) });
+}
+
+function concat(chunks) {
+  const out = new Float32Array(chunks.reduce((n, c) => n + c.length, 0));
+  let at = 0; for (const c of chunks) { out.set(c, at); at += c.length; }
+  return out;
+}
+
+async function resample(samples, from, to) {
+  const off = new OfflineAudioContext(1, Math.ceil(samples.length * to / from), to);
+  const buf = off.createBuffer(1, samples.length, from); buf.copyToChannel(samples, 0);
+  const src = off.createBufferSource(); src.buffer = buf; src.connect(off.destination); src.start();
+  return (await off.startRendering()).getChannelData(0);
+}
+
+function toInt16(f) {
+  const out = new Int16Array(f.length);
+  for (let i = 0; i < f.length; i++) out[i] = Math.max(-32768, Math.min(32767, Math.round(f[i] * 32767)));
+  return out;
+}
+
+function toBase64(buffer) {
+  const bytes = new Uint8Array(buffer); let s = "";
+  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+  return btoa(s);
+}
+
+const talkButton = $("talk");
+talkButton.addEventListener("pointerdown", (e) => {
+  talkButton.setPointerCapture(e.pointerId); talk.pressed = true; startTalking(e);
+});
+talkButton.addEventListener("pointerup", () => { talk.pressed = false; stopTalking(); });
+talkButton.addEventListener("pointercancel", () => { talk.pressed = false; stopTalking(); });
+
+// --- the face: speech audio, the mouth, the eyes --------------------------------------------
+
+function ensureAudio() {
+  if (state.audio) { if (state.audio.state === "suspended") state.audio.resume(); return; }
+  state.audio = new AudioContext();
+  state.gain = state.audio.createGain(); state.gain.gain.value = state.sound ? 1 : 0;
+  state.analyser = state.audio.createAnalyser(); state.analyser.fftSize = 512;
+  state.analyser.connect(state.gain); state.gain.connect(state.audio.destination);
+  requestAnimationFrame(animateMouth);
+}
+
+async function speak(audioB64, seconds) {
+  state.speaking = true;
+  const speed = state.hello ? state.hello.speed_factor : 1;
+  state.mouthUntil = performance.now() + 1000 * (seconds || 0.5) / speed;
+  if (!audioB64 || !state.audio) return;
+  try {
+    const bytes = Uint8Array.from(atob(audioB64), (c) => c.charCodeAt(0));
+    const buffer = await state.audio.decodeAudioData(bytes.buffer);
+    if (state.source) { try { state.source.stop(); } catch (_) { /* already ended */ } }
+    const src = state.audio.createBufferSource(); src.buffer = buffer;
+    src.connect(state.analyser); src.start(); state.source = src;
+    state.mouthUntil = performance.now() + 1000 * buffer.duration;
+    src.onended = () => { if (state.source === src) state.source = null; };
+  } catch (err) { console.warn("cannot play the robot's speech", err); }
+}
+
+const level = new Uint8Array(256);
+function animateMouth(now) {
+  let open = 0;
+  if (state.source && state.analyser) {
+    // the mouth follows the loudness of the audio playing (muted or not)
+    state.analyser.getByteTimeDomainData(level);
+    let sum = 0; for (const v of level) sum += (v - 128) * (v - 128);
+    open = Math.min(1, Math.sqrt(sum / level.length) / 25);
+  } else if (now < state.mouthUntil) {
+    open = 0.5 + 0.5 * Math.sin(now / 60);   // no audio: a steady babble for the time it takes
+  }
+  $("mouth").setAttribute("ry", (3 + 17 * open).toFixed(1));
+  $("face").dataset.talking = open > 0.05 ? "yes" : "no";
+  requestAnimationFrame(animateMouth);
+}
+requestAnimationFrame(animateMouth);
+
+// HeadMove is where the robot turns its own head: its left is the viewer's right.
+const GAZE = { left: [7, 0], right: [-7, 0], up: [0, -7], down: [0, 7], centre: [0, 0] };
+function lookTowards(direction) {
+  const [dx, dy] = GAZE[direction] || [0, 0];
+  $("pupil-left").setAttribute("cx", 70 + dx); $("pupil-left").setAttribute("cy", 62 + dy);
+  $("pupil-right").setAttribute("cx", 130 + dx); $("pupil-right").setAttribute("cy", 62 + dy);
+  $("face").dataset.gaze = direction;
+}
+
+$("sound").addEventListener("click", () => {
+  state.sound = !state.sound;
+  $("sound").textContent = `Sound: ${state.sound ? "on" : "off"}`;
+  $("sound").setAttribute("aria-pressed", String(state.sound));
+  if (state.gain) state.gain.gain.value = state.sound ? 1 : 0;
+});
+
+$("camera").addEventListener("click", async () => {
+  if (state.camera) { stopCamera(); return; }
+  try {
+    const stream = await navigator.mediaDevices.getUserMedia({ video: { width: 320, height: 240 } });
+    const v = $("webcam"); v.srcObject = stream; await v.play();
+    state.camera = stream;
+    const grab = document.createElement("canvas"), g = grab.getContext("2d");
+    state.cameraTimer = setInterval(() => {
+      if (!v.videoWidth) return;
+      const w = 320, h = Math.round(320 * v.videoHeight / v.videoWidth);
+      grab.width = w; grab.height = h; g.drawImage(v, 0, 0, w, h);
+      send({ type: "look", image: grab.toDataURL("image/jpeg", 0.7) });
+    }, 200);
+    $("camera").textContent = "Camera: on"; $("camera").setAttribute("aria-pressed", "true");
+  } catch (err) { addNote(`the camera cannot be used: ${err}`); }
+});
+
+function stopCamera() {
+  clearInterval(state.cameraTimer); state.cameraTimer = null;
+  if (state.camera) state.camera.getTracks().forEach((t) => t.stop());
+  state.camera = null; lookTowards("centre");
+  $("camera").textContent = "Camera: off"; $("camera").setAttribute("aria-pressed", "false");
+}
+
+// --- what the robot sees ------------------------------------------------------------------
+
+function showSeen(d) {
+  const crops = $("crops");
+  if (crops.children.length !== 9) {
+    crops.innerHTML = "";
+    for (let i = 0; i < 9; i++) {
+      const div = document.createElement("div"); div.className = "crop";
+      const img = document.createElement("img"); img.alt = "";
+      const label = document.createElement("div");
+      div.append(img, label); crops.append(div);
+    }
+  }
+  const names = state.hello ? state.hello.cells : [];
+  for (let i = 0; i < 9; i++) {
+    const div = crops.children[i], label = d.labels && d.labels.length ? d.labels[i] : "no grid";
+    if (d.cells && d.cells[i]) div.querySelector("img").src = `data:image/png;base64,${d.cells[i]}`;
+    div.querySelector("div").textContent = `${names[i] || i}: ${label}`;
+    div.className = `crop ${label}`;
+    div.dataset.label = label;
+  }
+  const n = d.agreeing || 0;
+  $("agreeing").querySelectorAll("i").forEach((dot, i) => dot.classList.toggle("on", i < n));
+  $("agreeing").querySelector("b").textContent = `${Math.min(n, 3)}/3`;
+  $("agreeing").dataset.count = String(n);
+}
+
+function buildDecisionTable(acts) {
+  const body = $("decision").querySelector("tbody"); body.innerHTML = "";
+  for (const act of acts) {
+    const tr = document.createElement("tr"); tr.className = "off"; tr.dataset.act = act;
+    tr.innerHTML = `<td class="mark"></td><td class="name"></td><td class="q">—</td><td><span class="bar"></span></td>`;
+    tr.querySelector(".name").textContent = act;
+    body.append(tr);
+  }
+}
+
+function showDecision(d) {
+  const acts = state.hello ? state.hello.acts : [];
+  const offered = new Set(d.offered), qs = d.q_values || [];
+  const shown = acts.map((a, i) => offered.has(a) ? qs[i] : null).filter((q) => q !== null);
+  const lo = Math.min(...shown, 0), hi = Math.max(...shown, 1e-6);
+  acts.forEach((act, i) => {
+    const tr = $("decision").querySelector(`tr[data-act="${CSS.escape(act)}"]`);
+    if (!tr) return;
+    const on = offered.has(act);
+    tr.className = act === d.chosen ? "chosen" : on ? "" : "off";
+    tr.querySelector(".mark").textContent = act === d.chosen ? "▶" : "";
+    tr.querySelector(".q").textContent = qs[i] === undefined ? "—" : Number(qs[i]).toFixed(2);
+    tr.querySelector(".bar").style.width = on ? `${Math.round(60 * (qs[i] - lo) / (hi - lo || 1))}px` : "0";
+  });
+}
+
+// the blank sheet, before the first game
+state.grid = newGrid(); redrawSheet();

@@ -1,0 +1,176 @@
+"""The page's WebSocket: one robot per tab, and bad input answered on its own socket only."""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import inspect
+import io
+import json
+import threading
+import time
+
+import httpx
+import numpy as np
+import websockets
+from PIL import Image
+
+from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, cell_index, outcome, play
+from oxbot.web.player import GameRecord, data_url, play_game
+from oxbot.web.server import serve
+from oxbot.web.sheet import Sheet
+
+
+def png(image: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    Image.fromarray(image).save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+async def next_of(ws, kinds: set[str], timeout: float = 10.0) -> dict:
+    """The next message of one of `kinds`, skipping the robot's other messages."""
+    deadline = time.monotonic() + timeout
+    while True:
+        message = json.loads(await asyncio.wait_for(ws.recv(), deadline - time.monotonic()))
+        if message["type"] in kinds:
+            return message
+
+
+def final_board(record: GameRecord) -> tuple[int, ...]:
+    board = EMPTY_BOARD
+    for speaker, act, _ in record.transcript:
+        if act.startswith("GameMove(gridloc="):
+            cell = cell_index(act[len("GameMove(gridloc=") : -1])
+            board = play(board, cell, ROBOT if speaker == "sys" else USER)
+    return board
+
+
+def test_page_has_the_spec_hooks_and_its_files(server_url):
+    page = httpx.get(server_url + "/").text
+    for hook in ("board", "log", "say", "talk", "start"):
+        assert f'data-testid="{hook}"' in page
+    for name in ("app.js", "style.css", "tap.js"):
+        assert httpx.get(f"{server_url}/static/{name}").status_code == 200
+    assert httpx.get(f"{server_url}/static/secret.py").status_code == 404
+
+
+def test_server_binds_to_localhost_unless_told_otherwise():
+    assert inspect.signature(serve).parameters["host"].default == "127.0.0.1"
+
+
+def test_each_tab_is_its_own_session_and_ends_cleanly(server_url, ws_url):
+    def bridges() -> int:
+        return sum(t.name.startswith("oxbot-web-") for t in threading.enumerate())
+
+    async def two_tabs() -> list[int]:
+        async with websockets.connect(ws_url) as a, websockets.connect(ws_url) as b:
+            hellos = [await next_of(ws, {"Hello"}) for ws in (a, b)]
+            greetings = [await next_of(ws, {"DialogueAct"}) for ws in (a, b)]
+            assert all(g["data"]["act"] == "Salutation(greeting)" for g in greetings)
+            assert httpx.get(server_url + "/health").json()["sessions"] == 2
+            return [h["data"]["session"] for h in hellos]
+
+    ids = asyncio.run(two_tabs())
+    assert ids[0] != ids[1]
+    deadline = time.monotonic() + 10
+    while httpx.get(server_url + "/health").json()["sessions"] or bridges():
+        assert time.monotonic() < deadline, "sessions did not end when their tabs closed"
+        time.sleep(0.1)
+
+
+BAD_INPUT = [
+    ("not json{", "not JSON"),
+    ("[1, 2]", "JSON object"),
+    ('{"type": "dance"}', "unknown message type"),
+    ('{"type": "frame"}', "data URL"),
+    ('{"type": "frame", "image": "%%%"}', "not valid base64"),
+    (
+        json.dumps({"type": "frame", "image": base64.b64encode(b"hello, not a PNG").decode()}),
+        "not a readable",
+    ),
+    (
+        json.dumps({"type": "frame", "image": data_url(png(np.zeros((9, 2100, 3), np.uint8)))}),
+        "largest side",
+    ),
+    (json.dumps({"type": "frame", "image": "A" * 4_100_000}), "limit"),
+    (
+        json.dumps({"type": "talk", "rate": 44100, "pcm": base64.b64encode(bytes(8820)).decode()}),
+        "16000 Hz",
+    ),
+    (
+        json.dumps({"type": "talk", "rate": 16000, "pcm": base64.b64encode(bytes(6401)).decode()}),
+        "odd number",
+    ),
+    ('{"type": "say", "text": ""}', "non-empty"),
+    (b"\x00\x01binary", "binary messages"),
+]
+
+
+def test_bad_input_gets_an_error_on_its_socket_and_never_breaks_another_game(ws_url):
+    async def garbage() -> list[str]:
+        seen = []
+        async with websockets.connect(ws_url, max_size=2**24) as ws:
+            await next_of(ws, {"Hello"})
+            for payload, expected in BAD_INPUT:
+                await ws.send(payload)
+                error = await next_of(ws, {"Error"})
+                assert expected in error["data"]["message"], (payload[:60], error)
+                seen.append(error["data"]["message"])
+            # the socket still works: a typed answer is heard
+            await ws.send(json.dumps({"type": "say", "text": "hello"}))
+            heard = await next_of(ws, {"DialogueAct"})
+            while heard["data"]["speaker"] != "usr":
+                heard = await next_of(ws, {"DialogueAct"})
+            assert heard["data"]["text"] == "hello"
+        return seen
+
+    async def both() -> tuple[list[str], GameRecord]:
+        return await asyncio.gather(garbage(), play_game(ws_url, seed=11, timeout=90))
+
+    errors, record = asyncio.run(both())
+    assert len(errors) == len(BAD_INPUT)
+    assert record.ended and not record.errors and not record.failures and not record.problems
+    assert record.accepted == record.drawn
+    assert outcome(final_board(record)) == record.outcome
+
+
+def test_messages_after_the_goodbye_are_refused_until_a_new_game(ws_url):
+    async def after_the_end() -> tuple[list[str], dict]:
+        sheet = Sheet(5)
+        async with websockets.connect(ws_url, max_size=2**24) as ws:
+            hello = await next_of(ws, {"Hello"})
+            user = hello["data"]["user_symbol"]
+            taken: set[str] = set()
+            mine: list[str] = []
+            while True:
+                message = await next_of(ws, {"DialogueAct", "DialogueEnded", "Error"}, 60)
+                assert message["type"] != "Error", message
+                if message["type"] == "DialogueEnded":
+                    break
+                act = message["data"]["act"]
+                if act == "Request(playGame)":
+                    await ws.send(json.dumps({"type": "say", "text": "yes let's play"}))
+                elif act.startswith("GameMove(gridloc="):
+                    taken.add(act[len("GameMove(gridloc=") : -1])
+                elif act == "Request(userGameMove)" and message["data"]["speaker"] == "sys":
+                    where = next(c for c in hello["data"]["cells"] if c not in taken)
+                    taken.add(where)
+                    mine.append(where)
+                    sheet.draw(where, user)
+                    await ws.send(json.dumps({"type": "frame", "image": data_url(sheet.png())}))
+            refused = []
+            for late in (
+                {"type": "say", "text": "one more"},
+                {"type": "frame", "image": data_url(sheet.png())},
+                {"type": "talk", "rate": 16000, "pcm": base64.b64encode(bytes(6400)).decode()},
+            ):
+                await ws.send(json.dumps(late))
+                refused.append((await next_of(ws, {"Error"}))["data"]["message"])
+            await ws.send(json.dumps({"type": "new_game", "image": data_url(Sheet(6).png())}))
+            greeting = await next_of(ws, {"DialogueAct", "Error"})
+        return refused, greeting
+
+    refused, greeting = asyncio.run(after_the_end())
+    assert len(refused) == 3 and all("game is over" in m for m in refused)
+    assert greeting["type"] == "DialogueAct"
+    assert greeting["data"]["act"] == "Salutation(greeting)"
