@@ -7,10 +7,13 @@ utterance waits until the arm is done.
 
 One turn here is what one environment step is in training (`oxbot.dialogue.env`): the robot
 says an act (and for a GameMove then draws it), then listens for the person's answer — their
-words, their drawing, or silence — and decides again. The person is given
-- nothing to say after acts nobody answers (in the domain files, only silence answers them);
-- `move_timeout` seconds to draw after "Your turn" when it is their turn;
-- `answer_timeout` seconds to answer anything else.
+words, their drawing, or silence — and decides again. How long it listens follows the domain's
+user responses:
+- not at all after acts nobody answers (only silence answers them, e.g. "Nice, let's play");
+- `answer_timeout` seconds after acts a person may or may not answer (silence is one of the
+  answers, e.g. "Hello!");
+- `question_timeout` seconds after questions (silence is not an answer: "Would you like to
+  play?"), and `move_timeout` seconds to draw after "Your turn".
 Words or a drawing that arrive while the robot is still talking or drawing count for the next
 turn. The robot never talks while its arm moves: the act's words come first, then the arm,
 and anything the robot has to say meanwhile (an impossible drawing) waits for ArmDone.
@@ -83,15 +86,18 @@ Understand = Callable[[str], str]
 class ManagerTiming:
     """How long the robot waits for the person."""
 
-    answer_timeout: float = 5.0
-    """Seconds to wait for an answer before taking it as silence."""
+    answer_timeout: float = 4.0
+    """Seconds to wait for an optional answer (to a greeting, say) before taking silence."""
+    question_timeout: float = 30.0
+    """Seconds to wait for the answer to a question before taking silence."""
     move_timeout: float = 30.0
     """Seconds to wait for the person's drawing after "Your turn"; then the robot asks again."""
     speed_factor: float = 1.0
     """How many times faster than real time the waits run (tests use large values)."""
 
     def __post_init__(self) -> None:
-        if min(self.answer_timeout, self.move_timeout) < 0 or self.speed_factor <= 0:
+        waits = (self.answer_timeout, self.question_timeout, self.move_timeout)
+        if min(waits) < 0 or self.speed_factor <= 0:
             raise ConfigError("timeouts cannot be negative and speed_factor must be positive")
 
 
@@ -131,11 +137,9 @@ class InteractionManagerComponent(Component):
         self.timing = timing
         self.rng = rng if rng is not None else np.random.default_rng()
         self._understand = understand
-        self._silent_acts = {
-            act
-            for act in SYSTEM_ACTS
-            if all(u.act == "Silence" for u in self.domain.responses_to(act))
-        }
+        answers = {act: {u.act for u in self.domain.responses_to(act)} for act in SYSTEM_ACTS}
+        self._unanswered = {act for act, a in answers.items() if a <= {"Silence"}}
+        self._questions = {act for act, a in answers.items() if a and "Silence" not in a}
         self.phase = Phase.IDLE
         self._reset(True)
 
@@ -253,8 +257,10 @@ class InteractionManagerComponent(Component):
         self._deferred.clear()
         if self._expects_move():
             wait = self.timing.move_timeout
-        elif self._last_act in self._silent_acts:
+        elif self._last_act in self._unanswered:
             wait = 0.0
+        elif self._last_act in self._questions:
+            wait = self.timing.question_timeout
         else:
             wait = self.timing.answer_timeout
         self._deadline = time.monotonic() + wait / self.timing.speed_factor

@@ -53,8 +53,10 @@ class RobotOptions:
     """Who draws first (with circles); the paper's robot always started."""
     speed_factor: float = 1.0
     """How many times faster than real time speech, the arm and the waits run (tests)."""
-    answer_timeout: float = 5.0
-    """Seconds the robot waits for an answer before taking silence."""
+    answer_timeout: float = 4.0
+    """Seconds the robot waits for an optional answer (to a greeting) before taking silence."""
+    question_timeout: float = 30.0
+    """Seconds the robot waits for the answer to a question before taking silence."""
     move_timeout: float = 30.0
     """Seconds the robot waits for the person's drawing after "Your turn"."""
     voice: str = "en-us"
@@ -111,7 +113,10 @@ class Robot:
             self.bus,
             policy=_shared_policy(),
             timing=ManagerTiming(
-                options.answer_timeout, options.move_timeout, options.speed_factor
+                answer_timeout=options.answer_timeout,
+                question_timeout=options.question_timeout,
+                move_timeout=options.move_timeout,
+                speed_factor=options.speed_factor,
             ),
             rng=np.random.default_rng(seeds[0]),
         )

@@ -28,7 +28,7 @@ from oxbot.robot.messages import (
     Message,
     SpeakingStarted,
 )
-from oxbot.robot.session import Robot
+from oxbot.robot.session import Robot, warm_up
 
 log = logging.getLogger(__name__)
 
@@ -66,9 +66,10 @@ class Speakers:
             )
         if result.returncode != 0 and self.enabled:
             self.enabled = False
+            lines = result.stderr.decode(errors="replace").strip().splitlines()
             log.warning(
                 "no sound output (%s); the robot's speech is text only",
-                result.stderr.decode(errors="replace").strip().splitlines()[-1:] or "play failed",
+                lines[-1] if lines else "play failed",
             )
 
 
@@ -131,6 +132,8 @@ class TerminalRobot:
         """Play until the person quits or the input ends."""
         self.console.print(f"[dim]{escape(HELP)}[/]")
         self._printer.start()
+        with self.console.status("Loading the robot's models..."):
+            warm_up()
         self.robot.start()
         try:
             while True:
