@@ -5,9 +5,14 @@ decodes offline with pocketsphinx and its en-us acoustic model (shipped in the P
 download). A general English language model mishears short answers ("yes let's go for it" came
 back as "yeah snow for"), so decoding is restricted to the domain in two passes:
 
-1. a JSGF grammar whose sentences are the domain's user phrases — exact and fast;
-2. when the grammar finds no complete sentence, an n-gram model built from the same phrases,
+1. a JSGF grammar whose sentences are the domain's user phrases — exact and fast; only its
+   complete phrases are kept;
+2. when the grammar finds no complete phrase, an n-gram model built from the same phrases,
    which still allows other word orders and fragments of them.
+
+Before decoding, a faint hiss is added (`NOISE_FLOOR`): synthesised and browser audio has
+stretches of exact zeros that throw pocketsphinx's features off. One decoder serves every
+caller, one utterance at a time (a lock), so a web server can share it between sessions.
 
 Confidences: a word's confidence is its posterior in the decoder's lattice (`seg().prob`); the
 best path's mean word posterior says how sure the decoder is overall, and each N-best entry
@@ -23,6 +28,7 @@ import logging
 import os
 import re
 import tempfile
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,6 +45,13 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 FILLERS = {"<s>", "</s>", "<sil>", "[NOISE]", "<unk>"}
+NOISE_FLOOR = 32.0
+"""Standard deviation, in 16-bit steps (-60 dBFS), of the hiss added before decoding.
+
+Synthesised and browser audio holds stretches of exact zeros, which no microphone produces; on
+them pocketsphinx's energy features and noise model go astray ("okay" heard as "hi"). With this
+floor, the accept/decline answers in 12 espeak-ng voices, clean and at 20 dB SNR, were heard
+word for word 97% of the time instead of 63%."""
 
 
 @dataclass(frozen=True)
@@ -61,7 +74,7 @@ class Recognizer:
 
     def __init__(self, phrases: Sequence[str], nbest: int = 5) -> None:
         try:
-            from pocketsphinx import Decoder
+            from pocketsphinx import Config, Decoder
             from pocketsphinx.lm import ArpaBoLM
         except ImportError:
             raise SpeechUnavailable(
@@ -72,8 +85,14 @@ class Recognizer:
         if not self.phrases:
             raise InvalidInputError("the recogniser needs at least one non-empty phrase")
         self.nbest = nbest
-        self._decoder = Decoder(samprate=RATE, loglevel="FATAL")
-        self.vocabulary = self._known_words()
+        self._lock = threading.Lock()  # one decoder, shared by every session of the web server
+        words = {w for p in self.phrases for w in p.split()}
+        lexicon = pronunciations(Path(Config()["dict"]), words)
+        self.vocabulary = {line.split()[0].split("(")[0] for line in lexicon}
+        if words - self.vocabulary:
+            log.warning(
+                "not in the pronunciation dictionary, ignored: %s", sorted(words - self.vocabulary)
+            )
         usable = [p for p in self.phrases if all(w in self.vocabulary for w in p.split())]
         if not usable:
             raise InvalidInputError(
@@ -82,20 +101,17 @@ class Recognizer:
             )
         grammar = "#JSGF V1.0;\ngrammar oxbot;\npublic <utterance> = "
         grammar += " | ".join(usable) + " ;\n"
-        self._decoder.add_jsgf_string("phrases", grammar)
         lm = ArpaBoLM(text="\n".join(usable), case="lower", add_start=True)
         lm.compute()
         with tempfile.TemporaryDirectory() as tmp:
-            path = Path(tmp) / "domain.lm"
-            lm.write_file(str(path))
-            self._decoder.add_lm_file("words", str(path))
-
-    def _known_words(self) -> set[str]:
-        words = {w for p in self.phrases for w in p.split()}
-        known = {w for w in words if self._decoder.lookup_word(w)}
-        if words - known:
-            log.warning("not in the pronunciation dictionary, ignored: %s", sorted(words - known))
-        return known
+            # Only the domain's words: with the whole 135,000-word dictionary, adding the
+            # n-gram search takes 8 s instead of a few milliseconds.
+            dictionary, model = Path(tmp) / "domain.dict", Path(tmp) / "domain.lm"
+            dictionary.write_text("".join(lexicon), encoding="utf-8")
+            lm.write_file(str(model))
+            self._decoder = Decoder(samprate=RATE, loglevel="FATAL", dict=str(dictionary))
+            self._decoder.add_jsgf_string("phrases", grammar)
+            self._decoder.add_lm_file("words", str(model))
 
     def recognize(self, wav: str | os.PathLike[str] | bytes) -> list[Hypothesis]:
         """N-best hypotheses for a WAV (path or bytes), best first; empty if nothing was heard."""
@@ -110,14 +126,15 @@ class Recognizer:
             )
         if len(samples) < RATE // 10:
             return []  # under 0.1 s: a click of the button, not speech
-        for search in ("phrases", "words"):
-            hypotheses = self._run(search, samples.tobytes())
-            if hypotheses:
-                return hypotheses
-        return []
+        data = with_noise_floor(samples).tobytes()
+        with self._lock:
+            return self._run("phrases", data, complete_only=True) or self._run("words", data)
 
-    def _run(self, search: str, data: bytes) -> list[Hypothesis]:
+    def _run(self, search: str, data: bytes, complete_only: bool = False) -> list[Hypothesis]:
         decoder = self._decoder
+        # The feature front end keeps state from the last recording (its cepstral mean among
+        # others): start afresh, so one session's audio never changes what another's gives.
+        decoder.reinit_feat()
         decoder.activate_search(search)
         decoder.start_utt()
         decoder.process_raw(data, full_utt=True)
@@ -137,7 +154,13 @@ class Recognizer:
             if text and entry.score > 0:
                 scores[text] = max(scores.get(text, 0.0), entry.score)
         # A grammar search that ran out of audio returns a fragment of a phrase; a complete
-        # phrase further down the list is the better answer.
+        # phrase further down the list is the better answer. The grammar's fragments are
+        # dropped: they outvote the right phrase when the list is read as a whole ("i take",
+        # "i pick", "i" for "hi").
+        if complete_only:
+            scores = {t: s for t, s in scores.items() if t in self._phrase_set}
+            if not scores:
+                return []
         ranked = sorted(scores, key=lambda t: (t not in self._phrase_set, -scores[t]))
         ranked = ranked[: self.nbest]
         top = max(scores.values())
@@ -151,6 +174,22 @@ class Recognizer:
             )
             for i, (text, conf) in enumerate(zip(ranked, confidences, strict=True))
         ]
+
+
+def pronunciations(dictionary: Path, words: set[str]) -> list[str]:
+    """The lines of a CMU-style pronunciation dictionary (`word(2) PH ON ES`) for `words`."""
+    with dictionary.open(encoding="utf-8") as handle:
+        return [
+            line.rstrip("\n") + "\n"
+            for line in handle
+            if line.split("(", 1)[0].split(" ", 1)[0] in words
+        ]
+
+
+def with_noise_floor(samples: np.ndarray, level: float = NOISE_FLOOR) -> np.ndarray:
+    """`samples` plus faint white noise, the same for the same input (fixed seed)."""
+    hiss = np.random.default_rng(0).normal(0.0, level, len(samples))
+    return np.clip(np.round(samples + hiss), -32768, 32767).astype(np.int16)
 
 
 def user_phrases(domain: Domain) -> list[str]:

@@ -1,8 +1,13 @@
+import logging
+import time
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 
 from oxbot.errors import InvalidInputError
-from oxbot.speech import Recognizer, Voice, pcm16, synthesize
+from oxbot.speech import RATE, Recognizer, Voice, pcm16, synthesize
+from oxbot.speech.recognition import default_recognizer, with_noise_floor
 
 PHRASES = [
     "yes let's go for it",
@@ -44,8 +49,6 @@ def test_nbest_is_ordered_with_confidences_in_range(recognizer):
 
 
 def test_decoding_is_faster_than_real_time(recognizer):
-    import time
-
     samples = pcm16(synthesize("okay let's play"))
     start = time.perf_counter()
     recognizer.decode(samples)
@@ -72,3 +75,55 @@ def test_spec_recognize_uses_the_shipped_domain():
     nbest = recognize(synthesize("i pick this one"))
     assert nbest and nbest[0][0] == "i pick this one"
     assert all(isinstance(t, str) and 0.0 <= c <= 1.0 for t, c in nbest)
+
+
+def test_digital_silence_no_longer_throws_the_decoder_off():
+    # espeak-ng pads with exact zeros; before the noise floor this "okay" came back as "hi".
+    samples = pcm16(synthesize("okay", Voice("en-gb")))
+    assert (samples == 0).mean() > 0.3
+    nbest = default_recognizer().decode(samples)
+    assert nbest and nbest[0].text == "okay"
+
+
+def test_the_noise_floor_is_faint_and_the_same_every_time():
+    samples = np.zeros(RATE, dtype=np.int16)
+    hiss = with_noise_floor(samples)
+    assert hiss.dtype == np.int16 and 20 < hiss.std() < 45
+    assert (with_noise_floor(samples) == hiss).all()
+    loud = np.full(RATE, 32767, dtype=np.int16)
+    assert with_noise_floor(loud).max() == 32767  # clipped, not wrapped round
+
+
+def test_grammar_fragments_are_not_offered_as_hypotheses():
+    # "hi" in this voice used to come back with "i take", "i pick" and "i" below it.
+    recognizer = default_recognizer()
+    for voice in ("en+f3", "en-gb-scotland"):
+        nbest = recognizer.decode(pcm16(synthesize("hi", Voice(voice))))
+        assert nbest[0].text == "hi"
+        assert all(h.text in recognizer.phrases for h in nbest), nbest
+
+
+def test_one_recogniser_can_serve_several_threads():
+    recognizer = Recognizer(PHRASES)
+    said = ["yes please", "no thanks", "good bye", "i pick this one"] * 3
+    recordings = {text: pcm16(synthesize(text)) for text in set(said)}
+    alone = {text: recognizer.decode(samples) for text, samples in recordings.items()}
+    with ThreadPoolExecutor(max_workers=6) as pool:
+        together = list(pool.map(lambda text: recognizer.decode(recordings[text]), said))
+    assert together == [alone[text] for text in said]
+
+
+def test_only_the_domain_words_are_loaded_so_building_is_quick(caplog):
+    started = time.perf_counter()
+    with caplog.at_level(logging.WARNING):
+        recognizer = Recognizer(["hello there", "zzyzxq"])
+    assert time.perf_counter() - started < 3.0  # 8 s with the whole dictionary
+    assert recognizer.vocabulary == {"hello", "there"}
+    assert "zzyzxq" in caplog.text
+
+
+def test_what_was_decoded_before_does_not_change_the_answer(recognizer):
+    yes, bye = pcm16(synthesize("yes please")), pcm16(synthesize("good bye", Voice("en-us+f2")))
+    first = recognizer.decode(yes)
+    recognizer.decode(bye)
+    assert recognizer.decode(yes) == first
