@@ -1,0 +1,38 @@
+import time
+
+from oxbot.dialogue.domain import load_domain
+from oxbot.dialogue.understanding import UserActClassifier
+from oxbot.speech.evaluation import (
+    VOICES,
+    accept_decline_phrases,
+    accuracy,
+    listening_test,
+    median_real_time_factor,
+)
+
+
+def test_accept_decline_intent_in_twelve_voices_clean_and_at_20_db():
+    """Issue 6: ≥ 95% accept/decline intent right, decoded faster than real time."""
+    domain = load_domain()
+    answers = accept_decline_phrases(domain)
+    assert set(answers.values()) == {"Confirm(playGame=yes)", "Reject(playGame=no)"}
+    assert len(VOICES) >= 6
+    started = time.perf_counter()
+    trials = listening_test(answers, UserActClassifier(domain), VOICES, (None, 20.0))
+    assert len(trials) == len(VOICES) * len(answers) * 2
+    wrong = [(t.voice, t.snr_db, t.phrase, t.heard) for t in trials if not t.right]
+    assert accuracy(trials) >= 0.95, wrong
+    for noisy in (False, True):
+        assert accuracy([t for t in trials if (t.snr_db is not None) == noisy]) >= 0.9, wrong
+    assert median_real_time_factor(trials) < 1.0
+    assert max(t.real_time_factor for t in trials) < 1.0
+    assert time.perf_counter() - started < 60
+
+
+def test_trials_are_the_same_every_run():
+    domain = load_domain()
+    classifier = UserActClassifier(domain)
+    answers = {"no not now": "Reject(playGame=no)"}
+    first, again = (listening_test(answers, classifier, ["en-gb"], (20.0,)) for _ in range(2))
+    assert [(t.heard, t.act) for t in first] == [(t.heard, t.act) for t in again]
+    assert first[0].audio_seconds > 0.5 and first[0].snr_db == 20.0
