@@ -121,7 +121,7 @@ class UserActClassifier:
     def intent_of(self, nbest: Iterable[tuple[str, float]] | Iterable[Scored]) -> UserAct:
         """The act an N-best list votes for, each hypothesis weighted by its confidence.
 
-        `nbest` holds `(text, confidence)` pairs (`oxbot.speech.recognize`) or objects with
+        `nbest` holds `(text, confidence)` pairs (`oxbot.speech.recognize`, JSON) or objects with
         `.text` and `.confidence` (`Recognizer.recognize`). The recogniser's top entries are
         often near ties between a right phrase and a wrong one; two hypotheses that agree on the
         act outweigh one that does not. The score is the act's share of the votes times how well
@@ -130,7 +130,10 @@ class UserActClassifier:
         votes: Counter[str] = Counter()
         best: dict[str, UserAct] = {}
         for entry in nbest:
-            text, confidence = entry if isinstance(entry, tuple) else (entry.text, entry.confidence)
+            if isinstance(entry, tuple | list):
+                text, confidence = entry
+            else:
+                text, confidence = entry.text, entry.confidence
             if not 0.0 <= confidence <= 1.0:
                 raise InvalidInputError(f"confidence {confidence!r} of {text!r} is not in [0, 1]")
             heard = self.classify(text)

@@ -93,6 +93,7 @@ def test_intent_of_lets_agreeing_hypotheses_outvote_a_near_tie(classifier):
     assert voted.act == REJECT and 0.0 < voted.score < 1.0
     hypotheses = [Hypothesis(text, confidence) for text, confidence in nbest]
     assert classifier.intent_of(hypotheses) == voted
+    assert classifier.intent_of([list(pair) for pair in nbest]) == voted  # as JSON gives it
 
 
 def test_intent_of_nothing_heard_or_nothing_matched(classifier):
