@@ -20,8 +20,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, cell_index, play
 from oxbot.web.sheet import Sheet
 
+MOVE_ACT = "GameMove(gridloc="
 ANSWER = "yes let's play"
 """What the scripted person answers to the robot's invitation."""
 
@@ -48,6 +50,15 @@ class GameRecord:
     outcome: str | None = None
     ended: bool = False
     seconds: float = 0.0
+
+    def board(self) -> Board:
+        """The board the conversation describes: the robot's and the person's GameMove acts."""
+        board = EMPTY_BOARD
+        for speaker, act, _ in self.transcript:
+            if act.startswith(MOVE_ACT):
+                cell = cell_index(act[len(MOVE_ACT) : -1])
+                board = play(board, cell, ROBOT if speaker == "sys" else USER)
+        return board
 
 
 def data_url(png: bytes) -> str:
@@ -120,8 +131,8 @@ async def play_game(
                     continue
                 if act == "Request(playGame)":
                     await send({"type": "say", "text": answer})
-                elif act.startswith("GameMove(gridloc="):
-                    record.robot_cells.append(act[len("GameMove(gridloc=") : -1])
+                elif act.startswith(MOVE_ACT):
+                    record.robot_cells.append(act[len(MOVE_ACT) : -1])
                 elif act == "Request(userGameMove)" and len(record.accepted) == len(record.drawn):
                     await draw_move()
             elif kind == "NewGame":

@@ -15,7 +15,7 @@ import numpy as np
 import websockets
 from PIL import Image
 
-from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, cell_index, outcome, play
+from oxbot.game.board import outcome
 from oxbot.web.player import GameRecord, data_url, play_game
 from oxbot.web.server import serve
 from oxbot.web.sheet import Sheet
@@ -34,15 +34,6 @@ async def next_of(ws, kinds: set[str], timeout: float = 10.0) -> dict:
         message = json.loads(await asyncio.wait_for(ws.recv(), deadline - time.monotonic()))
         if message["type"] in kinds:
             return message
-
-
-def final_board(record: GameRecord) -> tuple[int, ...]:
-    board = EMPTY_BOARD
-    for speaker, act, _ in record.transcript:
-        if act.startswith("GameMove(gridloc="):
-            cell = cell_index(act[len("GameMove(gridloc=") : -1])
-            board = play(board, cell, ROBOT if speaker == "sys" else USER)
-    return board
 
 
 def test_page_has_the_spec_hooks_and_its_files(server_url):
@@ -131,7 +122,7 @@ def test_bad_input_gets_an_error_on_its_socket_and_never_breaks_another_game(ws_
     assert len(errors) == len(BAD_INPUT)
     assert record.ended and not record.errors and not record.failures and not record.problems
     assert record.accepted == record.drawn
-    assert outcome(final_board(record)) == record.outcome
+    assert outcome(record.board()) == record.outcome
 
 
 def test_messages_after_the_goodbye_are_refused_until_a_new_game(ws_url):

@@ -18,7 +18,7 @@ const state = {
   dirty: false,          // the sheet changed since the last frame sent
   sound: true, camera: null, cameraTimer: null,
   audio: null, analyser: null, gain: null, source: null, mouthUntil: 0,
-  stats: { framesSent: 0, lastStrokeEnd: 0, moves: [] },
+  stats: { framesSent: 0, lastStrokeEnd: 0, moves: [], mouthMoves: 0 },
 };
 window.oxbot = state;     // for tests and the curious: the page's state
 
@@ -163,7 +163,7 @@ function startOrNewGame() {
   if (!state.ws) { resetSheet(); connect(); return; }
   resetSheet();
   send({ type: "new_game", image: sheetImage() });
-  addNote("New game.");
+  addNote("New game ——————————");
 }
 
 function resetSheet() {
@@ -191,6 +191,8 @@ const handlers = {
       $("turn").textContent = `Your turn: draw a ${state.hello ? state.hello.user_symbol : "symbol"}.`;
     } else if (d.speaker === "sys" && d.act.startsWith("GameMove")) {
       $("turn").textContent = "The robot is drawing…";
+    } else if (d.speaker === "sys" && d.act !== "Inform(problem)") {
+      $("turn").textContent = "";
     }
   },
   SpeakingStarted(d) { $("bubble").textContent = d.text; speak(d.audio, d.seconds); },
@@ -381,6 +383,7 @@ function animateMouth(now) {
   }
   $("mouth").setAttribute("ry", (3 + 17 * open).toFixed(1));
   $("face").dataset.talking = open > 0.05 ? "yes" : "no";
+  if (open > 0.05) state.stats.mouthMoves++;
   requestAnimationFrame(animateMouth);
 }
 requestAnimationFrame(animateMouth);

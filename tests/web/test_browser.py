@@ -1,0 +1,210 @@
+"""The page in Debian's Chromium: a whole game drawn with the mouse and answered by typing,
+then a round answered by speech through Chromium's fake microphone.
+
+Chromium is the system's (`/usr/bin/chromium`, installed by `make setup`); Playwright's own
+browser download is never used. Screenshots go to test-artifacts/web/.
+"""
+
+from __future__ import annotations
+
+import itertools
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from playwright.sync_api import Page, sync_playwright
+
+from oxbot.web.sheet import SIDE, symbol_strokes, unit_to_canvas
+
+CHROMIUM = "/usr/bin/chromium"
+ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--use-fake-ui-for-media-stream",
+    "--use-fake-device-for-media-stream",
+    "--autoplay-policy=no-user-gesture-required",
+]
+MOVE = "GameMove(gridloc="
+
+
+@pytest.fixture(scope="module")
+def answer_wav(tmp_path_factory) -> Path:
+    """The person's spoken answer, made with espeak-ng (installed by `make setup`)."""
+    assert shutil.which("espeak-ng"), "espeak-ng is missing: run `make setup`"
+    path = tmp_path_factory.mktemp("voice") / "yes.wav"
+    subprocess.run(["espeak-ng", "-w", str(path), "yes, let's play"], check=True)
+    return path
+
+
+@pytest.fixture(scope="module")
+def page(server_url, answer_wav, tmp_path_factory):
+    assert Path(CHROMIUM).exists(), f"{CHROMIUM} is missing: run `make setup`"
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    profile = tmp_path_factory.mktemp("chromium-profile")
+    # %noloop: the phrase plays once from each getUserMedia call (the page opens the
+    # microphone at each press of push-to-talk), then silence
+    args = [*FLAGS, f"--use-file-for-fake-audio-capture={answer_wav}%noloop"]
+    with sync_playwright() as p:
+        context = p.chromium.launch_persistent_context(
+            str(profile),
+            executable_path=CHROMIUM,
+            headless=True,
+            args=args,
+            viewport={"width": 1200, "height": 900},
+        )
+        try:
+            tab = context.pages[0] if context.pages else context.new_page()
+            tab.goto(server_url + "/")
+            yield tab
+        finally:
+            context.close()
+
+
+def log_items(page: Page) -> list[tuple[str, str, str]]:
+    """(speaker, act, text) of every turn in the conversation log."""
+    return [
+        tuple(row)
+        for row in page.evaluate(
+            """() => [...document.querySelectorAll('[data-testid=log] li[data-act]')]
+                 .map(li => [li.dataset.speaker, li.dataset.act,
+                             li.querySelector('.text').textContent])"""
+        )
+    ]
+
+
+def wait_for_act(page: Page, act: str, speaker: str = "sys", after: int = 0, timeout=30_000):
+    """Wait until the log holds `act` by `speaker` among its items from index `after`."""
+    page.wait_for_function(
+        """([act, speaker, after]) =>
+             [...document.querySelectorAll('[data-testid=log] li[data-act]')].slice(after)
+               .some(li => li.dataset.act === act && li.dataset.speaker === speaker)""",
+        arg=[act, speaker, after],
+        timeout=timeout,
+    )
+
+
+def draw(page: Page, where: str, symbol: str, rng: np.random.Generator) -> None:
+    """Draw `symbol` in cell `where` with the mouse, stroke by stroke."""
+    box = page.get_by_test_id("board").bounding_box()
+    scale = box["width"] / SIDE
+    for stroke in symbol_strokes(symbol, rng):
+        points = unit_to_canvas(where, stroke) * scale + (box["x"], box["y"])
+        page.mouse.move(*points[0])
+        page.mouse.down()
+        for a, b in itertools.pairwise(points):
+            page.mouse.move(*b, steps=max(1, int(np.hypot(*(b - a)) / 6)))
+        page.mouse.up()
+
+
+def test_a_whole_game_with_mouse_and_keyboard_then_a_spoken_answer(page: Page):
+    try:
+        play_a_whole_game_then_answer_by_voice(page)
+    except Exception as exc:
+        page.screenshot(path=ARTIFACTS / "failure.png", full_page=True)
+        raise AssertionError(f"{exc}\nthe page's log: {log_items(page)}") from exc
+
+
+def play_a_whole_game_then_answer_by_voice(page: Page) -> None:
+    rng = np.random.default_rng(7)
+    page.screenshot(path=ARTIFACTS / "01-before-start.png", full_page=True)
+    page.get_by_test_id("start").click()
+    wait_for_act(page, "Salutation(greeting)")
+    hello = page.evaluate("window.oxbot.hello")
+    user = hello["user_symbol"]
+    assert user == "cross"  # the robot starts, and the starter draws circles
+
+    # the mouth moves while the robot's speech plays
+    page.wait_for_function("window.oxbot.stats.mouthMoves > 0", timeout=10_000)
+    wait_for_act(page, "Request(playGame)")
+    page.get_by_test_id("say").fill("yes let's play")
+    page.get_by_test_id("say").press("Enter")
+    wait_for_act(page, "Confirm(playGame=yes)", speaker="usr")
+
+    cells = hello["cells"]
+    latencies, tried_taken_cell = [], False
+    deadline = time.monotonic() + 120
+    while not page.evaluate("window.oxbot.ended"):
+        assert time.monotonic() < deadline, f"no goodbye; log: {log_items(page)}"
+        items = log_items(page)
+        requests = sum(1 for s, a, _ in items if s == "sys" and a == "Request(userGameMove)")
+        mine = [a[len(MOVE) : -1] for s, a, _ in items if s == "usr" and a.startswith(MOVE)]
+        robots = [a[len(MOVE) : -1] for s, a, _ in items if s == "sys" and a.startswith(MOVE)]
+        if requests <= len(mine) or page.evaluate("window.oxbot.pending.length") > 0:
+            page.wait_for_timeout(50)
+            continue
+        if not tried_taken_cell:
+            # drawing over the robot's circle is refused in words; the board does not change
+            tried_taken_cell = True
+            draw(page, robots[0], user, rng)
+            wait_for_act(page, "Inform(problem)", timeout=10_000)
+            problem = page.get_by_test_id("problem")
+            assert "already holds" in problem.inner_text()
+            page.screenshot(path=ARTIFACTS / "02-occupied-cell.png", full_page=True)
+            page.wait_for_function("window.oxbot.pending.length === 0", timeout=5_000)
+            assert not any(a == f"{MOVE}{robots[0]})" for s, a, _ in log_items(page) if s == "usr")
+            continue
+        where = next(c for c in cells if c not in mine and c not in robots)
+        moves_before = page.evaluate("window.oxbot.stats.moves.length")
+        draw(page, where, user, rng)
+        page.wait_for_function(f"window.oxbot.stats.moves.length > {moves_before}", timeout=10_000)
+        stats = page.evaluate("window.oxbot.stats")
+        move = stats["moves"][-1]
+        assert (move["who"], move["where"]) == ("usr", where)
+        latencies.append((move["at"] - stats["lastStrokeEnd"]) / 1000)
+        if len(latencies) == 2:
+            page.wait_for_timeout(400)  # the robot's answer on the sheet and in the panel
+            page.screenshot(path=ARTIFACTS / "03-mid-game.png", full_page=True)
+
+    page.screenshot(path=ARTIFACTS / "04-goodbye.png", full_page=True)
+    items = log_items(page)
+    assert items[-1][:2] == ("sys", "Salutation(closing)")
+    assert any(a.startswith("Provide(feedback=") for s, a, _ in items if s == "sys")
+    assert latencies and max(latencies) < 2.0, latencies
+    # what the robot sees: nine crops with labels, and the manager's Q-values
+    labels = page.evaluate(
+        "[...document.querySelectorAll('[data-testid=crops] .crop')].map(c => c.dataset.label)"
+    )
+    assert len(labels) == 9 and labels.count(user) == len(latencies)
+    assert page.locator("[data-testid=decision] tr.chosen").count() == 1
+
+    # after the goodbye, typing is refused with a clear message
+    page.get_by_test_id("say").fill("again")
+    page.get_by_test_id("say").press("Enter")
+    page.wait_for_function(
+        "document.querySelector('[data-testid=problem]').textContent.includes('game is over')"
+    )
+
+    # a new game, answered by voice: push-to-talk through Chromium's fake microphone
+    before = len(log_items(page))
+    page.get_by_test_id("start").click()
+    wait_for_act(page, "Request(playGame)", after=before)
+    talk = page.get_by_test_id("talk")
+    talk.hover()
+    page.mouse.down()
+    page.wait_for_timeout(2_500)  # espeak's "yes, let's play" lasts about 1.3 s
+    page.mouse.up()
+    wait_for_act(page, "Confirm(playGame=yes)", speaker="usr", after=before, timeout=30_000)
+    spoken = [t for s, a, t in log_items(page)[before:] if s == "usr"]
+    assert "yes" in spoken[0] and "play" in spoken[0], spoken
+    wait_for_act(page, "Reply(playGame=yes)", after=before, timeout=30_000)
+    page.screenshot(path=ARTIFACTS / "05-spoken-answer.png", full_page=True)
+
+    # the webcam (Chromium's fake camera) streams to head tracking without an error
+    page.get_by_test_id("camera").click()
+    page.wait_for_timeout(1_000)
+    assert page.get_by_test_id("camera").inner_text() == "Camera: on"
+    notes = page.evaluate(
+        "[...document.querySelectorAll('[data-testid=log] li.note')].map(li => li.textContent)"
+    )
+    troubles = [n for n in notes if "camera" in n or "failed" in n or "server:" in n]
+    assert all("game is over" in n for n in troubles), troubles
