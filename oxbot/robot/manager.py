@@ -27,7 +27,7 @@ from __future__ import annotations
 import enum
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,8 +78,8 @@ PROBLEM_SENTENCES = {
     "game_over": "The game is over.",
 }
 MOVE_REQUEST = SYSTEM_ACTS.index("Request(userGameMove)")
-Understand = Callable[[str], str]
-"""Maps what the person said to their dialogue act, for the log."""
+Understand = Callable[[Sequence[tuple[str, float]]], str]
+"""Maps what the person said (an N-best list) to their dialogue act, for the log."""
 
 
 @dataclass(frozen=True)
@@ -282,7 +282,7 @@ class InteractionManagerComponent(Component):
             return  # the recogniser heard nothing: as if nobody spoke
         text, confidence = message.nbest[0]
         words = message.words or tuple((w, confidence) for w in words_of(text))
-        act = self._user_act(text)
+        act = self._user_act(message.nbest)
         self._log("usr", act, text)
         self._heard_words, self._spoke_since = tuple(words), True
         if self.phase is Phase.LISTENING and not (
@@ -330,13 +330,13 @@ class InteractionManagerComponent(Component):
         self._log("sys", PROBLEM_ACT, sentence)
         self.bus.publish(Utterance(text=sentence, act=PROBLEM_ACT))
 
-    def _user_act(self, text: str) -> str:
+    def _user_act(self, nbest: Sequence[tuple[str, float]]) -> str:
         if self._understand is None:
             from oxbot.dialogue.understanding import UserActClassifier
 
             classifier = UserActClassifier(self.domain)
-            self._understand = lambda said: classifier.classify(said).act
-        return self._understand(text)
+            self._understand = lambda heard: classifier.intent_of(heard).act
+        return self._understand(nbest)
 
     def _log(self, speaker: str, act: str, text: str) -> None:
         self._transcript.append({"speaker": speaker, "act": act, "text": text})

@@ -1,0 +1,188 @@
+"""The whole robot on its bus, driven by a scripted person who types (fast, real components)."""
+
+import time
+
+import numpy as np
+import pytest
+
+from oxbot.errors import IllegalMoveError, InvalidInputError
+from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, outcome
+from oxbot.robot.messages import (
+    ArmCommand,
+    ArmDone,
+    BoardProblem,
+    ComponentFailed,
+    Decision,
+    DialogueAct,
+    DialogueEnded,
+    Frame,
+    Message,
+    SpeakingFinished,
+    SpeakingStarted,
+)
+from oxbot.robot.session import Robot, RobotOptions
+
+FAST = RobotOptions(speed_factor=25.0, answer_timeout=2.0, move_timeout=10.0, seed=3)
+
+
+class TypingPerson:
+    """Answers the robot's questions by typing and takes the first free cell of a preference."""
+
+    def __init__(self, robot: Robot, prefer=(4, 0, 2, 6, 8, 1, 3, 5, 7)) -> None:
+        self.robot = robot
+        self.prefer = prefer
+        self.log: list[Message] = []
+        self.events = robot.bus.subscribe()
+
+    def play(self, timeout: float = 30.0, on_message=None) -> DialogueEnded:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            message = self.events.get(0.5)
+            if message is None:
+                continue
+            self.log.append(message)
+            if on_message is not None:
+                on_message(message)
+            if isinstance(message, DialogueEnded):
+                return message
+            if isinstance(message, DialogueAct) and message.speaker == "sys":
+                self.answer(message.act)
+        raise AssertionError(f"no goodbye within {timeout} s: {self.robot.transcript}")
+
+    def answer(self, act: str) -> None:
+        if act == "Request(playGame)":
+            self.robot.say("Yes, let's play.")
+        elif act == "Request(userGameMove)":
+            board = self.robot.board
+            self.robot.draw(next(c for c in self.prefer if board[c] == EMPTY))
+
+
+def intervals(log: list[Message], start: type, end: type) -> list[tuple[int, int]]:
+    """(start index, end index) of each start..end pair in the log."""
+    pairs, opened = [], None
+    for i, message in enumerate(log):
+        if isinstance(message, start):
+            opened = i
+        elif isinstance(message, end) and opened is not None:
+            pairs.append((opened, i))
+            opened = None
+    return pairs
+
+
+@pytest.fixture
+def robot():
+    with Robot(FAST) as r:
+        yield r
+
+
+def test_a_typed_game_runs_to_the_goodbye_with_a_well_formed_dialogue(robot):
+    person = TypingPerson(robot)
+    ended = person.play()
+    acts = [t["act"] for t in robot.transcript if t["speaker"] == "sys"]
+    assert acts[0] == "Salutation(greeting)"
+    assert {"Provide(name)", "Request(playGame)"} <= set(acts)
+    assert acts[-1] == "Salutation(closing)"
+    result = outcome(robot.board)
+    assert result is not None and ended.outcome == result
+    feedback = {"win": "Provide(feedback=win)", "draw": "Provide(feedback=draw)"}
+    assert acts[-2] == feedback.get(result, "Provide(feedback=loose)")
+    assert robot.finished
+    # Every robot GameMove was drawn by the arm, and the board holds exactly the moves made.
+    drawn = [m.where for m in person.log if isinstance(m, ArmDone)]
+    said = [a.split("=")[1][:-1] for a in acts if a.startswith("GameMove")]
+    assert drawn == said
+    assert [CELL_NAMES[c] for c in range(9) if robot.board[c] == ROBOT] == sorted(
+        said, key=CELL_NAMES.index
+    )
+    # Each decision was greedy among the acts the mask offered.
+    decisions = [m for m in person.log if isinstance(m, Decision)]
+    assert len(decisions) == len(acts)
+    for d in decisions:
+        assert d.chosen in d.offered and len(d.q_values) == 18
+
+
+def test_the_robot_never_speaks_while_its_arm_moves(robot):
+    # A problem on the sheet reported while the arm draws must wait until the arm is done.
+    def interrupt(message: Message) -> None:
+        if isinstance(message, ArmCommand):
+            robot.bus.publish(BoardProblem(reason="two symbols", kind="two_new_symbols"))
+
+    person = TypingPerson(robot)
+    person.play(on_message=interrupt)
+    speaking = intervals(person.log, SpeakingStarted, SpeakingFinished)
+    drawing = intervals(person.log, ArmCommand, ArmDone)
+    assert drawing and speaking
+    for a0, a1 in drawing:
+        for s0, s1 in speaking:
+            assert s1 < a0 or s0 > a1, "the robot spoke while its arm moved"
+    told = [m for m in person.log if isinstance(m, DialogueAct) and m.act == "Inform(problem)"]
+    assert len(told) == len(drawing)
+    # Each was said right after an ArmDone, never during the drawing.
+    for m in told:
+        i = person.log.index(m)
+        assert any(a1 < i for _, a1 in drawing)
+
+
+def test_illegal_typed_moves_are_refused_in_words_and_never_change_the_board(robot):
+    person = TypingPerson(robot)
+    refused: list[str] = []
+
+    def cheat(message: Message) -> None:
+        if isinstance(message, DialogueAct) and message.act == "Request(userGameMove)":
+            taken = next((c for c in range(9) if robot.board[c] == ROBOT), None)
+            if taken is not None and not refused:
+                refused.append(CELL_NAMES[taken])
+                before = robot.board
+                robot.draw(taken)  # on the robot's own circle
+                deadline = time.monotonic() + 5
+                while robot.board == before and time.monotonic() < deadline:
+                    problem = [t for t in robot.transcript if t["act"] == "Inform(problem)"]
+                    if problem:
+                        break
+                    time.sleep(0.01)
+                assert robot.board == before
+
+    person.play(on_message=cheat)
+    problems = [t["text"] for t in robot.transcript if t["act"] == "Inform(problem)"]
+    assert refused and problems and "already taken" in problems[0]
+    assert sum(c == USER for c in robot.board) <= sum(c == ROBOT for c in robot.board)
+
+
+def test_a_failing_component_is_reported_and_restarted_without_ending_the_game(robot):
+    person = TypingPerson(robot)
+    broken = Frame(image=b"not an image", format="png")
+    sent = []
+
+    def break_vision(message: Message) -> None:
+        if isinstance(message, DialogueAct) and not sent:
+            sent.append(True)
+            robot.bus.publish(broken)
+
+    ended = person.play(on_message=break_vision)
+    failures = [m for m in person.log if isinstance(m, ComponentFailed)]
+    assert [f.component for f in failures] == ["GameMoveComponent"]
+    assert "not a PNG image" in failures[0].error
+    assert ended.outcome in ("win", "draw", "loss")
+    assert robot.vision.running
+
+
+def test_a_new_game_starts_again_from_a_clean_sheet(robot):
+    TypingPerson(robot).play()
+    assert robot.finished
+    robot.new_game()
+    assert not robot.finished
+    second = TypingPerson(robot, prefer=(0, 1, 2, 3, 4, 5, 6, 7, 8))
+    second.play()
+    greetings = [t for t in robot.transcript if t["act"] == "Salutation(greeting)"]
+    assert len(greetings) == 1  # the transcript is the new game's only
+
+
+def test_bad_input_to_the_robot_is_refused_clearly(robot):
+    with pytest.raises(InvalidInputError, match="some words"):
+        robot.say("   ")
+    with pytest.raises(InvalidInputError, match="WAV"):
+        robot.hear(b"RIFF but not really")
+    with pytest.raises(InvalidInputError, match="uint8"):
+        robot.show(np.zeros((10, 10, 3), np.float32))
+    with pytest.raises(IllegalMoveError, match="not a cell"):
+        robot.draw("the kitchen")
