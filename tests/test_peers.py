@@ -1,0 +1,96 @@
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from oxbot.config import OxbotConfig, load_config
+from oxbot.errors import ConfigError
+from oxbot.peers import (
+    CONDITIONS,
+    PixelSVM,
+    TrainingConditions,
+    make_peer_env,
+    peer_batch_policy,
+    train_peer_agent,
+    zero_losses,
+)
+from oxbot.perception.augment import generate
+from oxbot.perception.classifier import label_indices
+from oxbot.perception.evaluation import evaluate, generated_test_set
+from oxbot.perception.seeds import load_seeds
+
+
+@pytest.fixture(scope="module")
+def cells():
+    seeds = load_seeds()
+    x, y = generate(seeds, 300, np.random.default_rng(5), 40)
+    test_x, test_y = generated_test_set(seeds, 300, seed=9)
+    return x, label_indices(y), test_x, test_y
+
+
+def test_pixel_svm_learns_raw_pixels_and_is_deterministic(cells):
+    x, y, test_x, test_y = cells
+    first = PixelSVM(max_iter=300).fit(x, y)
+    second = PixelSVM(max_iter=300).fit(x, y)
+    assert np.array_equal(first.decision_function(test_x), second.decision_function(test_x))
+    # three labels: chance is a third; a linear SVM on pixels does clearly better
+    assert evaluate(first, test_x, test_y).accuracy > 0.6
+
+
+def test_pixel_svm_scores_follow_the_label_order_even_with_a_label_missing(cells):
+    x, y, test_x, _ = cells
+    keep = y != 1  # no crosses
+    scores = PixelSVM(max_iter=300).fit(x[keep], y[keep]).decision_function(test_x)
+    assert scores.shape == (len(test_x), 3)
+    assert np.all(np.isneginf(scores[:, 1]))
+    assert set(np.unique(scores.argmax(axis=1))) <= {0, 2}
+
+
+def test_training_conditions_mix_opponents_and_starters_and_expose_the_mask():
+    config = load_config(None, ["agent.opponents=random:1,minimax:1", "agent.robot_starts=both"])
+    env = TrainingConditions(gym.make("oxbot/NoughtsAndCrosses-v0", config=config), config, 3)
+    seen_opponents, seen_starts = set(), set()
+    for _ in range(40):
+        _, info = env.reset()
+        assert np.array_equal(env.action_mask, info["action_mask"])
+        seen_opponents.add(env.unwrapped._simulator.opponent)
+        seen_starts.add(env.unwrapped._episode_robot_starts)
+        _, _, _, _, info = env.step(int(np.flatnonzero(info["action_mask"])[0]))
+        assert np.array_equal(env.action_mask, info["action_mask"])
+    assert len(seen_opponents) == 2
+    assert seen_starts == {True, False}
+
+
+def test_maskable_env_offers_the_environments_mask():
+    env = make_peer_env("maskable_ppo", OxbotConfig(), seed=0)
+    _, info = env.reset(seed=1)
+    assert np.array_equal(env.action_masks(), info["action_mask"])
+    _, _, _, _, info = env.step(int(np.flatnonzero(info["action_mask"])[0]))
+    assert np.array_equal(env.action_masks(), info["action_mask"])
+
+
+@pytest.mark.parametrize("algorithm", ["dqn", "maskable_ppo"])
+def test_a_peer_trains_for_its_budget_and_is_evaluated_in_every_condition(algorithm):
+    run = train_peer_agent(algorithm, OxbotConfig(), budget_s=1.5, eval_every_s=1.0, eval_games=4)
+    assert run.steps > 100
+    assert 1.5 <= run.train_s < 3.0
+    assert [e["train_s"] for e in run.evaluations] == [1.0, 1.5]
+    last = run.evaluations[-1]["results"]
+    assert set(last) == {f"{o}/{'robot' if s else 'person'}" for o, s in CONDITIONS}
+    assert all(r["games"] == 4 for r in last.values())
+    # time to zero losses is the first evaluation that has none, or None
+    expected = next((e["train_s"] for e in run.evaluations if zero_losses(e["results"])), None)
+    assert run.time_to_zero_losses == expected
+    # the greedy peer only ever picks an offered act
+    rng = np.random.default_rng(0)
+    states = rng.random((64, 61), dtype=np.float32)
+    masks = rng.random((64, 18)) < 0.3
+    masks[np.arange(64), rng.integers(18, size=64)] = True
+    acts = peer_batch_policy(algorithm, run.model)(states, masks)
+    assert masks[np.arange(64), acts].all()
+
+
+def test_peers_refuse_unknown_algorithms_and_empty_budgets():
+    with pytest.raises(ConfigError, match="unknown peer"):
+        train_peer_agent("a2c", OxbotConfig(), budget_s=1, eval_every_s=1, eval_games=1)
+    with pytest.raises(ConfigError, match="positive"):
+        train_peer_agent("dqn", OxbotConfig(), budget_s=0, eval_every_s=1, eval_games=1)
