@@ -368,6 +368,50 @@ def play(
 # --- reproducing the paper: oxbot reproduce (issue 8) ---
 
 
+@app.command("reproduce")
+def reproduce_command(
+    ctx: typer.Context,
+    quick: Annotated[
+        bool, typer.Option("--quick", help="Small budgets (a few minutes); the report says so.")
+    ] = False,
+    out: Annotated[
+        Path, typer.Option(help="Folder for REPORT.md, its plots and report.json.")
+    ] = Path("reports"),
+    work: Annotated[
+        Path, typer.Option(help="Working folder for seeds, models and checkpoints (cleared).")
+    ] = Path("runs/reproduce"),
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bars.")] = False,
+) -> None:
+    """Reproduce the paper from scratch side by side with peers, and write REPORT.md.
+
+    Trains with the shipped agent's config (oxbot/data/models/agent.toml) unless --config is
+    given, and evaluates against the default simulated person; --set applies to both.
+    """
+    from oxbot.dialogue.agent import shipped_policy_path
+    from oxbot.reproduce import reproduce
+
+    params = ctx.parent.params if ctx.parent is not None else {}
+    overrides = params.get("overrides") or []
+    if params.get("config") is not None:
+        train_config = eval_config = _config(ctx)
+    else:
+        train_config = load_config(shipped_policy_path().with_suffix(".toml"), overrides)
+        eval_config = load_config(None, overrides)
+    result = reproduce(
+        out,
+        work,
+        train_config,
+        eval_config,
+        quick=quick,
+        show_progress=not quiet,
+        announce=lambda text: err_console.print(f"[bold]{text}[/]"),
+    )
+    typer.echo(
+        f"wrote {result.report_path}, {result.json_path} and {len(result.plots)} plots "
+        f"in {result.figures['wall_clock_s']:.0f} s"
+    )
+
+
 app.add_typer(train_app, name="train")
 app.add_typer(evaluate_app, name="evaluate")
 
