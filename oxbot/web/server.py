@@ -189,7 +189,7 @@ class Session:
         self._subscription = robot.bus.subscribe()
         self._closing = threading.Event()
         self._bridge = threading.Thread(
-            target=self._forward, name=f"oxbot-web-{self.id}", daemon=True
+            target=self._forward, name=f"oxbot-web-session-{self.id}", daemon=True
         )
         self.errors = 0
 
@@ -476,6 +476,35 @@ def _kind(text: str) -> str:
     return kind if isinstance(kind, str) else ""
 
 
+@contextlib.contextmanager
+def serving_in_background(app: FastAPI, host: str = "127.0.0.1", port: int = 0):
+    """Serve `app` from a background thread (tests, benchmarks); yields its http:// URL and
+    stops the server on exit. Port 0 picks a free port."""
+    import socket
+
+    import uvicorn
+
+    if port == 0:
+        with socket.socket() as probe:
+            probe.bind((host, 0))
+            port = probe.getsockname()[1]
+    config = uvicorn.Config(app, host=host, port=port, log_level="warning", ws_max_size=2**24)
+    server = uvicorn.Server(config)
+    thread = threading.Thread(target=server.run, name="oxbot-web-server", daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 30
+    while not server.started:
+        if not thread.is_alive() or time.monotonic() > deadline:
+            server.should_exit = True
+            raise OxbotError(f"the web server could not start on {host}:{port}")
+        time.sleep(0.02)
+    try:
+        yield f"http://{host}:{port}"
+    finally:
+        server.should_exit = True
+        thread.join(15)
+
+
 def serve(
     host: str = "127.0.0.1", port: int = 8000, speed_factor: float = 1.0, robot_starts: bool = True
 ) -> None:
@@ -487,4 +516,12 @@ def serve(
     uvicorn.run(app, host=host, port=port, log_level="info", ws_max_size=16 * 1024 * 1024)
 
 
-__all__ = ["Session", "WebLimits", "create_app", "decode_image", "pcm_to_wav", "serve"]
+__all__ = [
+    "Session",
+    "WebLimits",
+    "create_app",
+    "decode_image",
+    "pcm_to_wav",
+    "serve",
+    "serving_in_background",
+]

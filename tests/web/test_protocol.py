@@ -50,8 +50,13 @@ def test_server_binds_to_localhost_unless_told_otherwise():
 
 
 def test_each_tab_is_its_own_session_and_ends_cleanly(server_url, ws_url):
-    def bridges() -> int:
-        return sum(t.name.startswith("oxbot-web-") for t in threading.enumerate())
+    def robot_threads() -> int:
+        """The sessions' bridges and their robots' component threads."""
+        names = [t.name for t in threading.enumerate()]
+        shared = ("oxbot-web-server", "oxbot-web-warm-up")
+        return sum(n.startswith("oxbot-") and not n.startswith(shared) for n in names)
+
+    baseline = robot_threads()
 
     async def two_tabs() -> list[int]:
         async with websockets.connect(ws_url) as a, websockets.connect(ws_url) as b:
@@ -59,12 +64,13 @@ def test_each_tab_is_its_own_session_and_ends_cleanly(server_url, ws_url):
             greetings = [await next_of(ws, {"DialogueAct"}) for ws in (a, b)]
             assert all(g["data"]["act"] == "Salutation(greeting)" for g in greetings)
             assert httpx.get(server_url + "/health").json()["sessions"] == 2
+            assert robot_threads() >= baseline + 2 * 8  # a bridge and 7 components each
             return [h["data"]["session"] for h in hellos]
 
     ids = asyncio.run(two_tabs())
     assert ids[0] != ids[1]
     deadline = time.monotonic() + 10
-    while httpx.get(server_url + "/health").json()["sessions"] or bridges():
+    while httpx.get(server_url + "/health").json()["sessions"] or robot_threads() > baseline:
         assert time.monotonic() < deadline, "sessions did not end when their tabs closed"
         time.sleep(0.1)
 
