@@ -327,7 +327,9 @@ def create_app(
     async def lifespan(app: FastAPI):
         # the shared models (policy, classifier, recogniser) take seconds to load: load them
         # once, while the person opens the page, not in the first tab's greeting
-        threading.Thread(target=_warm_up, args=(ready,), name="oxbot-web-warm-up").start()
+        threading.Thread(
+            target=_warm_up, args=(ready,), name="oxbot-web-warm-up", daemon=True
+        ).start()
         yield
 
     app = FastAPI(title="oxbot", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
