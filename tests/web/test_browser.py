@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from playwright.sync_api import Page, sync_playwright
+from skimage import data
 
 from oxbot.web.sheet import SIDE, symbol_strokes, unit_to_canvas
 
@@ -47,13 +48,42 @@ def answer_wav(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def page(server_url, answer_wav, tmp_path_factory):
+def webcam_y4m(tmp_path_factory) -> Path:
+    """A fake webcam: a face looking at the robot for 3 s, then moved to the image's left
+    (the person's right, as a camera facing them sees it) for 3 s; 320x240 at 10 fps."""
+    face = data.astronaut()[0:360, 100:460]
+    frames = []
+    for dx in (140, 0):
+        scene = np.full((480, 640, 3), 200, np.uint8)
+        scene[60:420, 64 + dx : 424 + dx] = face
+        frames += [scene[::2, ::2]] * 30
+    path = tmp_path_factory.mktemp("webcam") / "face.y4m"
+    with path.open("wb") as out:
+        out.write(b"YUV4MPEG2 W320 H240 F10:1 Ip A1:1 C420jpeg\n")
+        for rgb in frames:
+            r, g, b = (rgb[..., i].astype(np.float32) for i in range(3))
+            y = 16 + 0.257 * r + 0.504 * g + 0.098 * b
+            u = 128 - 0.148 * r - 0.291 * g + 0.439 * b
+            v = 128 + 0.439 * r - 0.368 * g - 0.071 * b
+            planes = [y] + [c.reshape(120, 2, 160, 2).mean((1, 3)) for c in (u, v)]
+            out.write(b"FRAME\n")
+            for plane in planes:
+                out.write(np.clip(plane, 0, 255).round().astype(np.uint8).tobytes())
+    return path
+
+
+@pytest.fixture(scope="module")
+def page(server_url, answer_wav, webcam_y4m, tmp_path_factory):
     assert Path(CHROMIUM).exists(), f"{CHROMIUM} is missing: run `make setup`"
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     profile = tmp_path_factory.mktemp("chromium-profile")
     # %noloop: the phrase plays once from each getUserMedia call (the page opens the
     # microphone at each press of push-to-talk), then silence
-    args = [*FLAGS, f"--use-file-for-fake-audio-capture={answer_wav}%noloop"]
+    args = [
+        *FLAGS,
+        f"--use-file-for-fake-audio-capture={answer_wav}%noloop",
+        f"--use-file-for-fake-video-capture={webcam_y4m}",
+    ]
     with sync_playwright() as p:
         context = p.chromium.launch_persistent_context(
             str(profile),
@@ -61,6 +91,7 @@ def page(server_url, answer_wav, tmp_path_factory):
             headless=True,
             args=args,
             viewport={"width": 1200, "height": 900},
+            has_touch=True,
         )
         try:
             tab = context.pages[0] if context.pages else context.new_page()
@@ -93,17 +124,35 @@ def wait_for_act(page: Page, act: str, speaker: str = "sys", after: int = 0, tim
     )
 
 
-def draw(page: Page, where: str, symbol: str, rng: np.random.Generator) -> None:
-    """Draw `symbol` in cell `where` with the mouse, stroke by stroke."""
+def draw(
+    page: Page, where: str, symbol: str, rng: np.random.Generator, finger: bool = False
+) -> None:
+    """Draw `symbol` in cell `where` stroke by stroke, with the mouse or (`finger`) by touch."""
     box = page.get_by_test_id("board").bounding_box()
     scale = box["width"] / SIDE
+    touch = page.context.new_cdp_session(page) if finger else None
     for stroke in symbol_strokes(symbol, rng):
         points = unit_to_canvas(where, stroke) * scale + (box["x"], box["y"])
-        page.mouse.move(*points[0])
-        page.mouse.down()
+        path = [points[0]]
         for a, b in itertools.pairwise(points):
-            page.mouse.move(*b, steps=max(1, int(np.hypot(*(b - a)) / 6)))
-        page.mouse.up()
+            steps = max(1, int(np.hypot(*(b - a)) / 6))
+            path += [a + (b - a) * k / steps for k in range(1, steps + 1)]
+        if touch is None:
+            page.mouse.move(*path[0])
+            page.mouse.down()
+            for x, y in path[1:]:
+                page.mouse.move(x, y)
+            page.mouse.up()
+            continue
+        kinds = ["touchStart"] + ["touchMove"] * (len(path) - 1)
+        for kind, (x, y) in zip(kinds, path, strict=True):
+            touch.send(
+                "Input.dispatchTouchEvent",
+                {"type": kind, "touchPoints": [{"x": float(x), "y": float(y)}]},
+            )
+        touch.send("Input.dispatchTouchEvent", {"type": "touchEnd", "touchPoints": []})
+    if touch is not None:
+        touch.detach()
 
 
 def test_a_whole_game_with_mouse_and_keyboard_then_a_spoken_answer(page: Page):
@@ -155,7 +204,7 @@ def play_a_whole_game_then_answer_by_voice(page: Page) -> None:
             continue
         where = next(c for c in cells if c not in mine and c not in robots)
         moves_before = page.evaluate("window.oxbot.stats.moves.length")
-        draw(page, where, user, rng)
+        draw(page, where, user, rng, finger=len(latencies) == 1)  # the second by touch
         page.wait_for_function(f"window.oxbot.stats.moves.length > {moves_before}", timeout=10_000)
         stats = page.evaluate("window.oxbot.stats")
         move = stats["moves"][-1]
@@ -166,6 +215,8 @@ def play_a_whole_game_then_answer_by_voice(page: Page) -> None:
             page.screenshot(path=ARTIFACTS / "03-mid-game.png", full_page=True)
 
     page.screenshot(path=ARTIFACTS / "04-goodbye.png", full_page=True)
+    pointers = page.evaluate("window.oxbot.stats.pointers")
+    assert pointers.get("mouse") and pointers.get("touch"), pointers
     items = log_items(page)
     assert items[-1][:2] == ("sys", "Salutation(closing)")
     assert any(a.startswith("Provide(feedback=") for s, a, _ in items if s == "sys")
@@ -199,10 +250,14 @@ def play_a_whole_game_then_answer_by_voice(page: Page) -> None:
     wait_for_act(page, "Reply(playGame=yes)", after=before, timeout=30_000)
     page.screenshot(path=ARTIFACTS / "05-spoken-answer.png", full_page=True)
 
-    # the webcam (Chromium's fake camera) streams to head tracking without an error
+    # the webcam (Chromium's fake camera): the person looks ahead, then turns to their
+    # right; the robot's eyes mirror them and turn to its left
     page.get_by_test_id("camera").click()
-    page.wait_for_timeout(1_000)
+    page.wait_for_function(
+        "document.querySelector('[data-testid=face]').dataset.gaze === 'left'", timeout=20_000
+    )
     assert page.get_by_test_id("camera").inner_text() == "Camera: on"
+    page.screenshot(path=ARTIFACTS / "06-eyes-mirror-the-person.png", full_page=True)
     notes = page.evaluate(
         "[...document.querySelectorAll('[data-testid=log] li.note')].map(li => li.textContent)"
     )

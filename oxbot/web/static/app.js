@@ -18,7 +18,7 @@ const state = {
   dirty: false,          // the sheet changed since the last frame sent
   sound: true, camera: null, cameraTimer: null,
   audio: null, analyser: null, gain: null, source: null, mouthUntil: 0,
-  stats: { framesSent: 0, lastStrokeEnd: 0, moves: [], mouthMoves: 0 },
+  stats: { framesSent: 0, lastStrokeEnd: 0, moves: [], mouthMoves: 0, pointers: {} },
 };
 window.oxbot = state;     // for tests and the curious: the page's state
 
@@ -83,6 +83,7 @@ function canvasPoint(e) {
 board.addEventListener("pointerdown", (e) => {
   if (!state.ws || e.button > 0) return;
   board.setPointerCapture(e.pointerId);
+  state.stats.pointers[e.pointerType] = (state.stats.pointers[e.pointerType] || 0) + 1;
   state.drawing = [canvasPoint(e)];
   redrawSheet(); state.dirty = true;
 });
@@ -389,7 +390,7 @@ function animateMouth(now) {
 requestAnimationFrame(animateMouth);
 
 // HeadMove is where the robot turns its own head: its left is the viewer's right.
-const GAZE = { left: [7, 0], right: [-7, 0], up: [0, -7], down: [0, 7], centre: [0, 0] };
+const GAZE = { left: [10, 0], right: [-10, 0], up: [0, -10], down: [0, 10], centre: [0, 0] };
 function lookTowards(direction) {
   const [dx, dy] = GAZE[direction] || [0, 0];
   $("pupil-left").setAttribute("cx", 70 + dx); $("pupil-left").setAttribute("cy", 62 + dy);
