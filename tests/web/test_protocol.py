@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import base64
+import copy
 import inspect
 import io
 import json
@@ -171,3 +172,67 @@ def test_messages_after_the_goodbye_are_refused_until_a_new_game(ws_url):
     assert len(refused) == 3 and all("game is over" in m for m in refused)
     assert greeting["type"] == "DialogueAct"
     assert greeting["data"]["act"] == "Salutation(greeting)"
+
+
+def test_impossible_drawings_are_refused_in_words_and_never_change_the_board(ws_url):
+    async def game() -> tuple[list[dict], GameRecord]:
+        record, problems = GameRecord(), []
+        clean = Sheet(21)
+        async with websockets.connect(ws_url, max_size=2**24) as ws:
+
+            async def show(sheet: Sheet) -> None:
+                await ws.send(json.dumps({"type": "frame", "image": data_url(sheet.png())}))
+
+            async def problem() -> dict:
+                found = await next_of(ws, {"BoardProblem", "Error"})
+                assert found["type"] == "BoardProblem", found
+                problems.append(found["data"])
+                await show(clean)  # the page wipes the impossible ink
+                return found["data"]
+
+            hello = (await next_of(ws, {"Hello"}))["data"]
+            cells, user = hello["cells"], hello["user_symbol"]
+            # out of turn: the robot starts, and has not drawn yet
+            early = copy.deepcopy(clean).draw("middle", user)
+            await show(early)
+            assert (await problem())["kind"] == "out_of_turn"
+            two_at_once_tried = False
+            while not record.ended:
+                message = await next_of(
+                    ws, {"DialogueAct", "GameMove", "DialogueEnded", "Error"}, 60
+                )
+                kind, data = message["type"], message["data"]
+                assert kind != "Error", data
+                if kind == "DialogueEnded":
+                    record.ended, record.outcome = True, data["outcome"]
+                elif kind == "GameMove":
+                    record.accepted.append(data["where"])
+                elif kind == "DialogueAct":
+                    record.transcript.append((data["speaker"], data["act"], data["text"]))
+                    act = data["act"]
+                    if act.startswith("GameMove(gridloc=") and data["speaker"] == "sys":
+                        record.robot_cells.append(act[len("GameMove(gridloc=") : -1])
+                    elif act == "Request(playGame)":
+                        await ws.send(json.dumps({"type": "say", "text": "yes let's play"}))
+                    elif act == "Request(userGameMove)" and data["speaker"] == "sys":
+                        free = [c for c in cells if c not in record.robot_cells + record.drawn]
+                        if not two_at_once_tried:
+                            two_at_once_tried = True
+                            both = copy.deepcopy(clean).draw(free[0], user).draw(free[1], user)
+                            await show(both)
+                            assert (await problem())["kind"] == "two_new_symbols"
+                        record.drawn.append(free[0])
+                        clean.draw(free[0], user)
+                        await show(clean)
+        return problems, record
+
+    problems, record = asyncio.run(game())
+    assert [p["kind"] for p in problems] == ["out_of_turn", "two_new_symbols"]
+    told = [text for speaker, act, text in record.transcript if act == "Inform(problem)"]
+    assert told == [
+        "Please wait, it is my turn.",
+        "I see two new symbols at once. Please draw one at a time.",
+    ]
+    # the refused drawings never became moves: the board is the legal moves alone
+    assert record.accepted == record.drawn
+    assert record.outcome is not None and outcome(record.board()) == record.outcome
