@@ -373,13 +373,19 @@ def create_app(
         session = Session(robot, limits)
         sessions[session.id] = session
         log.info("session %d opened (%d running)", session.id, len(sessions))
-        await websocket.send_text(json.dumps({"type": "Hello", "data": _hello(session, app)}))
-        sender = asyncio.create_task(_send_all(websocket, session))
+        sender = None
         try:
+            # the robot starts first (its greeting waits in the outbox), so that a frame sent
+            # on Hello is never forgotten by the robot's first NewGame
             await asyncio.to_thread(session.start)
+            await websocket.send_text(json.dumps({"type": "Hello", "data": _hello(session, app)}))
+            sender = asyncio.create_task(_send_all(websocket, session))
             await _receive_all(websocket, session)
+        except WebSocketDisconnect:
+            pass
         finally:
-            sender.cancel()
+            if sender is not None:
+                sender.cancel()
             sessions.pop(session.id, None)
             await asyncio.to_thread(session.close)
             log.info("session %d closed (%d running)", session.id, len(sessions))

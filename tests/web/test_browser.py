@@ -150,6 +150,7 @@ def draw(
                 "Input.dispatchTouchEvent",
                 {"type": kind, "touchPoints": [{"x": float(x), "y": float(y)}]},
             )
+            time.sleep(0.008)  # a finger reports about 120 times a second
         touch.send("Input.dispatchTouchEvent", {"type": "touchEnd", "touchPoints": []})
     if touch is not None:
         touch.detach()
@@ -204,7 +205,16 @@ def play_a_whole_game_then_answer_by_voice(page: Page) -> None:
             continue
         where = next(c for c in cells if c not in mine and c not in robots)
         moves_before = page.evaluate("window.oxbot.stats.moves.length")
-        draw(page, where, user, rng, finger=len(latencies) == 1)  # the second by touch
+        finger = len(latencies) == 1  # the second move by touch
+        draw(page, where, user, rng, finger=finger)
+        strokes = 2 if user == "cross" else 1
+        inked = page.evaluate(
+            f"[...oxbot.committed, ...oxbot.pending].slice(-{strokes}).map(s => s.length)"
+        )
+        assert min(inked) > 5, (
+            f"strokes with too few points: {inked}, finger={finger}, "
+            f"{page.evaluate('window.oxbot.stats')}"
+        )
         page.wait_for_function(f"window.oxbot.stats.moves.length > {moves_before}", timeout=10_000)
         stats = page.evaluate("window.oxbot.stats")
         move = stats["moves"][-1]

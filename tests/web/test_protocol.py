@@ -192,6 +192,7 @@ def test_impossible_drawings_are_refused_in_words_and_never_change_the_board(ws_
 
             hello = (await next_of(ws, {"Hello"}))["data"]
             cells, user = hello["cells"], hello["user_symbol"]
+            await next_of(ws, {"DialogueAct"})  # the greeting: the robot has begun its game
             # out of turn: the robot starts, and has not drawn yet
             early = copy.deepcopy(clean).draw("middle", user)
             await show(early)

@@ -15,10 +15,11 @@ const state = {
   committed: [],         // the person's strokes that became moves
   pending: [],           // the person's strokes since the last accepted move
   drawing: null,         // the stroke under the pen
+  drawingAccepted: false, // its symbol was accepted before the pen lifted
   dirty: false,          // the sheet changed since the last frame sent
   sound: true, camera: null, cameraTimer: null,
   audio: null, analyser: null, gain: null, source: null, mouthUntil: 0,
-  stats: { framesSent: 0, lastStrokeEnd: 0, moves: [], mouthMoves: 0, pointers: {} },
+  stats: { framesSent: 0, lastStrokeEnd: 0, moves: [], mouthMoves: 0, pointers: {}, cancels: 0 },
 };
 window.oxbot = state;     // for tests and the curious: the page's state
 
@@ -95,13 +96,15 @@ board.addEventListener("pointermove", (e) => {
 });
 function endStroke() {
   if (!state.drawing) return;
-  state.pending.push(state.drawing); state.drawing = null;
+  // a stroke still under way when its symbol was accepted belongs to that move
+  (state.drawingAccepted ? state.committed : state.pending).push(state.drawing);
+  state.drawing = null; state.drawingAccepted = false;
   redrawSheet();
   state.stats.lastStrokeEnd = performance.now();
   sendFrame();          // the finished stroke goes out at once, not at the next tick
 }
 board.addEventListener("pointerup", endStroke);
-board.addEventListener("pointercancel", endStroke);
+board.addEventListener("pointercancel", () => { state.stats.cancels++; endStroke(); });
 
 function sendFrame() {
   if (!send({ type: "frame", image: sheetImage() })) return;
@@ -169,6 +172,7 @@ function startOrNewGame() {
 
 function resetSheet() {
   state.grid = newGrid(); state.committed = []; state.pending = []; state.drawing = null;
+  state.drawingAccepted = false;
   state.ended = false; octx.clearRect(0, 0, SIDE, SIDE); redrawSheet();
   showProblem(""); $("turn").textContent = "";
 }
@@ -216,6 +220,7 @@ const handlers = {
     state.stats.moves.push({ ...d, at: performance.now() });
     if (d.who === "usr") {
       state.committed.push(...state.pending); state.pending = [];
+      state.drawingAccepted = state.drawing !== null;
       showProblem(""); $("turn").textContent = "";
     }
   },
