@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/bench_board.py                  # 200 held-out photos, 5 repeats
     .venv/bin/python bench/bench_board.py --photos 50 --repeats 3 --style tuning
+    .venv/bin/python bench/bench_board.py --style tuning-camera --seed 7000   # harder tuning
     .venv/bin/python bench/bench_board.py --model runs/perceiver.pt
 
 Renders photos of game sheets (`oxbot.perception.render`, the held-out style by default: the
@@ -28,7 +29,7 @@ from oxbot.errors import NoGridFound
 from oxbot.perception.board import BoardReader, cut_board
 from oxbot.perception.classifier import load_classifier
 from oxbot.perception.grid import as_gray, find_grid
-from oxbot.perception.render import STYLES, render_photo
+from oxbot.perception.render import STYLES, TUNING_VARIANTS, render_photo
 
 
 def per_frame_ms(function, frames: list[np.ndarray], repeats: int) -> tuple[float, float]:
@@ -49,14 +50,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--photos", type=int, default=200, help="rendered photos (default 200)")
     parser.add_argument("--repeats", type=int, default=5, help="timing passes (median of them)")
-    parser.add_argument("--style", choices=sorted(STYLES), default="held-out")
+    styles = {**STYLES, **TUNING_VARIANTS}
+    parser.add_argument("--style", choices=sorted(styles), default="held-out")
     parser.add_argument("--seed", type=int, default=2024, help="seed of the rendered photos")
     parser.add_argument("--model", default=None, help="classifier file (default: shipped)")
     args = parser.parse_args()
 
     torch.set_num_threads(1)
     cv2.setNumThreads(1)
-    style = STYLES[args.style]
+    style = styles[args.style]
     rng = np.random.default_rng(args.seed)
     photos = [render_photo(rng, style=style) for _ in range(args.photos)]
     frames = [p.image for p in photos]

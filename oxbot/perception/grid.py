@@ -58,9 +58,13 @@ _MAX_GRIDS = 12  # quadruples of lines checked against the ink, best voted first
 _MAX_TILT = math.radians(27)  # SPEC §2: rotation up to ±15°, plus perspective and wobble
 _PARALLEL = math.radians(12)  # the two lines of a pair differ by at most this angle
 _CROSSING = math.radians(30)  # the two pairs cross at 90° give or take this angle
-_MIN_SUPPORT = 0.45  # least share of a line's length across the grid that must be inked
-_MIN_MEAN_SUPPORT = 0.7  # least mean share over the four lines
+_MIN_SUPPORT = 0.35  # least share of a line's length across the grid that must be inked
+_MIN_MEAN_SUPPORT = 0.6  # least mean share over the four lines
 _MIN_MIDDLE_SUPPORT = 0.75  # least share of a line's stretch along the middle cell
+_MIN_MIDDLE_SUPPORT_UNFITTED = 0.6  # the same for a Hough line, a few degrees off a wobbly one
+_AGREE = 25  # degrees: a stroke this near a line's direction runs its way
+_MIN_CLEARNESS = 0.3  # strokes less clear-cut than this (crossings, blobs) count either way
+_UNCLEAR = 255  # the direction of such strokes
 
 
 Line = tuple[float, float]
@@ -176,8 +180,9 @@ def find_grid(gray: np.ndarray) -> Grid:
             "draw the 3x3 grid with a dark pen and keep all of it in the picture"
         )
     center = np.array(small.shape[::-1], np.float64) / 2
-    pixels = _ink_pixels(ink)
-    best = _best_grid(lines, ink, pixels, min_spacing, short / 2, center)
+    strokes = _Strokes.of(small, ink)
+    pixels = strokes.pixels
+    best = _best_grid(lines, strokes, min_spacing, short / 2, center)
     if best is None:
         raise NoGridFound(
             "no 3x3 grid in view: no two pairs of crossing pen lines run across a whole grid; "
@@ -247,8 +252,7 @@ Four = tuple[Line, Line, Line, Line]
 
 def _best_grid(
     lines: list[tuple[float, float, float]],
-    ink: np.ndarray,
-    pixels: np.ndarray,
+    strokes: _Strokes,
     min_spacing: float,
     max_spacing: float,
     center: np.ndarray,
@@ -281,11 +285,11 @@ def _best_grid(
         lattice = _lattice(*four, min_side=0.8 * min_spacing)
         if lattice is None:
             continue
-        support, middle, closeness = _line_support(lattice, ink)
+        support, middle, closeness = _line_support(lattice, strokes)
         if (
             support.min() < _MIN_SUPPORT
             or support.mean() < _MIN_MEAN_SUPPORT
-            or middle.min() < _MIN_MIDDLE_SUPPORT
+            or middle.min() < _MIN_MIDDLE_SUPPORT_UNFITTED
         ):
             continue
         passed.append((closeness + 1e-4 * sum(x[2] for x in (*p, *q)), four))
@@ -294,11 +298,13 @@ def _best_grid(
     # refitted once and judged again.
     best: tuple[float, Four] | None = None
     for _, four in sorted(passed, key=lambda x: -x[0])[:_FINALISTS]:
-        fitted = _refine(four, pixels, bands=(0.15,))
+        fitted = _refine(four, strokes.pixels, bands=(0.15,))
         lattice = _lattice(*fitted, min_side=0.8 * min_spacing)
         if lattice is None:
             continue
-        _, _, closeness = _line_support(lattice, ink)
+        _, middle, closeness = _line_support(lattice, strokes)
+        if middle.min() < _MIN_MIDDLE_SUPPORT:
+            continue
         if best is None or closeness > best[0]:
             best = (closeness, fitted)
     return None if best is None else (best[1], best[0])
@@ -377,15 +383,17 @@ def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
 # Points along each inner line (in cells from its first crossing) and small steps across it:
 # ink is looked for within ±0.06 cells of the line, because hand-drawn lines wobble; ink
 # nearer the line counts for more, so that of two candidate lines the one on the ink wins.
-_ALONG = np.linspace(-0.88, 1.88, 24)
+_ALONG = np.linspace(-0.88, 1.88, 36)
 _ACROSS = np.linspace(-0.08, 0.08, 9)
 _CLOSENESS = 1 - np.abs(_ACROSS) / 0.12
 _MIDDLE = (_ALONG > 0.1) & (_ALONG < 0.9)  # the stretch between the line's two crossings
 
 
-def _line_support(lattice: np.ndarray, ink: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+def _line_support(lattice: np.ndarray, strokes: _Strokes) -> tuple[np.ndarray, np.ndarray, float]:
     """Share of each of the four lines along which ink is found (4,), the same along the
-    middle cell only (4,), and how close to the lines the ink lies (0-1)."""
+    middle cell only (4,), and how close to the lines the ink lies (0-1). Only ink whose
+    stroke runs the line's way counts: a line through a symbol crosses its strokes."""
+    ink = strokes.mask
     a, d, n, size = _line_frames(lattice)
     pts = (
         a[:, None, None, :]
@@ -398,15 +406,53 @@ def _line_support(lattice: np.ndarray, ink: np.ndarray) -> tuple[np.ndarray, np.
     inside = (x >= 0) & (x < w) & (y >= 0) & (y < h)
     hit = np.zeros(x.shape, bool)
     hit[inside] = ink[y[inside], x[inside]] > 0
+    way = np.degrees(np.arctan2(d[:, 1], d[:, 0])) % 180  # each line's direction
+    way = np.broadcast_to(way[:, None, None], x.shape)
+    hit[hit] = strokes.runs_along(x[hit], y[hit], way[hit])
     closeness = (hit * _CLOSENESS).max(axis=2)
     inked = hit.any(axis=2)
-    return inked.mean(axis=1), inked[:, _MIDDLE].mean(axis=1), float(closeness.mean())
+    # Half from the middle stretch, which every grid has: ink beyond the crossings may be a
+    # symbol's as well as the line's, which may stop short there.
+    score = 0.5 * closeness[:, _MIDDLE].mean() + 0.5 * closeness[:, ~_MIDDLE].mean()
+    return inked.mean(axis=1), inked[:, _MIDDLE].mean(axis=1), float(score)
 
 
-def _ink_pixels(ink: np.ndarray) -> np.ndarray:
+@dataclass(frozen=True)
+class _Strokes:
+    """The ink of the work image, and which way its strokes run at each pixel."""
+
+    mask: np.ndarray
+    """uint8 (H, W) ink mask, 0/255."""
+    pixels: np.ndarray
     """(N, 2) float x, y of the ink pixels."""
-    ys, xs = np.nonzero(ink)
-    return np.stack([xs, ys], axis=1).astype(np.float64)
+    direction: np.ndarray
+    """uint8 (H, W): at each ink pixel, the direction its stroke runs in degrees (0-179, 0
+    along x), or `_UNCLEAR` where the stroke is not clear-cut (a crossing, a blob)."""
+
+    @classmethod
+    def of(cls, small: np.ndarray, ink: np.ndarray) -> _Strokes:
+        # The structure tensor: gradients run across a stroke, so its direction is their normal.
+        f = small.astype(np.float32)
+        gx = cv2.Sobel(f, cv2.CV_32F, 1, 0, ksize=3)
+        gy = cv2.Sobel(f, cv2.CV_32F, 0, 1, ksize=3)
+        jxx = cv2.boxFilter(gx * gx, -1, (5, 5))
+        jyy = cv2.boxFilter(gy * gy, -1, (5, 5))
+        jxy = cv2.boxFilter(gx * gy, -1, (5, 5))
+        ys, xs = np.nonzero(ink)
+        xx, yy, xy = jxx[ys, xs], jyy[ys, xs], jxy[ys, xs]
+        clear = np.hypot(xx - yy, 2 * xy) >= _MIN_CLEARNESS * np.maximum(xx + yy, 1e-3)
+        degrees = np.degrees(0.5 * np.arctan2(-2 * xy, yy - xx)) % 180
+        direction = np.full(ink.shape, _UNCLEAR, np.uint8)
+        direction[ys, xs] = np.where(clear, np.round(degrees) % 180, _UNCLEAR)
+        pixels = np.stack([xs, ys], axis=1).astype(np.float64)
+        return cls(ink, pixels, direction)
+
+    def runs_along(self, x: np.ndarray, y: np.ndarray, way: np.ndarray) -> np.ndarray:
+        """Whether the strokes at ink pixels (x, y) run within `_AGREE` degrees of `way`
+        (degrees), or are too unclear to say."""
+        seen = self.direction[y, x]
+        off = np.abs(seen.astype(np.float64) - way) % 180
+        return (np.minimum(off, 180 - off) <= _AGREE) | (seen == _UNCLEAR)
 
 
 def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.12, 0.08)) -> Four:
@@ -414,7 +460,7 @@ def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.1
 
     Hough's lines can be a few degrees off a wobbly hand-drawn line, and symbols touch the
     lines: each round fits a straight line to the ink near the current one, keeps the closer
-    three quarters of it (dropping bits of symbols) and fits again. `pixels`: `_ink_pixels`.
+    three quarters of it (dropping bits of symbols) and fits again. `pixels`: `_Strokes.pixels`.
     """
     for band in bands:
         lattice = _lattice(*four)

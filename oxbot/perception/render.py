@@ -136,6 +136,49 @@ HELD_OUT_STYLE = RenderStyle(
 
 STYLES = {TUNING_STYLE.name: TUNING_STYLE, HELD_OUT_STYLE.name: HELD_OUT_STYLE}
 
+_HARDER_HAND = dataclasses.replace(
+    TUNING_STYLE.hand,
+    symbol_size=(0.45, 0.9),
+    symbol_offset=0.2,
+    grid_wobble=0.05,
+    grid_tilt=5.0,
+    grid_spacing_jitter=0.12,
+    grid_overshoot=(-0.3, 0.5),
+    grid_gap_chance=0.1,
+)
+TUNING_VARIANTS = {
+    style.name: style
+    for style in (
+        # The tuning hand drawing bigger, more scattered symbols that touch the lines, and
+        # wobblier, more tilted lines that stop short more often.
+        dataclasses.replace(TUNING_STYLE, name="tuning-hand", hand=_HARDER_HAND),
+        # The same hand under a worse camera: stronger perspective, shadows, noise, blur, JPEG.
+        dataclasses.replace(
+            TUNING_STYLE,
+            name="tuning-camera",
+            hand=_HARDER_HAND,
+            perspective=0.09,
+            pen_colors=(*TUNING_STYLE.pen_colors, (90, 40, 20), (20, 80, 40)),
+            pen_width=(0.015, 0.065),
+            shadow_chance=0.5,
+            noise_sigma=(1.0, 9.0),
+            blur_sigma=(0.0, 1.8),
+            jpeg_quality=(35, 95),
+            light_gradient=(0.0, 0.5),
+            brightness=(0.5, 1.1),
+        ),
+        # The same hand with thin, faint pencil.
+        dataclasses.replace(
+            TUNING_STYLE,
+            name="tuning-pencil",
+            hand=_HARDER_HAND,
+            pen_colors=((95, 95, 100), (120, 118, 115), (80, 82, 90)),
+            pen_width=(0.012, 0.035),
+        ),
+    )
+}
+"""Harder variants of the tuning style, for developing the board reader (never held-out)."""
+
 
 Stroke = np.ndarray
 """A pen stroke: float (N, 2) points in cell units, in drawing order."""

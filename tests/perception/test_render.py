@@ -5,6 +5,7 @@ from oxbot.perception.render import (
     HELD_OUT_STYLE,
     STYLES,
     TUNING_STYLE,
+    TUNING_VARIANTS,
     random_labels,
     random_scene,
     render_photo,
@@ -82,6 +83,11 @@ def test_the_held_out_style_is_kept_apart_from_the_tuning_style():
     assert set(TUNING_STYLE.desk_colors).isdisjoint(HELD_OUT_STYLE.desk_colors)
     assert TUNING_STYLE.size != HELD_OUT_STYLE.size
     assert set(STYLES) == {"tuning", "held-out"}
+    for variant in TUNING_VARIANTS.values():  # harder tuning styles share nothing held-out
+        assert variant.hand.symbols == "synth"
+        assert set(variant.pen_colors).isdisjoint(HELD_OUT_STYLE.pen_colors)
+        assert variant.desk_colors == TUNING_STYLE.desk_colors
+        assert variant.size == TUNING_STYLE.size
 
 
 def test_random_labels_cover_all_three_labels():
