@@ -208,12 +208,13 @@ const handlers = {
   BoardSeen(d) { showSeen(d); },
   BoardProblem(d) {
     showProblem(d.reason); addNote(d.reason);
-    // paper does not forget, but a page can: wipe the impossible ink so play can go on
-    const wiped = state.pending.length;
+    // paper does not forget, but a page can: wipe the impossible ink (the strokes not yet
+    // accepted, and the one under the pen) after a moment, so play can go on
+    const wiped = new Set([...state.pending, state.drawing].filter(Boolean));
     setTimeout(() => {
-      if (state.pending.length >= wiped && wiped) {
-        state.pending.splice(0, wiped); redrawSheet(); sendFrame();
-      }
+      const kept = state.pending.filter((stroke) => !wiped.has(stroke));
+      if (kept.length === state.pending.length) return;
+      state.pending = kept; redrawSheet(); sendFrame();
     }, 1200);
   },
   GameMove(d) {
