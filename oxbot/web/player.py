@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, cell_index, play
-from oxbot.web.sheet import Sheet
+from oxbot.web.sheet import Sheet, symbol_strokes
 
 MOVE_ACT = "GameMove(gridloc="
 ANSWER = "yes let's play"
@@ -93,18 +93,13 @@ async def play_game(
                 return
             where = free[int(rng.integers(len(free)))]
             record.drawn.append(where)
-            strokes = 2 if record.user_symbol == "cross" else 1
-            symbol = record.user_symbol
+            strokes = symbol_strokes(record.user_symbol, sheet.rng)
             # the page sends the sheet every 100 ms while it changes: stroke by stroke here
-            for k in range(1, strokes):
-                partial = Sheet.__new__(Sheet)
-                partial.rng, partial.image = sheet.rng, sheet.image.copy()
-                state = sheet.rng.bit_generator.state
-                partial.draw(where, symbol, strokes=k)
-                sheet.rng.bit_generator.state = state
+            for k in range(1, len(strokes)):
+                partial = sheet.copy().draw_strokes(where, strokes[:k])
                 await send({"type": "frame", "image": data_url(partial.png())})
                 await asyncio.sleep(frame_period)
-            sheet.draw(where, symbol)
+            sheet.draw_strokes(where, strokes)
             await send({"type": "frame", "image": data_url(sheet.png())})
             drawn_at = time.monotonic()
 

@@ -130,9 +130,20 @@ class Sheet:
     def draw(self, cell: int | str, symbol: str, strokes: int | None = None) -> Sheet:
         """Draw a person's `symbol` in `cell` (only its first `strokes` strokes, if given)."""
         drawn = symbol_strokes(symbol, self.rng)
-        for points in drawn[: strokes if strokes is not None else len(drawn)]:
+        return self.draw_strokes(cell, drawn[: strokes if strokes is not None else len(drawn)])
+
+    def draw_strokes(self, cell: int | str, strokes: list[np.ndarray]) -> Sheet:
+        """Draw strokes given in the cell's unit square ((0, 0) its upper left) in `cell`."""
+        for points in strokes:
             self.stroke(unit_to_canvas(cell, points))
         return self
+
+    def copy(self) -> Sheet:
+        """The same sheet as it is now, to draw on without changing this one."""
+        twin = Sheet.__new__(Sheet)
+        twin.rng = np.random.default_rng(self.rng.integers(2**63))
+        twin.image = self.image.copy()
+        return twin
 
     def png(self) -> bytes:
         """The sheet as PNG bytes, as the page's `canvas.toDataURL('image/png')` sends it."""

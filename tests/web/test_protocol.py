@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import asyncio
 import base64
-import copy
 import inspect
 import io
 import json
@@ -194,7 +193,7 @@ def test_impossible_drawings_are_refused_in_words_and_never_change_the_board(ws_
             cells, user = hello["cells"], hello["user_symbol"]
             await next_of(ws, {"DialogueAct"})  # the greeting: the robot has begun its game
             # out of turn: the robot starts, and has not drawn yet
-            early = copy.deepcopy(clean).draw("middle", user)
+            early = clean.copy().draw("middle", user)
             await show(early)
             assert (await problem())["kind"] == "out_of_turn"
             two_at_once_tried = False
@@ -219,7 +218,7 @@ def test_impossible_drawings_are_refused_in_words_and_never_change_the_board(ws_
                         free = [c for c in cells if c not in record.robot_cells + record.drawn]
                         if not two_at_once_tried:
                             two_at_once_tried = True
-                            both = copy.deepcopy(clean).draw(free[0], user).draw(free[1], user)
+                            both = clean.copy().draw(free[0], user).draw(free[1], user)
                             await show(both)
                             assert (await problem())["kind"] == "two_new_symbols"
                         record.drawn.append(free[0])
