@@ -33,8 +33,9 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install -q --disable-pip-version-check -e '.[dev]'
 	@touch $(STAMP)
 
+# The main job: the web page at http://127.0.0.1:8000 (Ctrl-C stops it).
 run: setup
-	$(BIN)/oxbot game
+	$(BIN)/oxbot play
 
 test: setup lint
 	$(BIN)/pytest

@@ -362,7 +362,7 @@ def play(
         return
     from oxbot.web.server import serve
 
-    serve(host=host, port=port, speed_factor=speed)
+    serve(host=host, port=port, speed_factor=speed, robot_starts=not person_starts)
 
 
 # --- reproducing the paper: oxbot reproduce (issue 8) ---
