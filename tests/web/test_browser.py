@@ -260,6 +260,11 @@ def play_a_whole_game_then_answer_by_voice(page: Page) -> None:
     wait_for_act(page, "Reply(playGame=yes)", after=before, timeout=30_000)
     page.screenshot(path=ARTIFACTS / "05-spoken-answer.png", full_page=True)
 
+    # sound off: the robot's speech is muted (the mouth still moves)
+    page.get_by_test_id("sound").click()
+    assert page.get_by_test_id("sound").inner_text() == "Sound: off"
+    assert page.evaluate("window.oxbot.gain.gain.value") == 0
+
     # the webcam (Chromium's fake camera): the person looks ahead, then turns to their
     # right; the robot's eyes mirror them and turn to its left
     page.get_by_test_id("camera").click()

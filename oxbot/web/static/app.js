@@ -16,6 +16,7 @@ const state = {
   pending: [],           // the person's strokes since the last accepted move
   drawing: null,         // the stroke under the pen
   drawingAccepted: false, // its symbol was accepted before the pen lifted
+  robotCells: new Set(), // cells the robot's arm drew in (on the overlay, not in the image)
   dirty: false,          // the sheet changed since the last frame sent
   sound: true, camera: null, cameraTimer: null,
   audio: null, analyser: null, gain: null, source: null, mouthUntil: 0,
@@ -172,7 +173,7 @@ function startOrNewGame() {
 
 function resetSheet() {
   state.grid = newGrid(); state.committed = []; state.pending = []; state.drawing = null;
-  state.drawingAccepted = false;
+  state.drawingAccepted = false; state.robotCells = new Set(); state.lastSeen = null;
   state.ended = false; octx.clearRect(0, 0, SIDE, SIDE); redrawSheet();
   showProblem(""); $("turn").textContent = "";
 }
@@ -203,7 +204,13 @@ const handlers = {
   SpeakingStarted(d) { $("bubble").textContent = d.text; speak(d.audio, d.seconds); },
   SpeakingFinished() { state.speaking = false; },
   NewGame() { sendFrame(); },   // the robot starts a clean sheet: show it the page's
-  ArmStroke(d) { drawArmStroke(d.where, d.points); },
+  ArmStroke(d) {
+    drawArmStroke(d.where, d.points);
+    if (!state.robotCells.has(d.where)) {
+      state.robotCells.add(d.where);
+      if (state.lastSeen) showSeen(state.lastSeen);
+    }
+  },
   ArmDone() {},
   BoardSeen(d) { showSeen(d); },
   BoardProblem(d) {
@@ -438,6 +445,7 @@ function stopCamera() {
 // --- what the robot sees ------------------------------------------------------------------
 
 function showSeen(d) {
+  state.lastSeen = d;
   const crops = $("crops");
   if (crops.children.length !== 9) {
     crops.innerHTML = "";
@@ -452,7 +460,9 @@ function showSeen(d) {
   for (let i = 0; i < 9; i++) {
     const div = crops.children[i], label = d.labels && d.labels.length ? d.labels[i] : "no grid";
     if (d.cells && d.cells[i]) div.querySelector("img").src = `data:image/png;base64,${d.cells[i]}`;
-    div.querySelector("div").textContent = `${names[i] || i}: ${label}`;
+    const mark = state.hello && state.hello.robot_symbol === "cross" ? "X" : "O";
+    const robots = state.robotCells.has(names[i]) ? ` (robot's ${mark})` : "";
+    div.querySelector("div").textContent = `${names[i] || i}: ${label}${robots}`;
     div.className = `crop ${label}`;
     div.dataset.label = label;
   }
