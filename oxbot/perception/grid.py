@@ -50,7 +50,7 @@ SHEET_CELL = round(CELL_SIZE / (1 - 2 * CELL_MARGIN))
 MIN_GRID_SHARE = 0.18
 """The grid's side must be at least this share of the frame's shorter side."""
 
-_INK_CONTRAST = 0.22  # ink is at least this much darker than the paper around it
+_INK_CONTRAST = 0.12  # ink is at least this much darker than the paper around it
 _MAX_LINES = 16  # distinct Hough lines considered
 _MAX_HOUGH = 200  # strongest Hough lines looked at (they come sorted by votes)
 _FINALISTS = 3  # best quadruples refitted to the ink before the final choice
@@ -181,7 +181,6 @@ def find_grid(gray: np.ndarray) -> Grid:
         )
     center = np.array(small.shape[::-1], np.float64) / 2
     strokes = _Strokes.of(small, ink)
-    pixels = strokes.pixels
     best = _best_grid(lines, strokes, min_spacing, short / 2, center)
     if best is None:
         raise NoGridFound(
@@ -189,9 +188,9 @@ def find_grid(gray: np.ndarray) -> Grid:
             "keep all four lines of the grid in the picture"
         )
     four, support = best
-    refined = _refine(four, pixels)
+    refined = _refine(four, strokes)
     lattice = _lattice(*refined)
-    lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, pixels)
+    lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, strokes)
     assert lattice is not None
     grid = Grid(lattice=lattice / scale, support=support)
     _check_in_view(grid, w, h)
@@ -298,7 +297,7 @@ def _best_grid(
     # refitted once and judged again.
     best: tuple[float, Four] | None = None
     for _, four in sorted(passed, key=lambda x: -x[0])[:_FINALISTS]:
-        fitted = _refine(four, strokes.pixels, bands=(0.15,))
+        fitted = _refine(four, strokes, bands=(0.15,))
         lattice = _lattice(*fitted, min_side=0.8 * min_spacing)
         if lattice is None:
             continue
@@ -383,7 +382,7 @@ def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
 # Points along each inner line (in cells from its first crossing) and small steps across it:
 # ink is looked for within ±0.06 cells of the line, because hand-drawn lines wobble; ink
 # nearer the line counts for more, so that of two candidate lines the one on the ink wins.
-_ALONG = np.linspace(-0.88, 1.88, 36)
+_ALONG = np.linspace(-0.88, 1.88, 24)
 _ACROSS = np.linspace(-0.08, 0.08, 9)
 _CLOSENESS = 1 - np.abs(_ACROSS) / 0.12
 _MIDDLE = (_ALONG > 0.1) & (_ALONG < 0.9)  # the stretch between the line's two crossings
@@ -444,24 +443,24 @@ class _Strokes:
         degrees = np.degrees(0.5 * np.arctan2(-2 * xy, yy - xx)) % 180
         direction = np.full(ink.shape, _UNCLEAR, np.uint8)
         direction[ys, xs] = np.where(clear, np.round(degrees) % 180, _UNCLEAR)
-        pixels = np.stack([xs, ys], axis=1).astype(np.float64)
-        return cls(ink, pixels, direction)
+        return cls(ink, np.stack([xs, ys], axis=1).astype(np.float64), direction)
 
     def runs_along(self, x: np.ndarray, y: np.ndarray, way: np.ndarray) -> np.ndarray:
         """Whether the strokes at ink pixels (x, y) run within `_AGREE` degrees of `way`
         (degrees), or are too unclear to say."""
         seen = self.direction[y, x]
-        off = np.abs(seen.astype(np.float64) - way) % 180
+        off = np.abs(seen - way) % 180
         return (np.minimum(off, 180 - off) <= _AGREE) | (seen == _UNCLEAR)
 
 
-def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.12, 0.08)) -> Four:
+def _refine(four: Four, strokes: _Strokes, bands: tuple[float, ...] = (0.2, 0.12, 0.08)) -> Four:
     """Refit each line to the ink in a narrowing band around it.
 
     Hough's lines can be a few degrees off a wobbly hand-drawn line, and symbols touch the
     lines: each round fits a straight line to the ink near the current one, keeps the closer
-    three quarters of it (dropping bits of symbols) and fits again. `pixels`: `_Strokes.pixels`.
+    three quarters of it (dropping bits of symbols) and fits again.
     """
+    pixels = strokes.pixels
     for band in bands:
         lattice = _lattice(*four)
         if lattice is None:
@@ -481,10 +480,11 @@ def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.1
     return four
 
 
-def _local_crossings(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+def _local_crossings(four: Four, lattice: np.ndarray, strokes: _Strokes) -> np.ndarray:
     """The lattice rebuilt on where the lines really cross: a hand-drawn line bends, so each
     crossing is found from the two lines fitted within half a cell of it."""
     a, d, n, size = _line_frames(lattice)
+    pixels = strokes.pixels
     local = {}
     along, near = {}, {}
     for k in range(4):
