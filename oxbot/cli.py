@@ -375,8 +375,12 @@ def reproduce_command(
         bool, typer.Option("--quick", help="Small budgets (a few minutes); the report says so.")
     ] = False,
     out: Annotated[
-        Path, typer.Option(help="Folder for REPORT.md, its plots and report.json.")
-    ] = Path("reports"),
+        Path | None,
+        typer.Option(
+            help="Folder for REPORT.md, its plots and report.json "
+            "(default: reports/, or runs/quick/reports with --quick)."
+        ),
+    ] = None,
     work: Annotated[
         Path, typer.Option(help="Working folder for seeds, models and checkpoints (cleared).")
     ] = Path("runs/reproduce"),
@@ -390,6 +394,8 @@ def reproduce_command(
     from oxbot.dialogue.agent import shipped_policy_path
     from oxbot.reproduce import reproduce
 
+    if out is None:  # a quick run never overwrites the committed full report
+        out = Path("runs/quick/reports") if quick else Path("reports")
     params = ctx.parent.params if ctx.parent is not None else {}
     overrides = params.get("overrides") or []
     if params.get("config") is not None:
