@@ -437,8 +437,8 @@ async def _send_all(websocket: WebSocket, session: Session) -> None:
             if text is None:
                 return
             await websocket.send_text(text)
-    except (WebSocketDisconnect, RuntimeError):
-        return  # the tab went away; the receiver sees it too and ends the session
+    except Exception as exc:  # the tab went away; the receiver sees it and ends the session
+        log.debug("session %d: sending stopped: %r", session.id, exc)
 
 
 async def _receive_all(websocket: WebSocket, session: Session) -> None:
