@@ -13,9 +13,10 @@ rotated up to ±15° and under mild perspective (SPEC §2), so it is found first
    lines wobble, overshoot or stop short; the check asks for ink along most of each line,
    and along most of its stretch beside the middle cell.
 3. *Fit*: each of the four lines is refitted to the ink near it, and each crossing to the
-   ink within half a cell of it. The four crossings and one more cell along each line give a
-   4x4 lattice of cell corners (`Grid`), in *cell units* (inner lines at 1 and 2, cells
-   filling [0, 3]²).
+   ink within a third of a cell of it, three times over, each time looking along the lines
+   through the last crossings (a hand-drawn line bends). The four crossings and one more
+   cell along each line give a 4x4 lattice of cell corners (`Grid`), in *cell units* (inner
+   lines at 1 and 2, cells filling [0, 3]²).
 4. *Cells*: each cell (and a ring of half a cell around the grid) is warped to a square, the
    paper's uneven light divided out, the four lines traced and painted over where they are
    drawn, and each cell cut at 40x40 as a square around its own ink (the connected pieces
@@ -482,36 +483,59 @@ def _refine(four: Four, strokes: _Strokes, bands: tuple[float, ...] = (0.2, 0.12
     return four
 
 
+_LOCAL_REACH = 0.35  # cells along each line either side of a crossing fitted to find it
+_CROSSING_ROUNDS = 3  # rounds of finding the crossings, each from the last one's lattice
+
+
 def _local_crossings(four: Four, lattice: np.ndarray, strokes: _Strokes) -> np.ndarray:
     """The lattice rebuilt on where the lines really cross: a hand-drawn line bends, so each
-    crossing is found from the two lines fitted within half a cell of it."""
-    a, d, n, size = _line_frames(lattice)
-    pixels = strokes.pixels
+    crossing is found from the two lines fitted within a third of a cell of it, first along
+    the straight lines, then, for a few rounds, along the lines through the last crossings."""
+    straight = lattice
+    for _ in range(_CROSSING_ROUNDS):
+        moved = _crossings_near(four, lattice, strokes.pixels)
+        if moved is None:
+            break  # the local fits disagree with the lines: keep the last crossings
+        lattice = moved
+    return _bend_outer(lattice, strokes.pixels, straight)
+
+
+def _crossings_near(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.ndarray | None:
+    """One round of `_local_crossings`: the lattice on the crossings of the lines fitted to
+    the ink near each of its crossings, or None where one moves more than a quarter cell."""
+    along, near, size = _along_lines(lattice, pixels)
     local = {}
-    along, near = {}, {}
     for k in range(4):
-        rel = pixels - a[k]
-        along[k] = rel @ d[k] / (d[k] @ d[k])
-        near[k] = np.abs(rel @ n[k]) < 0.12 * size
         for end in (0, 1):  # around the line's first and second crossing
-            line = _fit_line(pixels[near[k] & (np.abs(along[k] - end) < 0.5)])
+            line = _fit_line(pixels[near[:, k] & (np.abs(along[:, k] - end) < _LOCAL_REACH)])
             local[k, end] = line if line is not None else four[k]
-    inner = {}
+    q = lattice.copy()
     for r, top_or_bottom in ((1, 2), (2, 3)):
         for c, left_or_right in ((1, 0), (2, 1)):
             # Line k's crossings run along it: verticals top to bottom, horizontals left to right.
-            vertical = local[left_or_right, r - 1]
-            horizontal = local[top_or_bottom, c - 1]
-            point = _intersect(vertical, horizontal)
+            point = _intersect(local[left_or_right, r - 1], local[top_or_bottom, c - 1])
             if point is None or np.linalg.norm(point - lattice[r, c]) > 0.25 * size:
-                return lattice  # the local fits disagree with the whole lines: keep those
-            inner[r, c] = point
-    q = lattice.copy()
-    for (r, c), point in inner.items():
-        q[r, c] = point
-    q = _extend(q)
-    # The outer cells end one middle cell further along each line, in the direction the line
-    # takes out there (a bowed line turns), where the line is drawn that far.
+                return None
+            q[r, c] = point
+    return _extend(q)
+
+
+def _along_lines(lattice: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Where each pixel lies along each of the four lines, in cells from its first crossing
+    (N, 4); whether it lies within 0.12 cells of the line (N, 4); and the mean cell size."""
+    a, d, n, size = _line_frames(lattice)
+    along = (pixels @ d.T - (a * d).sum(axis=1)) / (d * d).sum(axis=1)
+    near = np.abs(pixels @ n.T - (a * n).sum(axis=1)) < 0.12 * size
+    return along, near, size
+
+
+def _bend_outer(q: np.ndarray, pixels: np.ndarray, straight: np.ndarray) -> np.ndarray:
+    """The outer cells end one middle cell further along each line, in the direction the line
+    takes out there (a bowed line turns), where the line is drawn that far. Its ink out there
+    is looked for along the `straight` lattice of the whole lines: the crossings' lattice is
+    true near the middle cell and may point astray beyond it."""
+    q = q.copy()
+    along, near, _ = _along_lines(straight, pixels)
     ends = {  # line k, its end (0 first crossing, 1 second): (the crossing, the other, outer)
         (0, 0): ((1, 1), (2, 1), (0, 1)),
         (0, 1): ((2, 1), (1, 1), (3, 1)),
@@ -524,11 +548,11 @@ def _local_crossings(four: Four, lattice: np.ndarray, strokes: _Strokes) -> np.n
     }
     for (k, end), (here, there, outer) in ends.items():
         outside = (
-            (along[k] > -0.9) & (along[k] < 0.1)
+            (along[:, k] > -0.9) & (along[:, k] < 0.1)
             if end == 0
-            else (along[k] > 0.9) & (along[k] < 1.9)
+            else (along[:, k] > 0.9) & (along[:, k] < 1.9)
         )
-        line = _fit_line(pixels[near[k] & outside])
+        line = _fit_line(pixels[near[:, k] & outside])
         if line is None:
             continue
         step = q[here] - q[there]  # one middle cell, pointing outwards
@@ -639,7 +663,8 @@ def even_out_light(sheet: np.ndarray) -> np.ndarray:
     """Divide out the paper's uneven light: paper near 245, ink keeps its contrast."""
     kernel = max(5, (sheet.shape[0] // 12) | 1)
     paper = cv2.morphologyEx(sheet, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
-    paper = cv2.GaussianBlur(paper, (0, 0), kernel / 2)
+    for _ in range(3):  # three box blurs: a Gaussian of sigma kernel/2, at a twentieth the time
+        paper = cv2.blur(paper, (kernel, kernel))
     out = sheet.astype(np.float32) * (245.0 / np.maximum(paper.astype(np.float32), 8.0))
     return np.clip(out, 0, 255).astype(np.uint8)
 
