@@ -191,9 +191,11 @@ def find_grid(gray: np.ndarray) -> Grid:
             "keep all four lines of the grid in the picture"
         )
     four, support = best
-    refined = _refine(four, strokes)
+    # The fits below look only at ink near the four lines, a small part of all the ink.
+    pixels = _pixels_near(four, strokes.pixels, band=0.3)
+    refined = _refine(four, pixels)
     lattice = _lattice(*refined)
-    lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, strokes)
+    lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, pixels)
     assert lattice is not None
     grid = Grid(lattice=lattice / scale, support=support)
     _check_in_view(grid, w, h)
@@ -300,7 +302,7 @@ def _best_grid(
     # refitted once and judged again.
     best: tuple[float, Four] | None = None
     for _, four in sorted(passed, key=lambda x: -x[0])[:_FINALISTS]:
-        fitted = _refine(four, strokes, bands=(0.15,))
+        fitted = _refine(four, strokes.pixels, bands=(0.15,))
         lattice = _lattice(*fitted, min_side=0.8 * min_spacing)
         if lattice is None:
             continue
@@ -456,14 +458,27 @@ class _Strokes:
         return (np.minimum(off, 180 - off) <= _AGREE) | (seen == _UNCLEAR)
 
 
-def _refine(four: Four, strokes: _Strokes, bands: tuple[float, ...] = (0.2, 0.12, 0.08)) -> Four:
+def _pixels_near(four: Four, pixels: np.ndarray, band: float) -> np.ndarray:
+    """The pixels within `band` cells of any of the four lines, from 1.3 cells before its
+    first crossing to 1.3 cells after its second."""
+    lattice = _lattice(*four)
+    if lattice is None:
+        return pixels
+    a, d, n, size = _line_frames(lattice)
+    along = (pixels @ d.T - (a * d).sum(axis=1)) / (d * d).sum(axis=1)
+    across = np.abs(pixels @ n.T - (a * n).sum(axis=1))
+    near = (across < band * size) & (along > -1.3) & (along < 2.3)
+    return pixels[near.any(axis=1)]
+
+
+def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.12, 0.08)) -> Four:
     """Refit each line to the ink in a narrowing band around it.
 
     Hough's lines can be a few degrees off a wobbly hand-drawn line, and symbols touch the
     lines: each round fits a straight line to the ink near the current one, keeps the closer
-    three quarters of it (dropping bits of symbols) and fits again.
+    three quarters of it (dropping bits of symbols) and fits again. `pixels`: (N, 2) x, y of
+    the ink.
     """
-    pixels = strokes.pixels
     for band in bands:
         lattice = _lattice(*four)
         if lattice is None:
@@ -487,17 +502,17 @@ _LOCAL_REACH = 0.35  # cells along each line either side of a crossing fitted to
 _CROSSING_ROUNDS = 3  # rounds of finding the crossings, each from the last one's lattice
 
 
-def _local_crossings(four: Four, lattice: np.ndarray, strokes: _Strokes) -> np.ndarray:
+def _local_crossings(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.ndarray:
     """The lattice rebuilt on where the lines really cross: a hand-drawn line bends, so each
     crossing is found from the two lines fitted within a third of a cell of it, first along
     the straight lines, then, for a few rounds, along the lines through the last crossings."""
     straight = lattice
     for _ in range(_CROSSING_ROUNDS):
-        moved = _crossings_near(four, lattice, strokes.pixels)
+        moved = _crossings_near(four, lattice, pixels)
         if moved is None:
             break  # the local fits disagree with the lines: keep the last crossings
         lattice = moved
-    return _bend_outer(lattice, strokes.pixels, straight)
+    return _bend_outer(lattice, pixels, straight)
 
 
 def _crossings_near(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.ndarray | None:
@@ -571,20 +586,24 @@ def _fit_line(points: np.ndarray) -> Line | None:
     """The straight line through points, refitted without the farthest quarter of them."""
     if len(points) < 10:
         return None
-    for refit in (False, True):
-        mean = points.mean(axis=0)
-        centered = points - mean
-        sxx, syy = centered[:, 0] @ centered[:, 0], centered[:, 1] @ centered[:, 1]
-        sxy = centered[:, 0] @ centered[:, 1]
-        along = 0.5 * math.atan2(2 * sxy, sxx - syy)  # direction of most spread
-        normal = np.array([-math.sin(along), math.cos(along)])
-        if not refit:
-            residual = np.abs(centered @ normal)
-            cut = np.partition(residual, (3 * len(residual)) // 4)[(3 * len(residual)) // 4]
-            points = points[residual <= cut]
-            if len(points) < 8:
-                return None
+    mean, centered, normal = _principal_axis(points)
+    residual = np.abs(centered @ normal)
+    k = (3 * len(residual)) // 4
+    points = points[residual <= np.partition(residual, k)[k]]
+    if len(points) < 8:
+        return None
+    mean, _, normal = _principal_axis(points)
     return float(mean @ normal), math.atan2(normal[1], normal[0])
+
+
+def _principal_axis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The points' mean, the points about it, and the unit normal of their direction of most
+    spread."""
+    mean = points.sum(axis=0) / len(points)
+    centered = points - mean
+    (sxx, sxy), (_, syy) = (centered.T @ centered).tolist()
+    along = 0.5 * math.atan2(2 * sxy, sxx - syy)
+    return mean, centered, np.array([-math.sin(along), math.cos(along)])
 
 
 def _check_in_view(grid: Grid, width: int, height: int) -> None:
@@ -700,7 +719,7 @@ def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool)
     for _ in range(3):  # a smooth curve through the rows that agree with it
         if keep.sum() < 6:
             return
-        curve = np.polyval(np.polyfit(rows[keep], center[keep], 2), rows)
+        curve = _parabola(rows[keep], center[keep], rows)
         keep = known & (np.abs(center - curve) < 2.5)
     # The line's half-width: its typical inked extent, plus a pixel of anti-aliasing.
     inked = strip > 60
@@ -719,6 +738,15 @@ def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool)
         else out[offset : offset + strip.shape[1], :].T
     )
     region[cover] = np.maximum(region[cover], 245)
+
+
+def _parabola(x: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """The least-squares parabola through points (x, y), evaluated at `at` (as np.polyfit with
+    np.polyval, at half the time: this runs for every line of every frame)."""
+    x = x.astype(np.float64)
+    a = np.stack([x * x, x, np.ones_like(x)], axis=1)
+    c = np.linalg.solve(a.T @ a, a.T @ y)
+    return (c[0] * at + c[1]) * at + c[2]
 
 
 def _drawn_rows(good: np.ndarray, min_run: int, max_gap: int, grow: int = 2) -> np.ndarray:
