@@ -571,6 +571,9 @@ def environment() -> dict[str, Any]:
     }
 
 
+_NOT_CODE = ("--", ".", ":(exclude)reports")
+
+
 def _git_commit() -> str | None:
     root = Path(__file__).resolve().parent.parent
     try:
@@ -582,7 +585,11 @@ def _git_commit() -> str | None:
             timeout=10,
         ).stdout.strip()
         dirty = subprocess.run(
-            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+            # reports/ is this command's own output: rewriting it is not a change to the code
+            [
+                *("git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"),
+                *_NOT_CODE,
+            ],
             capture_output=True,
             text=True,
             check=True,
