@@ -31,7 +31,6 @@ import json
 import logging
 import threading
 import time
-import wave
 from collections.abc import Callable
 from dataclasses import dataclass
 from importlib import resources
@@ -44,6 +43,7 @@ from PIL import Image, UnidentifiedImageError
 
 from oxbot.errors import InvalidInputError, OxbotError
 from oxbot.robot.messages import to_json
+from oxbot.speech.audio import Audio, to_wav_bytes
 
 if TYPE_CHECKING:
     from oxbot.robot.session import RobotOptions
@@ -162,13 +162,7 @@ def pcm_to_wav(payload: object, rate: object, limits: WebLimits) -> bytes:
         )
     if seconds < 0.1:
         raise InvalidInputError("recording is shorter than 0.1 s; hold the button while talking")
-    buffer = io.BytesIO()
-    with wave.open(buffer, "wb") as out:
-        out.setnchannels(1)
-        out.setsampwidth(2)
-        out.setframerate(limits.audio_rate)
-        out.writeframes(raw)
-    return buffer.getvalue()
+    return to_wav_bytes(Audio(np.frombuffer(raw, dtype="<i2"), limits.audio_rate))
 
 
 # --- one session per tab ---
@@ -221,9 +215,7 @@ class Session:
 
     def error(self, message: str, about: str = "") -> None:
         self.errors += 1
-        self.outbox.put_nowait(
-            json.dumps({"type": "Error", "data": {"message": message, "about": about}})
-        )
+        self.outbox.put_nowait(_error_text(message, about))
 
     def handle(self, text: str) -> None:
         """Act on one message from the tab; an InvalidInputError says what was wrong."""
@@ -408,15 +400,15 @@ def _warm_up(ready: threading.Event) -> None:
 
 def _hello(session: Session, app: FastAPI) -> dict:
     from oxbot.dialogue.domain import SYSTEM_ACTS
-    from oxbot.game.board import CELL_NAMES
+    from oxbot.game.board import CELL_NAMES, ROBOT, USER, symbol_of
     from oxbot.web import sheet
 
     starts = app.state.robot_starts
     return {
         "session": session.id,
         "robot_starts": starts,
-        "user_symbol": "cross" if starts else "circle",
-        "robot_symbol": "circle" if starts else "cross",
+        "user_symbol": symbol_of(USER, starts),
+        "robot_symbol": symbol_of(ROBOT, starts),
         "cells": list(CELL_NAMES),
         "acts": list(SYSTEM_ACTS),
         "speed_factor": app.state.speed_factor,
