@@ -32,22 +32,9 @@ from pathlib import Path
 import numpy as np
 
 from oxbot.robot.session import RobotOptions
+from oxbot.web.browser import CHROMIUM, FLAGS, draw
 from oxbot.web.player import play_game
 from oxbot.web.server import create_app, serving_in_background
-from oxbot.web.sheet import SIDE, symbol_strokes, unit_to_canvas
-
-CHROMIUM = "/usr/bin/chromium"
-FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--autoplay-policy=no-user-gesture-required",
-]
 
 
 def summary(name: str, seconds: list[float]) -> None:
@@ -84,7 +71,7 @@ def browser(url: str, games: int, seed: int) -> list[float]:
     latencies: list[float] = []
     with sync_playwright() as p, tempfile.TemporaryDirectory() as profile:
         context = p.chromium.launch_persistent_context(
-            profile, executable_path=CHROMIUM, headless=True, args=FLAGS
+            profile, executable_path=CHROMIUM, headless=True, args=list(FLAGS)
         )
         page = context.pages[0] if context.pages else context.new_page()
         page.goto(url + "/")
@@ -118,17 +105,6 @@ def browser(url: str, games: int, seed: int) -> list[float]:
             print(f"  browser game {game + 1}: {moves} moves", file=sys.stderr)
         context.close()
     return latencies
-
-
-def draw(page, where: str, symbol: str, rng: np.random.Generator) -> None:
-    box = page.get_by_test_id("board").bounding_box()
-    for stroke in symbol_strokes(symbol, rng):
-        points = unit_to_canvas(where, stroke) * box["width"] / SIDE + (box["x"], box["y"])
-        page.mouse.move(*points[0])
-        page.mouse.down()
-        for x, y in points[1:]:
-            page.mouse.move(x, y, steps=3)
-        page.mouse.up()
 
 
 def main() -> None:

@@ -7,7 +7,6 @@ browser download is never used. Screenshots go to test-artifacts/web/.
 
 from __future__ import annotations
 
-import itertools
 import shutil
 import subprocess
 import time
@@ -18,23 +17,11 @@ import pytest
 from playwright.sync_api import Page, sync_playwright
 from skimage import data
 
-from oxbot.web.sheet import SIDE, symbol_strokes, unit_to_canvas
+from oxbot.web.browser import CHROMIUM, draw
+from oxbot.web.browser import FLAGS as BROWSER_FLAGS
 
-CHROMIUM = "/usr/bin/chromium"
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
-FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--use-fake-ui-for-media-stream",
-    "--use-fake-device-for-media-stream",
-    "--autoplay-policy=no-user-gesture-required",
-]
+FLAGS = [*BROWSER_FLAGS, "--use-fake-ui-for-media-stream", "--use-fake-device-for-media-stream"]
 MOVE = "GameMove(gridloc="
 
 
@@ -122,38 +109,6 @@ def wait_for_act(page: Page, act: str, speaker: str = "sys", after: int = 0, tim
         arg=[act, speaker, after],
         timeout=timeout,
     )
-
-
-def draw(
-    page: Page, where: str, symbol: str, rng: np.random.Generator, finger: bool = False
-) -> None:
-    """Draw `symbol` in cell `where` stroke by stroke, with the mouse or (`finger`) by touch."""
-    box = page.get_by_test_id("board").bounding_box()
-    scale = box["width"] / SIDE
-    touch = page.context.new_cdp_session(page) if finger else None
-    for stroke in symbol_strokes(symbol, rng):
-        points = unit_to_canvas(where, stroke) * scale + (box["x"], box["y"])
-        path = [points[0]]
-        for a, b in itertools.pairwise(points):
-            steps = max(1, int(np.hypot(*(b - a)) / 6))
-            path += [a + (b - a) * k / steps for k in range(1, steps + 1)]
-        if touch is None:
-            page.mouse.move(*path[0])
-            page.mouse.down()
-            for x, y in path[1:]:
-                page.mouse.move(x, y)
-            page.mouse.up()
-            continue
-        kinds = ["touchStart"] + ["touchMove"] * (len(path) - 1)
-        for kind, (x, y) in zip(kinds, path, strict=True):
-            touch.send(
-                "Input.dispatchTouchEvent",
-                {"type": kind, "touchPoints": [{"x": float(x), "y": float(y)}]},
-            )
-            time.sleep(0.008)  # a finger reports about 120 times a second
-        touch.send("Input.dispatchTouchEvent", {"type": "touchEnd", "touchPoints": []})
-    if touch is not None:
-        touch.detach()
 
 
 def test_a_whole_game_with_mouse_and_keyboard_then_a_spoken_answer(page: Page):

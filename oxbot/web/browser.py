@@ -1,0 +1,63 @@
+"""Driving the page in Debian's Chromium with Playwright: what the browser tests and the
+latency benchmark share.
+
+Playwright's own browser download does not work on these machines; the system's Chromium
+(`apt-get install chromium`, done by `make setup`) does, headless, with the flags below.
+`page` arguments are Playwright `Page`s; this module does not import Playwright itself.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from typing import Any
+
+import numpy as np
+
+from oxbot.web.sheet import SIDE, symbol_strokes, unit_to_canvas
+
+CHROMIUM = "/usr/bin/chromium"
+FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--autoplay-policy=no-user-gesture-required",
+)
+"""Headless Chromium as this machine needs it, and sound without a click first."""
+
+
+def draw(
+    page: Any, where: str, symbol: str, rng: np.random.Generator, finger: bool = False
+) -> None:
+    """Draw `symbol` in cell `where` stroke by stroke, with the mouse or (`finger`) by touch."""
+    box = page.get_by_test_id("board").bounding_box()
+    scale = box["width"] / SIDE
+    touch = page.context.new_cdp_session(page) if finger else None
+    for stroke in symbol_strokes(symbol, rng):
+        points = unit_to_canvas(where, stroke) * scale + (box["x"], box["y"])
+        path = [points[0]]
+        for a, b in itertools.pairwise(points):
+            steps = max(1, int(np.hypot(*(b - a)) / 6))
+            path += [a + (b - a) * k / steps for k in range(1, steps + 1)]
+        if touch is None:
+            page.mouse.move(*path[0])
+            page.mouse.down()
+            for x, y in path[1:]:
+                page.mouse.move(x, y)
+            page.mouse.up()
+            continue
+        kinds = ["touchStart"] + ["touchMove"] * (len(path) - 1)
+        for kind, (x, y) in zip(kinds, path, strict=True):
+            touch.send(
+                "Input.dispatchTouchEvent",
+                {"type": kind, "touchPoints": [{"x": float(x), "y": float(y)}]},
+            )
+            time.sleep(0.008)  # a finger reports about 120 times a second
+        touch.send("Input.dispatchTouchEvent", {"type": "touchEnd", "touchPoints": []})
+    if touch is not None:
+        touch.detach()
