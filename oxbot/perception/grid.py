@@ -458,17 +458,19 @@ class _Strokes:
         return (np.minimum(off, 180 - off) <= _AGREE) | (seen == _UNCLEAR)
 
 
+def _near_lines(lattice: np.ndarray, pixels: np.ndarray, band: float) -> np.ndarray:
+    """(N, 4): which pixels lie within `band` cells of each of the four lines, from 1.3 cells
+    before its first crossing to 1.3 cells after its second."""
+    along, across, size = _along_across(lattice, pixels)
+    return (across < band * size) & (along > -1.3) & (along < 2.3)
+
+
 def _pixels_near(four: Four, pixels: np.ndarray, band: float) -> np.ndarray:
-    """The pixels within `band` cells of any of the four lines, from 1.3 cells before its
-    first crossing to 1.3 cells after its second."""
+    """The pixels within `band` cells of any of the four lines (see `_near_lines`)."""
     lattice = _lattice(*four)
     if lattice is None:
         return pixels
-    a, d, n, size = _line_frames(lattice)
-    along = (pixels @ d.T - (a * d).sum(axis=1)) / (d * d).sum(axis=1)
-    across = np.abs(pixels @ n.T - (a * n).sum(axis=1))
-    near = (across < band * size) & (along > -1.3) & (along < 2.3)
-    return pixels[near.any(axis=1)]
+    return pixels[_near_lines(lattice, pixels, band).any(axis=1)]
 
 
 def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.12, 0.08)) -> Four:
@@ -483,11 +485,7 @@ def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.1
         lattice = _lattice(*four)
         if lattice is None:
             return four
-        a, d, n, size = _line_frames(lattice)
-        # All four lines at once: where each pixel lies along (in cells) and across each line.
-        along = (pixels @ d.T - (a * d).sum(axis=1)) / (d * d).sum(axis=1)
-        across = np.abs(pixels @ n.T - (a * n).sum(axis=1))
-        near = (across < band * size) & (along > -1.3) & (along < 2.3)
+        near = _near_lines(lattice, pixels, band)
         fitted = []
         for k in range(4):
             line = _fit_line(pixels[near[:, k]])
@@ -535,13 +533,20 @@ def _crossings_near(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.n
     return _extend(q)
 
 
+def _along_across(lattice: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Where each pixel of (N, 2) lies along each of the four lines, in cells from its first
+    crossing (N, 4); how far across each line it lies, in pixels (N, 4); the mean cell size."""
+    a, d, n, size = _line_frames(lattice)
+    along = (pixels @ d.T - (a * d).sum(axis=1)) / (d * d).sum(axis=1)
+    across = np.abs(pixels @ n.T - (a * n).sum(axis=1))
+    return along, across, size
+
+
 def _along_lines(lattice: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """Where each pixel lies along each of the four lines, in cells from its first crossing
     (N, 4); whether it lies within 0.12 cells of the line (N, 4); and the mean cell size."""
-    a, d, n, size = _line_frames(lattice)
-    along = (pixels @ d.T - (a * d).sum(axis=1)) / (d * d).sum(axis=1)
-    near = np.abs(pixels @ n.T - (a * n).sum(axis=1)) < 0.12 * size
-    return along, near, size
+    along, across, size = _along_across(lattice, pixels)
+    return along, across < 0.12 * size, size
 
 
 def _bend_outer(q: np.ndarray, pixels: np.ndarray, straight: np.ndarray) -> np.ndarray:
