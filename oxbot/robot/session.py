@@ -17,11 +17,11 @@ from __future__ import annotations
 
 import functools
 import logging
-import threading
 from dataclasses import dataclass
 
 import numpy as np
 
+from oxbot.dialogue.domain import words_of
 from oxbot.errors import ConfigError, InvalidInputError
 from oxbot.game.board import CELL_NAMES, USER, Board, cell_index, symbol_of
 from oxbot.perception.sources import FrameSource
@@ -138,7 +138,7 @@ class Robot:
             self.head_tracking,
             HeadMovementComponent(self.bus),
         ]
-        self._ended = threading.Event()
+        self._ended = False
         self._watch = self.bus.subscribe(DialogueEnded, NewGame)
         self._started = False
 
@@ -168,7 +168,7 @@ class Robot:
     def new_game(self, robot_starts: bool | None = None) -> None:
         """A clean sheet and a new dialogue."""
         starts = self.options.robot_starts if robot_starts is None else robot_starts
-        self._ended.clear()
+        self._ended = False
         self.bus.publish(NewGame(robot_starts=starts))
 
     # --- the person ---
@@ -177,7 +177,7 @@ class Robot:
         """Typed words: heard with confidence 1."""
         if not isinstance(text, str) or not text.strip():
             raise InvalidInputError("say() needs some words; an empty answer is silence")
-        words = tuple((w, 1.0) for w in text.lower().split())
+        words = tuple((w, 1.0) for w in words_of(text))
         self.bus.publish(SpeechHypotheses(nbest=((text, 1.0),), source="text", words=words))
 
     def hear(self, wav: bytes) -> None:
@@ -216,24 +216,6 @@ class Robot:
     @property
     def finished(self) -> bool:
         """True once the robot has said goodbye in the current game."""
-        self._poll()
-        return self._ended.is_set()
-
-    def wait_until_finished(self, timeout: float | None = None) -> bool:
-        """Block until the robot says goodbye (True) or `timeout` seconds pass (False)."""
-        while not self.finished:
-            message = self._watch.get(timeout)
-            if message is None:
-                return False
-            self._note(message)
-        return True
-
-    def _poll(self) -> None:
-        for message in self._watch.drain():
-            self._note(message)
-
-    def _note(self, message: object) -> None:
-        if isinstance(message, DialogueEnded):
-            self._ended.set()
-        elif isinstance(message, NewGame):
-            self._ended.clear()
+        for message in self._watch.drain():  # in order: a NewGame after a goodbye clears it
+            self._ended = isinstance(message, DialogueEnded)
+        return self._ended

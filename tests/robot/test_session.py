@@ -19,6 +19,7 @@ from oxbot.robot.messages import (
     Message,
     SpeakingFinished,
     SpeakingStarted,
+    SpeechHypotheses,
 )
 from oxbot.robot.session import Robot, RobotOptions
 
@@ -186,3 +187,11 @@ def test_bad_input_to_the_robot_is_refused_clearly(robot):
         robot.show(np.zeros((10, 10, 3), np.float32))
     with pytest.raises(IllegalMoveError, match="not a cell"):
         robot.draw("the kitchen")
+
+
+def test_typed_words_become_word_features_without_their_punctuation(robot):
+    heard = robot.bus.subscribe(SpeechHypotheses)
+    robot.say("Yes, let's play.")
+    message = heard.get(2.0)
+    assert message.words == (("yes", 1.0), ("let's", 1.0), ("play", 1.0))
+    assert message.nbest == (("Yes, let's play.", 1.0),)
