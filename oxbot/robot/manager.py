@@ -205,10 +205,6 @@ class InteractionManagerComponent(Component):
         _, mask = self.action_model.offered(
             obs, self.board, robot_to_move, self.config.reward.mask_threshold
         )
-        if not robot_to_move:
-            mask[:9] = False  # drawing now would be a wasted turn (and cheating)
-        if not mask.any():
-            mask[MOVE_REQUEST if not robot_to_move else CLOSING] = True
         q = self.policy.q_values(obs[None])[0]
         action = int(masked_argmax(q[None], mask[None])[0])
         self.bus.publish(
