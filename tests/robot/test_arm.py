@@ -6,20 +6,9 @@ import pytest
 from oxbot.robot.arm import ArmComponent, ArmConfig, cell_strokes, drawing_seconds
 from oxbot.robot.bus import Bus
 from oxbot.robot.messages import ArmCommand, ArmDone, ArmStroke, ComponentFailed
+from tests.robot.helpers import collect
 
 FAST = ArmConfig(speed_factor=50.0)
-
-
-def collect(inbox, until, seconds=5.0):
-    """Messages from `inbox` up to and including the first for which `until` is true."""
-    got, deadline = [], time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        message = inbox.get(timeout=0.05)
-        if message is not None:
-            got.append(message)
-            if until(message):
-                return got
-    raise AssertionError(f"timed out after {got}")
 
 
 @pytest.mark.parametrize("symbol", ["circle", "cross"])

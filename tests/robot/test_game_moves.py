@@ -21,18 +21,7 @@ from oxbot.robot.messages import (
     GameMove,
     NewGame,
 )
-
-
-def collect(subscription, until, timeout=5.0):
-    """Messages until one satisfies `until` (included) or `timeout` seconds pass."""
-    got, deadline = [], time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        message = subscription.get(0.05)
-        if message is not None:
-            got.append(message)
-            if until(message):
-                return got
-    raise AssertionError(f"timed out; got {[type(m).__name__ for m in got]}")
+from tests.robot.helpers import collect
 
 
 @pytest.fixture
