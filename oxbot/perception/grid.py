@@ -7,11 +7,12 @@ rotated up to ±15° and under mild perspective (SPEC §2), so it is found first
 1. *Ink*: pixels clearly darker than the paper around them (a morphological closing estimates
    the paper), on a copy of the frame at most `WORK_SIDE` pixels wide, shrunk so that thin
    pen lines stay dark. Desk edges, shadows and lighting gradients are not thin and dark.
-2. *Lines*: the Hough transform proposes straight lines through the ink within 27° of
-   horizontal or vertical (the grid turns at most 15°); the grid is a pair of near-parallel
-   lines and a crossing pair whose ink runs along all four, across the whole grid. Hand-drawn
-   lines wobble, overshoot or stop short; the check asks for ink along most of each line,
-   and along most of its stretch beside the middle cell.
+2. *Lines*: the Hough transform proposes straight lines within 27° of horizontal or
+   vertical (the grid turns at most 15°), each family voted for only by ink whose stroke
+   runs its way, so that circles and crosses cannot crowd out the grid's lines; the grid
+   is a pair of near-parallel lines and a crossing pair whose ink runs along all four,
+   across the whole grid. Hand-drawn lines wobble, overshoot or stop short; the check asks
+   for ink along most of each line, and along most of its stretch beside the middle cell.
 3. *Fit*: each of the four lines is refitted to the ink near it, and each crossing to the
    ink within a third of a cell of it, three times over, each time looking along the lines
    through the last crossings (a hand-drawn line bends). The four crossings and one more
@@ -64,6 +65,7 @@ _MIN_MEAN_SUPPORT = 0.6  # least mean share over the four lines
 _MIN_MIDDLE_SUPPORT = 0.75  # least share of a line's stretch along the middle cell
 _MIN_MIDDLE_SUPPORT_UNFITTED = 0.6  # the same for a Hough line, a few degrees off a wobbly one
 _AGREE = 25  # degrees: a stroke this near a line's direction runs its way
+_FAMILY_AGREE = 40  # degrees: a stroke this near horizontal (vertical) votes for such lines
 _MIN_CLEARNESS = 0.3  # strokes less clear-cut than this (crossings, blobs) count either way
 _UNCLEAR = 255  # the direction of such strokes
 
@@ -176,14 +178,14 @@ def find_grid(gray: np.ndarray) -> Grid:
     ink[:2, :] = ink[-2:, :] = ink[:, :2] = ink[:, -2:] = 0
     short = min(small.shape)
     min_spacing = MIN_GRID_SHARE * short / 3
-    lines = _hough_lines(ink, votes=max(12, int(0.6 * 3 * min_spacing)))
+    strokes = _Strokes.of(small, ink)
+    lines = _hough_lines(strokes, votes=max(12, int(0.6 * 3 * min_spacing)))
     if len(lines) < 4:
         raise NoGridFound(
             "no grid in view: found no long pen lines (a blank sheet or an empty desk?); "
             "draw the 3x3 grid with a dark pen and keep all of it in the picture"
         )
     center = np.array(small.shape[::-1], np.float64) / 2
-    strokes = _Strokes.of(small, ink)
     best = _best_grid(lines, strokes, min_spacing, short / 2, center)
     if best is None:
         raise NoGridFound(
@@ -202,24 +204,42 @@ def find_grid(gray: np.ndarray) -> Grid:
     return grid
 
 
-def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]]:
-    """Distinct straight lines through the ink as (rho, theta, votes), strongest first."""
-    found = cv2.HoughLinesWithAccumulator(ink, 2, math.pi / 180, votes)  # 2 px, 1 degree
-    if found is None:
-        return []
-    center = np.array(ink.shape[::-1], np.float64) / 2
+def _hough_lines(strokes: _Strokes, votes: int) -> list[tuple[float, float, float]]:
+    """Distinct straight lines through the ink as (rho, theta, votes), strongest first.
+
+    Near-horizontal and near-vertical lines are voted for apart, each only by ink whose
+    stroke runs its way (or is unclear): the arcs of circles and the strokes of crosses, at
+    45 degrees to the grid, then cannot add up to lines that crowd out the grid's own.
+    """
+    low, high = math.pi / 2 - _MAX_TILT, math.pi / 2 + _MAX_TILT + 1e-6
     kept: list[tuple[float, float, float]] = []
-    for rho, theta, count in found[:_MAX_HOUGH, 0, :].tolist():
-        # Grid lines run within a few tens of degrees of horizontal or vertical; the strokes
-        # of crosses, at 45° to them, would crowd them out.
-        if min(_angle_between(theta, 0.0), _angle_between(theta, math.pi / 2)) > _MAX_TILT:
+    for way in (0, 90):  # horizontal strokes, then vertical ones
+        mask = strokes.running(way, _FAMILY_AGREE)
+        if way == 90:  # a vertical line is a horizontal one of the transposed image
+            mask = np.ascontiguousarray(mask.T)
+        found = cv2.HoughLinesWithAccumulator(
+            mask, 2, math.pi / 180, votes, min_theta=low, max_theta=high
+        )
+        if found is None:
             continue
-        if any(_same_line((rho, theta), (r, t), center) for r, t, _ in kept):
-            continue
-        kept.append((float(rho), float(theta), float(count)))
-        if len(kept) == _MAX_LINES:
-            break
-    return kept
+        center = np.array(mask.shape[::-1], np.float64) / 2
+        family: list[tuple[float, float, float]] = []
+        for rho, theta, count in found[:_MAX_HOUGH, 0, :].tolist():
+            if any(_same_line((rho, theta), (r, t), center) for r, t, _ in family):
+                continue
+            family.append((float(rho), float(theta), float(count)))
+            if len(family) == _MAX_LINES // 2:
+                break
+        if way == 90:  # back from the transposed image: x and y swap, theta mirrors
+            family = [_untransposed(rho, theta, count) for rho, theta, count in family]
+        kept += family
+    return sorted(kept, key=lambda line: -line[2])
+
+
+def _untransposed(rho: float, theta: float, count: float) -> tuple[float, float, float]:
+    """A line (rho, theta) of the transposed image as a line of the image."""
+    theta = math.pi / 2 - theta
+    return (-rho, theta + math.pi, count) if theta < 0 else (rho, theta, count)
 
 
 def _same_line(a: Line, b: Line, center: np.ndarray) -> bool:
@@ -385,11 +405,11 @@ def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
 
 
 # Points along each inner line (in cells from its first crossing) and small steps across it:
-# ink is looked for within ±0.06 cells of the line, because hand-drawn lines wobble; ink
+# ink is looked for within ±0.12 cells of the line, because hand-drawn lines wobble; ink
 # nearer the line counts for more, so that of two candidate lines the one on the ink wins.
 _ALONG = np.linspace(-0.88, 1.88, 24)
-_ACROSS = np.linspace(-0.08, 0.08, 9)
-_CLOSENESS = 1 - np.abs(_ACROSS) / 0.12
+_ACROSS = np.linspace(-0.12, 0.12, 13)
+_CLOSENESS = 1 - np.abs(_ACROSS) / 0.18
 _MIDDLE = (_ALONG > 0.1) & (_ALONG < 0.9)  # the stretch between the line's two crossings
 
 
@@ -449,6 +469,13 @@ class _Strokes:
         direction = np.full(ink.shape, _UNCLEAR, np.uint8)
         direction[ys, xs] = np.where(clear, np.round(degrees) % 180, _UNCLEAR)
         return cls(ink, np.stack([xs, ys], axis=1).astype(np.float64), direction)
+
+    def running(self, way: float, agree: float) -> np.ndarray:
+        """uint8 mask of the ink whose strokes run within `agree` degrees of `way`, or are
+        too unclear to say."""
+        off = np.abs(self.direction.astype(np.int16) - round(way)) % 180
+        along = (np.minimum(off, 180 - off) <= agree) | (self.direction == _UNCLEAR)
+        return np.where(along, self.mask, 0).astype(np.uint8)
 
     def runs_along(self, x: np.ndarray, y: np.ndarray, way: np.ndarray) -> np.ndarray:
         """Whether the strokes at ink pixels (x, y) run within `_AGREE` degrees of `way`
