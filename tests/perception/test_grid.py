@@ -84,6 +84,21 @@ def test_finds_where_bent_lines_really_cross(variant):
     assert np.mean(np.array(errors) >= 0.1) <= 0.1
 
 
+def test_symbols_do_not_crowd_the_grid_lines_out():
+    # Big, scattered symbols under a poor camera: with every ink pixel voting for every line,
+    # circles' arcs and crosses' strokes outvoted bowed grid lines and the grid was not
+    # found in 7 of these 100 photos; voted for only by strokes running their way, in 1.
+    rng = np.random.default_rng(11)
+    missed = 0
+    for _ in range(100):
+        photo = render_photo(rng, style=TUNING_VARIANTS["tuning-camera"])
+        try:
+            find_grid(as_gray(photo.image))
+        except NoGridFound:
+            missed += 1
+    assert missed <= 3
+
+
 @pytest.mark.parametrize("degrees", [-15, -8, 0, 8, 15])
 def test_finds_the_grid_rotated_up_to_15_degrees(degrees):
     rng = np.random.default_rng(100 + degrees)
