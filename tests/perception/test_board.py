@@ -19,10 +19,10 @@ def test_read_board_is_public_next_to_load_classifier():
     assert callable(perception.load_classifier)
 
 
-HELD_OUT_FLOOR = 0.90
-"""A regression guard well below what the reader with the shipped classifier was measured at
-(97.5%, 195/200; 93.5% before the stroke-direction grid finder). SPEC §2's goal is 98%; it is
-not reached yet (README, "Reading the board"), so the floor stays where it was."""
+HELD_OUT_FLOOR = 0.975
+"""A regression guard just below what the reader with the shipped classifier was measured at on
+these photos (98.5%, 197/200; SPEC §2's goal is 98%): two photos of slack for the last bits of
+floating point in another build of OpenCV or torch."""
 
 
 def test_all_9_cells_right_in_most_held_out_photos():
