@@ -29,7 +29,6 @@ empty desk) or when the grid runs off the frame.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
@@ -207,23 +206,32 @@ def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]
     found = cv2.HoughLinesWithAccumulator(ink, 2, math.pi / 180, votes)  # 2 px, 1 degree
     if found is None:
         return []
-    center = np.array(ink.shape[::-1], np.float64) / 2
+    found = found[:_MAX_HOUGH, 0, :].astype(np.float64)
+    # Grid lines run within a few tens of degrees of horizontal or vertical; the strokes
+    # of crosses, at 45° to them, would crowd them out.
+    theta = found[:, 1]
+    tilt = np.minimum(_angles_between(theta, 0.0), _angles_between(theta, math.pi / 2))
+    cx, cy = (float(x) for x in np.array(ink.shape[::-1], np.float64) / 2)
+    same_angle = math.radians(6)
+    # A line is a kept one again when it runs within 6° of it and its point nearest the
+    # centre lies within 6 px of it. Plain floats: a few hundred such checks per frame,
+    # too few for numpy to pay.
     kept: list[tuple[float, float, float]] = []
-    for rho, theta, count in found[:_MAX_HOUGH, 0, :].tolist():
-        # Grid lines run within a few tens of degrees of horizontal or vertical; the strokes
-        # of crosses, at 45° to them, would crowd them out.
-        if min(_angle_between(theta, 0.0), _angle_between(theta, math.pi / 2)) > _MAX_TILT:
+    normals: list[tuple[float, float]] = []
+    for rho, theta, count in found[tilt <= _MAX_TILT].tolist():
+        c, s = math.cos(theta), math.sin(theta)
+        off = cx * c + cy * s - rho
+        fx, fy = cx - off * c, cy - off * s
+        if any(
+            _angle_between(theta, t) < same_angle and abs(fx * kc + fy * ks - r) < 6
+            for (r, t, _), (kc, ks) in zip(kept, normals, strict=True)
+        ):
             continue
-        if any(_same_line((rho, theta), (r, t), center) for r, t, _ in kept):
-            continue
-        kept.append((float(rho), float(theta), float(count)))
+        kept.append((rho, theta, count))
+        normals.append((c, s))
         if len(kept) == _MAX_LINES:
             break
     return kept
-
-
-def _same_line(a: Line, b: Line, center: np.ndarray) -> bool:
-    return _angle_between(a[1], b[1]) < math.radians(6) and _spacing(a, b, center) < 6
 
 
 def _angle_between(t1: float, t2: float) -> float:
@@ -232,22 +240,36 @@ def _angle_between(t1: float, t2: float) -> float:
     return min(d, math.pi - d)
 
 
-def _spacing(l1: Line, l2: Line, center: np.ndarray) -> float:
-    """Distance from line 2 to the point of line 1 nearest `center`."""
+def _angles_between(t1: np.ndarray | float, t2: np.ndarray | float) -> np.ndarray:
+    """`_angle_between` elementwise."""
+    d = np.abs(np.subtract(t1, t2)) % math.pi
+    return np.minimum(d, math.pi - d)
+
+
+def _spacing(l1: tuple, l2: tuple, center: np.ndarray) -> np.ndarray:
+    """Distance from line 2 to the point of line 1 nearest `center`; lines are (rho, theta),
+    elementwise for arrays of them."""
     (r1, t1), (r2, t2) = l1, l2
-    c1, s1 = math.cos(t1), math.sin(t1)
-    off = float(center[0]) * c1 + float(center[1]) * s1 - r1
-    fx, fy = float(center[0]) - off * c1, float(center[1]) - off * s1
-    return abs(fx * math.cos(t2) + fy * math.sin(t2) - r2)
+    c1, s1 = np.cos(t1), np.sin(t1)
+    off = center[0] * c1 + center[1] * s1 - r1
+    fx, fy = center[0] - off * c1, center[1] - off * s1
+    return np.abs(fx * np.cos(t2) + fy * np.sin(t2) - r2)
 
 
 def _intersect(l1: Line, l2: Line) -> np.ndarray | None:
+    point = _crossing(l1, l2)
+    return None if point is None else np.array(point)
+
+
+def _crossing(l1: Line, l2: Line) -> tuple[float, float] | None:
+    """Where two lines cross, as plain floats (a numpy array per crossing costs more than
+    the arithmetic); None for parallel lines."""
     (r1, t1), (r2, t2) = l1, l2
     a, b, c, d = math.cos(t1), math.sin(t1), math.cos(t2), math.sin(t2)
     det = a * d - b * c
     if abs(det) < 1e-6:
         return None
-    return np.array([(r1 * d - r2 * b) / det, (a * r2 - c * r1) / det])
+    return (r1 * d - r2 * b) / det, (a * r2 - c * r1) / det
 
 
 Four = tuple[Line, Line, Line, Line]
@@ -262,55 +284,66 @@ def _best_grid(
     center: np.ndarray,
 ) -> tuple[Four, float] | None:
     """The four lines, among `lines`, along which ink runs most closely; or None."""
+    rho, theta, votes = np.array(lines).T
     # Every line left runs within _MAX_TILT of vertical (normal near 0 or pi) or horizontal.
-    vertical = [x for x in lines if _angle_between(x[1], 0.0) <= _MAX_TILT]
-    horizontal = [x for x in lines if _angle_between(x[1], 0.0) > _MAX_TILT]
+    is_vertical = _angles_between(theta, 0.0) <= _MAX_TILT
 
-    def pairs(family: list) -> list:
-        return [
-            (a, b)
-            for a, b in itertools.combinations(family, 2)
-            if _angle_between(a[1], b[1]) < _PARALLEL
-            and min_spacing <= _spacing(a[:2], b[:2], center) <= max_spacing
-        ]
+    def pairs(family: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Indices (first, second) of the near-parallel pairs of lines of a family spaced
+        as a grid's, in the order of itertools.combinations."""
+        i, j = np.triu_indices(len(family), 1)
+        first, second = family[i], family[j]
+        spacing = _spacing((rho[first], theta[first]), (rho[second], theta[second]), center)
+        ok = (
+            (_angles_between(theta[first], theta[second]) < _PARALLEL)
+            & (spacing >= min_spacing)
+            & (spacing <= max_spacing)
+        )
+        return first[ok], second[ok]
 
-    candidates = [
-        (p, q)
-        for p in pairs(vertical)
-        for q in pairs(horizontal)
-        if abs(_angle_between(p[0][1], q[0][1]) - math.pi / 2) <= _CROSSING
-    ]
+    (va, vb), (ha, hb) = pairs(np.flatnonzero(is_vertical)), pairs(np.flatnonzero(~is_vertical))
+    # Every vertical pair with every horizontal one, vertical pairs outermost, as long as
+    # the two cross near a right angle.
+    crossing = np.abs(_angles_between(theta[va][:, None], theta[ha][None, :]) - math.pi / 2)
+    p, q = np.nonzero(crossing <= _CROSSING)
     # The grid's lines are the longest in view: try the best-voted quadruples first, and only
     # so many of them, so that a cluttered sheet cannot blow the time budget.
-    candidates.sort(key=lambda pq: -sum(x[2] for x in (*pq[0], *pq[1])))
-    passed: list[tuple[float, Four]] = []
-    for p, q in candidates[:_MAX_GRIDS]:
-        four = _order(p, q)
+    total = votes[va[p]] + votes[vb[p]] + votes[ha[q]] + votes[hb[q]]
+    tried = np.argsort(-total, kind="stable")[:_MAX_GRIDS]
+    fours, lattices, totals = [], [], []
+    for k in tried:
+        pair = (lines[va[p[k]]], lines[vb[p[k]]])
+        four = _order(pair, (lines[ha[q[k]]], lines[hb[q[k]]]))
         lattice = _lattice(*four, min_side=0.8 * min_spacing)
-        if lattice is None:
-            continue
-        support, middle, closeness = _line_support(lattice, strokes)
-        if (
-            support.min() < _MIN_SUPPORT
-            or support.mean() < _MIN_MEAN_SUPPORT
-            or middle.min() < _MIN_MIDDLE_SUPPORT_UNFITTED
-        ):
-            continue
-        passed.append((closeness + 1e-4 * sum(x[2] for x in (*p, *q)), four))
+        if lattice is not None:
+            fours.append(four)
+            lattices.append(lattice)
+            totals.append(float(total[k]))
+    passed: list[tuple[float, Four]] = []
+    if lattices:
+        support, middle, closeness = _line_support(np.array(lattices), strokes)
+        ok = (
+            (support.min(axis=1) >= _MIN_SUPPORT)
+            & (support.mean(axis=1) >= _MIN_MEAN_SUPPORT)
+            & (middle.min(axis=1) >= _MIN_MIDDLE_SUPPORT_UNFITTED)
+        )
+        passed = [(float(closeness[k]) + 1e-4 * totals[k], fours[k]) for k in np.flatnonzero(ok)]
     # A Hough line a few degrees off a wobbly grid line can score below a line that grazes
     # several symbols; fitted to the ink, the grid's real lines win. So the leaders are
     # refitted once and judged again.
-    best: tuple[float, Four] | None = None
+    fitted_fours, lattices = [], []
     for _, four in sorted(passed, key=lambda x: -x[0])[:_FINALISTS]:
         fitted = _refine(four, strokes.pixels, bands=(0.15,))
         lattice = _lattice(*fitted, min_side=0.8 * min_spacing)
-        if lattice is None:
-            continue
-        _, middle, closeness = _line_support(lattice, strokes)
-        if middle.min() < _MIN_MIDDLE_SUPPORT:
-            continue
-        if best is None or closeness > best[0]:
-            best = (closeness, fitted)
+        if lattice is not None:
+            fitted_fours.append(fitted)
+            lattices.append(lattice)
+    best: tuple[float, Four] | None = None
+    if lattices:
+        _, middle, closeness = _line_support(np.array(lattices), strokes)
+        for k, fitted in enumerate(fitted_fours):
+            if middle[k].min() >= _MIN_MIDDLE_SUPPORT and (best is None or closeness[k] > best[0]):
+                best = (float(closeness[k]), fitted)
     return None if best is None else (best[1], best[0])
 
 
@@ -338,14 +371,12 @@ def _lattice(
     left: Line, right: Line, top: Line, bottom: Line, min_side: float = 1.0
 ) -> np.ndarray | None:
     """The (4, 4, 2) lattice of cell corners of four lines, or None if they make no grid."""
+    inner = [_crossing(v, hz) for hz in (top, bottom) for v in (left, right)]
+    if None in inner:
+        return None
     q = np.zeros((4, 4, 2))
-    for r, hz in ((1, top), (2, bottom)):
-        for c, v in ((1, left), (2, right)):
-            point = _intersect(v, hz)
-            if point is None:
-                return None
-            q[r, c] = point
-    middle = np.array([q[1, 1], q[1, 2], q[2, 2], q[2, 1]], np.float32)
+    q[1:3, 1:3] = np.reshape(inner, (2, 2, 2))
+    middle = np.array([inner[0], inner[1], inner[3], inner[2]], np.float32)  # clockwise
     if not np.isfinite(middle).all() or not cv2.isContourConvex(middle.reshape(-1, 1, 2)):
         return None
     sides = np.linalg.norm(middle - middle[[3, 0, 1, 2]], axis=1)
@@ -361,27 +392,29 @@ def _lattice(
 def _extend(q: np.ndarray) -> np.ndarray:
     """Fill in the outer lattice points from the four inner ones, in place: one middle cell
     further out along each line."""
-    for r in (1, 2):  # along each horizontal line, a cell further out on either side
-        q[r, 0] = 2 * q[r, 1] - q[r, 2]
-        q[r, 3] = 2 * q[r, 2] - q[r, 1]
-    for c in (1, 2):  # along each vertical line
-        q[0, c] = 2 * q[1, c] - q[2, c]
-        q[3, c] = 2 * q[2, c] - q[1, c]
-    for r0, rn in ((0, 1), (3, 2)):  # the outer corners complete parallelograms
-        for c0, cn in ((0, 1), (3, 2)):
-            q[r0, c0] = q[r0, cn] + q[rn, c0] - q[rn, cn]
+    # Along each horizontal line (rows 1, 2), a cell further out on either side.
+    q[1:3, 0] = 2 * q[1:3, 1] - q[1:3, 2]
+    q[1:3, 3] = 2 * q[1:3, 2] - q[1:3, 1]
+    # Along each vertical line (columns 1, 2).
+    q[0, 1:3] = 2 * q[1, 1:3] - q[2, 1:3]
+    q[3, 1:3] = 2 * q[2, 1:3] - q[1, 1:3]
+    # The outer corners (rows and columns 0, 3) complete parallelograms with their
+    # neighbours (rows and columns 1, 2).
+    q[::3, ::3] = q[::3, 1:3] + q[1:3, ::3] - q[1:3, 1:3]
     return q
 
 
-def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """For the four lines (left, right, top, bottom): a crossing A on each, the step D of one
-    cell along it, its unit normal N, and the mean cell size."""
-    q = lattice
-    a = np.array([q[1, 1], q[1, 2], q[1, 1], q[2, 1]])
-    d = np.array([q[2, 1] - q[1, 1], q[2, 2] - q[1, 2], q[1, 2] - q[1, 1], q[2, 2] - q[2, 1]])
-    length = np.linalg.norm(d, axis=1, keepdims=True)
-    n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.maximum(length, 1e-9)
-    return a, d, n, float(length.mean())
+def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """For the four lines (left, right, top, bottom) of a lattice (4, 4, 2), or of each of a
+    stack of them (..., 4, 4, 2): a crossing A on each (..., 4, 2), the step D of one cell
+    along it, its unit normal N, and the mean cell size (...)."""
+    # Left from q[1, 1] to q[2, 1], right q[1, 2] to q[2, 2], top q[1, 1] to q[1, 2],
+    # bottom q[2, 1] to q[2, 2].
+    a = lattice[..., [1, 1, 1, 2], [1, 2, 1, 1], :]
+    d = lattice[..., [2, 2, 1, 2], [1, 2, 2, 2], :] - a
+    length = np.linalg.norm(d, axis=-1, keepdims=True)
+    n = np.stack([-d[..., 1], d[..., 0]], axis=-1) / np.maximum(length, 1e-9)
+    return a, d, n, length[..., 0].mean(axis=-1)
 
 
 # Points along each inner line (in cells from its first crossing) and small steps across it:
@@ -393,16 +426,21 @@ _CLOSENESS = 1 - np.abs(_ACROSS) / 0.12
 _MIDDLE = (_ALONG > 0.1) & (_ALONG < 0.9)  # the stretch between the line's two crossings
 
 
-def _line_support(lattice: np.ndarray, strokes: _Strokes) -> tuple[np.ndarray, np.ndarray, float]:
-    """Share of each of the four lines along which ink is found (4,), the same along the
-    middle cell only (4,), and how close to the lines the ink lies (0-1). Only ink whose
-    stroke runs the line's way counts: a line through a symbol crosses its strokes."""
+def _line_support(
+    lattices: np.ndarray, strokes: _Strokes
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each of a stack of lattices (C, 4, 4, 2): the share of each of its four lines along
+    which ink is found (C, 4), the same along the middle cell only (C, 4), and how close to
+    the lines the ink lies, 0-1 (C,). Only ink whose stroke runs the line's way counts: a line
+    through a symbol crosses its strokes. (All candidates at once: numpy's cost per call,
+    not per point, dominates.)"""
     ink = strokes.mask
-    a, d, n, size = _line_frames(lattice)
+    a, d, n, size = _line_frames(lattices)
+    # (C, line, along, across, xy)
     pts = (
-        a[:, None, None, :]
-        + _ALONG[None, :, None, None] * d[:, None, None, :]
-        + (_ACROSS * size)[None, None, :, None] * n[:, None, None, :]
+        a[:, :, None, None, :]
+        + _ALONG[:, None, None] * d[:, :, None, None, :]
+        + (_ACROSS[None, :] * size[:, None])[:, None, None, :, None] * n[:, :, None, None, :]
     )
     h, w = ink.shape
     x = np.round(pts[..., 0]).astype(np.int64)
@@ -410,15 +448,17 @@ def _line_support(lattice: np.ndarray, strokes: _Strokes) -> tuple[np.ndarray, n
     inside = (x >= 0) & (x < w) & (y >= 0) & (y < h)
     hit = np.zeros(x.shape, bool)
     hit[inside] = ink[y[inside], x[inside]] > 0
-    way = np.degrees(np.arctan2(d[:, 1], d[:, 0])) % 180  # each line's direction
-    way = np.broadcast_to(way[:, None, None], x.shape)
+    way = np.degrees(np.arctan2(d[..., 1], d[..., 0])) % 180  # each line's direction
+    way = np.broadcast_to(way[:, :, None, None], x.shape)
     hit[hit] = strokes.runs_along(x[hit], y[hit], way[hit])
-    closeness = (hit * _CLOSENESS).max(axis=2)
-    inked = hit.any(axis=2)
+    closeness = (hit * _CLOSENESS).max(axis=3)
+    inked = hit.any(axis=3)
     # Half from the middle stretch, which every grid has: ink beyond the crossings may be a
     # symbol's as well as the line's, which may stop short there.
-    score = 0.5 * closeness[:, _MIDDLE].mean() + 0.5 * closeness[:, ~_MIDDLE].mean()
-    return inked.mean(axis=1), inked[:, _MIDDLE].mean(axis=1), float(score)
+    # (One lattice at a time: a mean over several axes adds in another order, and candidates
+    # that tie must still tie.)
+    score = np.array([0.5 * c[:, _MIDDLE].mean() + 0.5 * c[:, ~_MIDDLE].mean() for c in closeness])
+    return inked.mean(axis=2), inked[:, :, _MIDDLE].mean(axis=2), score
 
 
 @dataclass(frozen=True)
