@@ -374,34 +374,44 @@ def _lattice(
     inner = [_crossing(v, hz) for hz in (top, bottom) for v in (left, right)]
     if None in inner:
         return None
-    q = np.zeros((4, 4, 2))
-    q[1:3, 1:3] = np.reshape(inner, (2, 2, 2))
     middle = np.array([inner[0], inner[1], inner[3], inner[2]], np.float32)  # clockwise
     if not np.isfinite(middle).all() or not cv2.isContourConvex(middle.reshape(-1, 1, 2)):
         return None
-    sides = np.linalg.norm(middle - middle[[3, 0, 1, 2]], axis=1)
-    if sides.min() < min_side or not (
-        0.6 < sides[0] / sides[2] < 1 / 0.6
-        and 0.6 < sides[1] / sides[3] < 1 / 0.6
-        and 0.5 < sides[0] / sides[1] < 2
-    ):
+    sides = np.sqrt(((middle - middle[[3, 0, 1, 2]]) ** 2).sum(axis=1))
+    # Opposite sides alike (0 to 2, 1 to 3), and the cell not too oblong (0 to 1).
+    ratios = sides[[0, 1, 0]] / sides[[2, 3, 1]]
+    if sides.min() < min_side or not ((ratios > _RATIO_LOW) & (ratios < _RATIO_HIGH)).all():
         return None
-    return _extend(q)
+    return _extend(inner)
 
 
-def _extend(q: np.ndarray) -> np.ndarray:
-    """Fill in the outer lattice points from the four inner ones, in place: one middle cell
-    further out along each line."""
-    # Along each horizontal line (rows 1, 2), a cell further out on either side.
-    q[1:3, 0] = 2 * q[1:3, 1] - q[1:3, 2]
-    q[1:3, 3] = 2 * q[1:3, 2] - q[1:3, 1]
-    # Along each vertical line (columns 1, 2).
-    q[0, 1:3] = 2 * q[1, 1:3] - q[2, 1:3]
-    q[3, 1:3] = 2 * q[2, 1:3] - q[1, 1:3]
-    # The outer corners (rows and columns 0, 3) complete parallelograms with their
-    # neighbours (rows and columns 1, 2).
-    q[::3, ::3] = q[::3, 1:3] + q[1:3, ::3] - q[1:3, 1:3]
-    return q
+_RATIO_LOW = np.array([0.6, 0.6, 0.5], np.float32)
+_RATIO_HIGH = np.array([1 / 0.6, 1 / 0.6, 2], np.float32)
+
+
+def _extend(inner: list) -> np.ndarray:
+    """The (4, 4, 2) lattice of its four inner points (x, y), row by row (at (1, 1), (1, 2),
+    (2, 1), (2, 2)): the outer points lie one middle cell further out along each line, and
+    the corners complete parallelograms. (In plain floats: numpy would spend more time per
+    call than on the arithmetic.)"""
+    a, b, c, d = ((float(x), float(y)) for x, y in inner)
+
+    def beyond(p: tuple, o: tuple) -> tuple[float, float]:  # one cell past p, away from o
+        return 2 * p[0] - o[0], 2 * p[1] - o[1]
+
+    def corner(row: tuple, column: tuple, inner: tuple) -> tuple[float, float]:
+        return row[0] + column[0] - inner[0], row[1] + column[1] - inner[1]
+
+    top_a, top_b, bottom_c, bottom_d = beyond(a, c), beyond(b, d), beyond(c, a), beyond(d, b)
+    left_a, right_b, left_c, right_d = beyond(a, b), beyond(b, a), beyond(c, d), beyond(d, c)
+    return np.array(
+        [
+            [corner(top_a, left_a, a), top_a, top_b, corner(top_b, right_b, b)],
+            [left_a, a, b, right_b],
+            [left_c, c, d, right_d],
+            [corner(bottom_c, left_c, c), bottom_c, bottom_d, corner(bottom_d, right_d, d)],
+        ]
+    )
 
 
 def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -412,9 +422,12 @@ def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     # bottom q[2, 1] to q[2, 2].
     a = lattice[..., [1, 1, 1, 2], [1, 2, 1, 1], :]
     d = lattice[..., [2, 2, 1, 2], [1, 2, 2, 2], :] - a
-    length = np.linalg.norm(d, axis=-1, keepdims=True)
-    n = np.stack([-d[..., 1], d[..., 0]], axis=-1) / np.maximum(length, 1e-9)
+    length = np.sqrt((d * d).sum(axis=-1, keepdims=True))
+    n = d[..., ::-1] * _TURN_LEFT / np.maximum(length, 1e-9)
     return a, d, n, length[..., 0].mean(axis=-1)
+
+
+_TURN_LEFT = np.array([-1.0, 1.0])  # (dx, dy)[::-1] * this = (-dy, dx)
 
 
 # Points along each inner line (in cells from its first crossing) and small steps across it:
@@ -566,15 +579,15 @@ def _crossings_near(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.n
         for end in (0, 1):
             line = _fit_line(pixels[around[end][k]])
             local[k, end] = line if line is not None else four[k]
-    q = lattice.copy()
+    inner = []
     for r, top_or_bottom in ((1, 2), (2, 3)):
         for c, left_or_right in ((1, 0), (2, 1)):
             # Line k's crossings run along it: verticals top to bottom, horizontals left to right.
             point = _intersect(local[left_or_right, r - 1], local[top_or_bottom, c - 1])
             if point is None or np.linalg.norm(point - lattice[r, c]) > 0.25 * size:
                 return None
-            q[r, c] = point
-    return _extend(q)
+            inner.append(point)
+    return _extend(inner)
 
 
 def _along_across(lattice: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -626,9 +639,9 @@ def _bend_outer(q: np.ndarray, pixels: np.ndarray, straight: np.ndarray) -> np.n
         if direction @ step < 0.9 * np.linalg.norm(step):
             continue  # turns more than about 25 degrees: not the same line
         q[outer] = q[here] + direction * np.linalg.norm(step)
-    for r0, rn in ((0, 1), (3, 2)):  # the outer corners complete parallelograms
-        for c0, cn in ((0, 1), (3, 2)):
-            q[r0, c0] = q[r0, cn] + q[rn, c0] - q[rn, cn]
+    # The outer corners (rows and columns 0, 3) complete parallelograms with their
+    # neighbours (rows and columns 1, 2).
+    q[::3, ::3] = q[::3, 1:3] + q[1:3, ::3] - q[1:3, 1:3]
     return q
 
 
