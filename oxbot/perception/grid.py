@@ -707,27 +707,28 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 
     """
     lattice = grid.lattice
     frame_cell = grid.cell_size()
-    if frame_cell > 1.6 * cell:  # shrink first: a perspective warp does not average pixels
+    shrink = frame_cell > 1.6 * cell  # shrink first: a perspective warp does not average pixels
+    if shrink:
         f = 1.25 * cell / frame_cell
-        gray = cv2.resize(gray, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
         lattice = lattice * f
     edges = [0, cell, 2 * cell, 3 * cell]
     if border > 0:
         lattice = _ring(lattice, border / cell)
         edges = [0] + [border + e for e in edges] + [3 * cell + 2 * border]
+    if shrink:
+        gray = _shrink_up_to(gray, f, lattice.reshape(-1, 2).max(axis=0))
     side = edges[-1]
     sheet = np.empty((side, side), np.uint8)
     n = len(edges) - 1
+    corners = lattice.astype(np.float32)
+    # Each cell's corners clockwise from its upper left, (n, n, 4, 2).
+    quads = np.stack([corners[:-1, :-1], corners[:-1, 1:], corners[1:, 1:], corners[1:, :-1]], 2)
     for r in range(n):
         for c in range(n):
             x0, x1, y0, y1 = edges[c], edges[c + 1], edges[r], edges[r + 1]
             w, h = x1 - x0, y1 - y0
             rect = np.array([[0, 0], [w, 0], [w, h], [0, h]], np.float32)
-            quad = np.array(
-                [lattice[r, c], lattice[r, c + 1], lattice[r + 1, c + 1], lattice[r + 1, c]],
-                np.float32,
-            )
-            to_frame = cv2.getPerspectiveTransform(rect, quad)
+            to_frame = cv2.getPerspectiveTransform(rect, quads[r, c])
             sheet[y0:y1, x0:x1] = cv2.warpPerspective(
                 gray,
                 to_frame,
@@ -736,6 +737,22 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 
                 borderMode=cv2.BORDER_REPLICATE,
             )
     return even_out_light(sheet)
+
+
+def _shrink_up_to(gray: np.ndarray, f: float, reach: np.ndarray) -> np.ndarray:
+    """`gray` shrunk by `f` with INTER_AREA as far right and down as the point `reach` (x, y
+    in the shrunk image) needs: the same pixels there as shrinking the whole frame, sooner.
+
+    An INTER_AREA pixel averages the frame's pixels under it, found counting from the frame's
+    top left; cutting the frame off to the right and below changes only the shrunk pixels
+    whose areas the cut shortens, two pixels past those a warp up to `reach` reads (it reads
+    one pixel past its last point). This is the reader's largest single step, and the sheet
+    is often half the frame or less.
+    """
+    h, w = gray.shape
+    right = min(w, math.ceil((float(reach[0]) + 4) / f) + 2)
+    bottom = min(h, math.ceil((float(reach[1]) + 4) / f) + 2)
+    return cv2.resize(gray[:bottom, :right], None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
 
 
 def _ring(q: np.ndarray, share: float) -> np.ndarray:
