@@ -449,28 +449,37 @@ def _line_support(
     not per point, dominates.)"""
     ink = strokes.mask
     a, d, n, size = _line_frames(lattices)
-    # (C, line, along, across, xy)
-    pts = (
-        a[:, :, None, None, :]
-        + _ALONG[:, None, None] * d[:, :, None, None, :]
-        + (_ACROSS[None, :] * size[:, None])[:, None, None, :, None] * n[:, :, None, None, :]
+    across = (_ACROSS[None, :] * size[:, None])[:, None, None, :]
+    # The points looked at, x and y: (C, line, along, across).
+    x, y = (
+        np.round(
+            a[:, :, None, None, k]
+            + _ALONG[:, None] * d[:, :, None, None, k]
+            + across * n[:, :, None, None, k]
+        ).astype(np.int64)
+        for k in (0, 1)
     )
     h, w = ink.shape
-    x = np.round(pts[..., 0]).astype(np.int64)
-    y = np.round(pts[..., 1]).astype(np.int64)
     inside = (x >= 0) & (x < w) & (y >= 0) & (y < h)
-    hit = np.zeros(x.shape, bool)
-    hit[inside] = ink[y[inside], x[inside]] > 0
-    way = np.degrees(np.arctan2(d[..., 1], d[..., 0])) % 180  # each line's direction
-    way = np.broadcast_to(way[:, :, None, None], x.shape)
-    hit[hit] = strokes.runs_along(x[hit], y[hit], way[hit])
+    hit = inside & (ink.ravel().take(np.where(inside, y * w + x, 0)) > 0)
+    way = np.degrees(np.arctan2(d[..., 1], d[..., 0])) % 180  # each line's direction (C, 4)
+    hits = np.flatnonzero(hit)
+    hit.ravel()[hits] = strokes.runs_along(
+        x.ravel()[hits], y.ravel()[hits], way.ravel()[hits // (len(_ALONG) * len(_ACROSS))]
+    )
     closeness = (hit * _CLOSENESS).max(axis=3)
     inked = hit.any(axis=3)
     # Half from the middle stretch, which every grid has: ink beyond the crossings may be a
-    # symbol's as well as the line's, which may stop short there.
-    # (One lattice at a time: a mean over several axes adds in another order, and candidates
-    # that tie must still tie.)
-    score = np.array([0.5 * c[:, _MIDDLE].mean() + 0.5 * c[:, ~_MIDDLE].mean() for c in closeness])
+    # symbol's as well as the line's, which may stop short there. (Summed one lattice at a
+    # time: a sum over several axes adds in another order, and candidates that tie must
+    # still tie.)
+    middle, beyond = closeness[:, :, _MIDDLE], closeness[:, :, ~_MIDDLE]
+    score = np.array(
+        [
+            0.5 * (m.sum() / m.size) + 0.5 * (b.sum() / b.size)
+            for m, b in zip(middle, beyond, strict=True)
+        ]
+    )
     return inked.mean(axis=2), inked[:, :, _MIDDLE].mean(axis=2), score
 
 
@@ -506,14 +515,18 @@ class _Strokes:
         jxx, jyy, jxy = self.tensor
         xx, yy, xy = jxx[y, x], jyy[y, x], jxy[y, x]
         clear = np.hypot(xx - yy, 2 * xy) >= _MIN_CLEARNESS * np.maximum(xx + yy, 1e-3)
-        degrees = np.degrees(0.5 * np.arctan2(-2 * xy, yy - xx)) % 180
-        return np.where(clear, np.round(degrees) % 180, _UNCLEAR)
+        degrees = np.degrees(0.5 * np.arctan2(-2 * xy, yy - xx))  # -90 to 90
+        # Modulo 180, without numpy's slow float modulo: these are at most half a turn off.
+        degrees[degrees < 0] += 180
+        whole = np.round(degrees)
+        whole[whole == 180] = 0
+        return np.where(clear, whole, _UNCLEAR)
 
     def runs_along(self, x: np.ndarray, y: np.ndarray, way: np.ndarray) -> np.ndarray:
         """Whether the strokes at ink pixels (x, y) run within `_AGREE` degrees of `way`
         (degrees), or are too unclear to say."""
         seen = self.direction(x, y)
-        off = np.abs(seen - way) % 180
+        off = np.abs(seen - way)  # 0-180 for directions 0-179 and `way` 0-180
         return (np.minimum(off, 180 - off) <= _AGREE) | (seen == _UNCLEAR)
 
 
