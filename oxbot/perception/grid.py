@@ -352,15 +352,15 @@ def _order(p: tuple, q: tuple) -> Four:
     # The pair whose normals point more along x holds the vertical lines.
     if abs(math.cos(p[0][1])) < abs(math.cos(q[0][1])):
         p, q = q, p
-    mid = _intersect(p[0][:2], q[0][:2])
-    mid = np.zeros(2) if mid is None else mid
+    mid = _crossing(p[0][:2], q[0][:2]) or (0.0, 0.0)
 
     def position(line: tuple, axis: int) -> float:
         # Where the line crosses the other family's direction through `mid`: its x or y.
+        # (Plain floats; the two lines of a pair lie far apart, so rounding cannot swap them.)
         rho, theta = line[0], line[1]
-        n = np.array([math.cos(theta), math.sin(theta)])
-        foot = mid - (mid @ n - rho) * n
-        return float(foot[axis])
+        n = (math.cos(theta), math.sin(theta))
+        off = mid[0] * n[0] + mid[1] * n[1] - rho
+        return mid[axis] - off * n[axis]
 
     left, right = sorted((p[0][:2], p[1][:2]), key=lambda line: position(line, 0))
     top, bottom = sorted((q[0][:2], q[1][:2]), key=lambda line: position(line, 1))
@@ -824,7 +824,12 @@ def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool)
         keep = known & (np.abs(center - curve) < 2.5)
     # The line's half-width: its typical inked extent, plus a pixel of anti-aliasing.
     inked = strip > 60
-    half = float(np.median(inked[keep].sum(axis=1))) / 2 + 1.5
+    widths = np.sort(inked[keep].sum(axis=1))
+    if len(widths) == 0:
+        return
+    mid = len(widths) // 2  # their median, without np.median's overhead
+    median = widths[mid] if len(widths) % 2 else (widths[mid - 1] + widths[mid]) / 2
+    half = float(median) / 2 + 1.5
     # Paint over only where the line is drawn: runs of rows whose ink is one narrow stroke on
     # the curve (a symbol beside or across the line interrupts a run only briefly). Beyond a
     # line that stops short, a symbol in its way stays whole.
@@ -845,7 +850,8 @@ def _parabola(x: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:
     """The least-squares parabola through points (x, y), evaluated at `at` (as np.polyfit with
     np.polyval, at half the time: this runs for every line of every frame)."""
     x = x.astype(np.float64)
-    a = np.stack([x * x, x, np.ones_like(x)], axis=1)
+    a = np.empty((len(x), 3))
+    a[:, 0], a[:, 1], a[:, 2] = x * x, x, 1.0
     c = np.linalg.solve(a.T @ a, a.T @ y)
     return (c[0] * at + c[1]) * at + c[2]
 
