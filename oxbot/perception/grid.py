@@ -614,8 +614,11 @@ def _along_across(lattice: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, 
     crossing (4, N); how far across each line it lies, in pixels (4, N); the mean cell size.
     (Line by line in rows: each line's pixels are then picked out of one contiguous row.)"""
     a, d, n, size = _line_frames(lattice)
-    along = (d @ pixels.T - (a * d).sum(axis=1)[:, None]) / (d * d).sum(axis=1)[:, None]
-    across = np.abs(n @ pixels.T - (a * n).sum(axis=1)[:, None])
+    # Both projections in one product: rows 0-3 along the lines, 4-7 across them.
+    both = np.concatenate([d, n]) @ pixels.T
+    both -= np.concatenate([(a * d).sum(axis=1), (a * n).sum(axis=1)])[:, None]
+    along = both[:4] / (d * d).sum(axis=1)[:, None]
+    across = np.abs(both[4:], out=both[4:])
     return along, across, size
 
 
