@@ -658,9 +658,10 @@ def _bend_outer(q: np.ndarray, pixels: np.ndarray, straight: np.ndarray) -> np.n
         step = q[here] - q[there]  # one middle cell, pointing outwards
         direction = np.array([-math.sin(line[1]), math.cos(line[1])])
         direction *= np.sign(direction @ step) or 1.0
-        if direction @ step < 0.9 * np.linalg.norm(step):
+        length = np.linalg.norm(step)
+        if direction @ step < 0.9 * length:
             continue  # turns more than about 25 degrees: not the same line
-        q[outer] = q[here] + direction * np.linalg.norm(step)
+        q[outer] = q[here] + direction * length
     # The outer corners (rows and columns 0, 3) complete parallelograms with their
     # neighbours (rows and columns 1, 2).
     q[::3, ::3] = q[::3, 1:3] + q[1:3, ::3] - q[1:3, 1:3]
