@@ -217,20 +217,20 @@ def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]
     # centre lies within 6 px of it. Plain floats: a few hundred such checks per frame,
     # too few for numpy to pay.
     kept: list[tuple[float, float, float]] = []
-    normals: list[tuple[float, float]] = []
+    normals: list[tuple[float, float, float, float]] = []  # the kept lines' rho, theta, cos, sin
     for rho, theta, count in found[tilt <= _MAX_TILT].tolist():
         c, s = math.cos(theta), math.sin(theta)
         off = cx * c + cy * s - rho
         fx, fy = cx - off * c, cy - off * s
-        if any(
-            _angle_between(theta, t) < same_angle and abs(fx * kc + fy * ks - r) < 6
-            for (r, t, _), (kc, ks) in zip(kept, normals, strict=True)
-        ):
-            continue
-        kept.append((rho, theta, count))
-        normals.append((c, s))
-        if len(kept) == _MAX_LINES:
-            break
+        for r, t, kc, ks in normals:
+            d = abs(theta - t) % math.pi  # _angle_between, inlined
+            if min(d, math.pi - d) < same_angle and abs(fx * kc + fy * ks - r) < 6:
+                break  # a line kept already
+        else:
+            kept.append((rho, theta, count))
+            normals.append((rho, theta, c, s))
+            if len(kept) == _MAX_LINES:
+                break
     return kept
 
 
