@@ -210,7 +210,7 @@ def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]
     # Grid lines run within a few tens of degrees of horizontal or vertical; the strokes
     # of crosses, at 45° to them, would crowd them out.
     theta = found[:, 1]
-    tilt = np.minimum(_angles_between(theta, 0.0), _angles_between(theta, math.pi / 2))
+    tilt = np.minimum(_angle_between(theta, 0.0), _angle_between(theta, math.pi / 2))
     cx, cy = (float(x) for x in np.array(ink.shape[::-1], np.float64) / 2)
     same_angle = math.radians(6)
     # A line is a kept one again when it runs within 6° of it and its point nearest the
@@ -223,7 +223,7 @@ def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]
         off = cx * c + cy * s - rho
         fx, fy = cx - off * c, cy - off * s
         for r, t, kc, ks in normals:
-            d = abs(theta - t) % math.pi  # _angle_between, inlined
+            d = abs(theta - t) % math.pi  # _angle_between on plain floats
             if min(d, math.pi - d) < same_angle and abs(fx * kc + fy * ks - r) < 6:
                 break  # a line kept already
         else:
@@ -234,14 +234,8 @@ def _hough_lines(ink: np.ndarray, votes: int) -> list[tuple[float, float, float]
     return kept
 
 
-def _angle_between(t1: float, t2: float) -> float:
-    """Angle between two line directions, 0 to pi/2."""
-    d = abs(t1 - t2) % math.pi
-    return min(d, math.pi - d)
-
-
-def _angles_between(t1: np.ndarray | float, t2: np.ndarray | float) -> np.ndarray:
-    """`_angle_between` elementwise."""
+def _angle_between(t1: np.ndarray | float, t2: np.ndarray | float) -> np.ndarray:
+    """Angle between two line directions, 0 to pi/2 (elementwise for arrays)."""
     d = np.abs(np.subtract(t1, t2)) % math.pi
     return np.minimum(d, math.pi - d)
 
@@ -286,7 +280,7 @@ def _best_grid(
     """The four lines, among `lines`, along which ink runs most closely; or None."""
     rho, theta, votes = np.array(lines).T
     # Every line left runs within _MAX_TILT of vertical (normal near 0 or pi) or horizontal.
-    is_vertical = _angles_between(theta, 0.0) <= _MAX_TILT
+    is_vertical = _angle_between(theta, 0.0) <= _MAX_TILT
 
     def pairs(family: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Indices (first, second) of the near-parallel pairs of lines of a family spaced
@@ -295,7 +289,7 @@ def _best_grid(
         first, second = family[i], family[j]
         spacing = _spacing((rho[first], theta[first]), (rho[second], theta[second]), center)
         ok = (
-            (_angles_between(theta[first], theta[second]) < _PARALLEL)
+            (_angle_between(theta[first], theta[second]) < _PARALLEL)
             & (spacing >= min_spacing)
             & (spacing <= max_spacing)
         )
@@ -304,7 +298,7 @@ def _best_grid(
     (va, vb), (ha, hb) = pairs(np.flatnonzero(is_vertical)), pairs(np.flatnonzero(~is_vertical))
     # Every vertical pair with every horizontal one, vertical pairs outermost, as long as
     # the two cross near a right angle.
-    crossing = np.abs(_angles_between(theta[va][:, None], theta[ha][None, :]) - math.pi / 2)
+    crossing = np.abs(_angle_between(theta[va][:, None], theta[ha][None, :]) - math.pi / 2)
     p, q = np.nonzero(crossing <= _CROSSING)
     # The grid's lines are the longest in view: try the best-voted quadruples first, and only
     # so many of them, so that a cluttered sheet cannot blow the time budget.
