@@ -393,8 +393,8 @@ def _extend(inner: list) -> np.ndarray:
     def beyond(p: tuple, o: tuple) -> tuple[float, float]:  # one cell past p, away from o
         return 2 * p[0] - o[0], 2 * p[1] - o[1]
 
-    def corner(row: tuple, column: tuple, inner: tuple) -> tuple[float, float]:
-        return row[0] + column[0] - inner[0], row[1] + column[1] - inner[1]
+    def corner(row: tuple, column: tuple, diagonal: tuple) -> tuple[float, float]:
+        return row[0] + column[0] - diagonal[0], row[1] + column[1] - diagonal[1]
 
     top_a, top_b, bottom_c, bottom_d = beyond(a, c), beyond(b, d), beyond(c, a), beyond(d, b)
     left_a, right_b, left_c, right_d = beyond(a, b), beyond(b, a), beyond(c, d), beyond(d, c)
@@ -757,8 +757,8 @@ def _shrink_up_to(gray: np.ndarray, f: float, reach: np.ndarray) -> np.ndarray:
     An INTER_AREA pixel averages the frame's pixels under it, found counting from the frame's
     top left; cutting the frame off to the right and below changes only the shrunk pixels
     whose areas the cut shortens, two pixels past those a warp up to `reach` reads (it reads
-    one pixel past its last point). This is the reader's largest single step, and the sheet
-    is often half the frame or less.
+    one pixel past its last point). Shrinking is one of the reader's costliest steps, and
+    the sheet often leaves a good part of the frame to its right or below it.
     """
     h, w = gray.shape
     right = min(w, math.ceil((float(reach[0]) + 4) / f) + 2)
@@ -824,7 +824,7 @@ def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool)
     inked = strip > 60
     widths = np.sort(inked[keep].sum(axis=1))
     if len(widths) == 0:
-        return
+        return  # no row lies on the curve: nothing to paint over
     mid = len(widths) // 2  # their median, without np.median's overhead
     median = widths[mid] if len(widths) % 2 else (widths[mid - 1] + widths[mid]) / 2
     half = float(median) / 2 + 1.5
