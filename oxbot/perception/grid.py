@@ -418,7 +418,7 @@ def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     d = lattice[..., [2, 2, 1, 2], [1, 2, 2, 2], :] - a
     length = np.sqrt((d * d).sum(axis=-1, keepdims=True))
     n = d[..., ::-1] * _TURN_LEFT / np.maximum(length, 1e-9)
-    return a, d, n, length[..., 0].mean(axis=-1)
+    return a, d, n, length[..., 0].sum(axis=-1) / 4  # (np.mean, less its overhead)
 
 
 _TURN_LEFT = np.array([-1.0, 1.0])  # (dx, dy)[::-1] * this = (-dy, dx)
