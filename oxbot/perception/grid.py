@@ -859,8 +859,9 @@ def _drawn_rows(good: np.ndarray, min_run: int, max_gap: int, grow: int = 2) -> 
     good rows, taking in shorter runs of 3 or more beyond them while less than `max_gap`
     rows apart, grown by `grow` rows at both ends."""
     padded = np.concatenate([[False], good, [False]]).astype(np.int8)
-    change = np.diff(padded)
-    starts, ends = np.nonzero(change == 1)[0], np.nonzero(change == -1)[0]
+    change = padded[1:] - padded[:-1]
+    # Plain ints from here on: a handful of runs, walked in Python.
+    starts, ends = np.flatnonzero(change == 1).tolist(), np.flatnonzero(change == -1).tolist()
     runs = [(a, b) for a, b in zip(starts, ends, strict=True) if b - a >= 3]
     long = [k for k, (a, b) in enumerate(runs) if b - a >= min_run]
     out = np.zeros(good.shape, bool)
