@@ -132,18 +132,27 @@ def ink_elongation(cells: np.ndarray) -> np.ndarray:
     weight = np.clip(235.0 - inner, 0.0, None)
     weight[weight < 40.0] = 0.0  # paper grain and faint smudges are not ink
     total = weight.sum(axis=(1, 2))
-    ys, xs = np.mgrid[0 : inner.shape[1], 0 : inner.shape[2]].astype(np.float32)
+    ys, xs = _pixel_grid(inner.shape[1], inner.shape[2])
     safe = np.maximum(total, 1e-6)
     mx = (weight * xs).sum(axis=(1, 2)) / safe
     my = (weight * ys).sum(axis=(1, 2)) / safe
     dx, dy = xs[None] - mx[:, None, None], ys[None] - my[:, None, None]
-    cxx = (weight * dx * dx).sum(axis=(1, 2)) / safe
+    weight_dx = weight * dx
+    cxx = (weight_dx * dx).sum(axis=(1, 2)) / safe
     cyy = (weight * dy * dy).sum(axis=(1, 2)) / safe
-    cxy = (weight * dx * dy).sum(axis=(1, 2)) / safe
+    cxy = (weight_dx * dy).sum(axis=(1, 2)) / safe
     half_trace, det = (cxx + cyy) / 2, cxx * cyy - cxy * cxy
     root = np.sqrt(np.maximum(half_trace**2 - det, 0.0))
     major, minor = half_trace + root, half_trace - root
     return np.where(total > 0, major / np.maximum(minor, 1e-3), 0.0)
+
+
+@functools.cache
+def _pixel_grid(height: int, width: int) -> np.ndarray:
+    """float32 (2, height, width): each pixel's y and x (the same for every frame)."""
+    grid = np.mgrid[0:height, 0:width].astype(np.float32)
+    grid.flags.writeable = False
+    return grid
 
 
 @functools.cache

@@ -30,7 +30,6 @@ empty desk) or when the grid runs off the frame.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
@@ -211,29 +210,53 @@ def _hough_lines(strokes: _Strokes, votes: int) -> list[tuple[float, float, floa
     stroke runs its way (or is unclear): the arcs of circles and the strokes of crosses, at
     45 degrees to the grid, then cannot add up to lines that crowd out the grid's own.
     """
+    x, y = strokes.pixels.T.astype(np.intp)
+    seen = strokes.direction(x, y)
     low, high = math.pi / 2 - _MAX_TILT, math.pi / 2 + _MAX_TILT + 1e-6
     kept: list[tuple[float, float, float]] = []
     for way in (0, 90):  # horizontal strokes, then vertical ones
-        mask = strokes.running(way, _FAMILY_AGREE)
+        off = np.abs(seen - way)
+        voters = (np.minimum(off, 180 - off) <= _FAMILY_AGREE) | (seen == _UNCLEAR)
+        mask = np.zeros_like(strokes.mask)
+        mask[y[voters], x[voters]] = 255
         if way == 90:  # a vertical line is a horizontal one of the transposed image
             mask = np.ascontiguousarray(mask.T)
         found = cv2.HoughLinesWithAccumulator(
             mask, 2, math.pi / 180, votes, min_theta=low, max_theta=high
-        )
+        )  # 2 px, 1 degree
         if found is None:
             continue
-        center = np.array(mask.shape[::-1], np.float64) / 2
-        family: list[tuple[float, float, float]] = []
-        for rho, theta, count in found[:_MAX_HOUGH, 0, :].tolist():
-            if any(_same_line((rho, theta), (r, t), center) for r, t, _ in family):
-                continue
-            family.append((float(rho), float(theta), float(count)))
-            if len(family) == _MAX_LINES // 2:
-                break
+        family = _distinct(found[:_MAX_HOUGH, 0, :].tolist(), mask.shape, _MAX_LINES // 2)
         if way == 90:  # back from the transposed image: x and y swap, theta mirrors
             family = [_untransposed(rho, theta, count) for rho, theta, count in family]
         kept += family
     return sorted(kept, key=lambda line: -line[2])
+
+
+def _distinct(
+    lines: list[list[float]], shape: tuple[int, ...], most: int
+) -> list[tuple[float, float, float]]:
+    """The first `most` of Hough's lines (rho, theta, votes) that are not one already kept
+    again: within 6 degrees of it, with its point nearest the image's centre within 6 px of
+    it. Plain floats: a few hundred such checks per frame, too few for numpy to pay."""
+    cx, cy = shape[1] / 2, shape[0] / 2
+    same_angle = math.radians(6)
+    kept: list[tuple[float, float, float]] = []
+    normals: list[tuple[float, float, float, float]] = []  # the kept lines' rho, theta, cos, sin
+    for rho, theta, count in lines:
+        c, s = math.cos(theta), math.sin(theta)
+        off = cx * c + cy * s - rho
+        fx, fy = cx - off * c, cy - off * s
+        for r, t, kc, ks in normals:
+            d = abs(theta - t) % math.pi  # _angle_between on plain floats
+            if min(d, math.pi - d) < same_angle and abs(fx * kc + fy * ks - r) < 6:
+                break  # a line kept already
+        else:
+            kept.append((float(rho), float(theta), float(count)))
+            normals.append((rho, theta, c, s))
+            if len(kept) == most:
+                break
+    return kept
 
 
 def _untransposed(rho: float, theta: float, count: float) -> tuple[float, float, float]:
@@ -242,32 +265,36 @@ def _untransposed(rho: float, theta: float, count: float) -> tuple[float, float,
     return (-rho, theta + math.pi, count) if theta < 0 else (rho, theta, count)
 
 
-def _same_line(a: Line, b: Line, center: np.ndarray) -> bool:
-    return _angle_between(a[1], b[1]) < math.radians(6) and _spacing(a, b, center) < 6
+def _angle_between(t1: np.ndarray | float, t2: np.ndarray | float) -> np.ndarray:
+    """Angle between two line directions, 0 to pi/2 (elementwise for arrays)."""
+    d = np.abs(np.subtract(t1, t2)) % math.pi
+    return np.minimum(d, math.pi - d)
 
 
-def _angle_between(t1: float, t2: float) -> float:
-    """Angle between two line directions, 0 to pi/2."""
-    d = abs(t1 - t2) % math.pi
-    return min(d, math.pi - d)
-
-
-def _spacing(l1: Line, l2: Line, center: np.ndarray) -> float:
-    """Distance from line 2 to the point of line 1 nearest `center`."""
+def _spacing(l1: tuple, l2: tuple, center: np.ndarray) -> np.ndarray:
+    """Distance from line 2 to the point of line 1 nearest `center`; lines are (rho, theta),
+    elementwise for arrays of them."""
     (r1, t1), (r2, t2) = l1, l2
-    c1, s1 = math.cos(t1), math.sin(t1)
-    off = float(center[0]) * c1 + float(center[1]) * s1 - r1
-    fx, fy = float(center[0]) - off * c1, float(center[1]) - off * s1
-    return abs(fx * math.cos(t2) + fy * math.sin(t2) - r2)
+    c1, s1 = np.cos(t1), np.sin(t1)
+    off = center[0] * c1 + center[1] * s1 - r1
+    fx, fy = center[0] - off * c1, center[1] - off * s1
+    return np.abs(fx * np.cos(t2) + fy * np.sin(t2) - r2)
 
 
 def _intersect(l1: Line, l2: Line) -> np.ndarray | None:
+    point = _crossing(l1, l2)
+    return None if point is None else np.array(point)
+
+
+def _crossing(l1: Line, l2: Line) -> tuple[float, float] | None:
+    """Where two lines cross, as plain floats (a numpy array per crossing costs more than
+    the arithmetic); None for parallel lines."""
     (r1, t1), (r2, t2) = l1, l2
     a, b, c, d = math.cos(t1), math.sin(t1), math.cos(t2), math.sin(t2)
     det = a * d - b * c
     if abs(det) < 1e-6:
         return None
-    return np.array([(r1 * d - r2 * b) / det, (a * r2 - c * r1) / det])
+    return (r1 * d - r2 * b) / det, (a * r2 - c * r1) / det
 
 
 Four = tuple[Line, Line, Line, Line]
@@ -282,55 +309,66 @@ def _best_grid(
     center: np.ndarray,
 ) -> tuple[Four, float] | None:
     """The four lines, among `lines`, along which ink runs most closely; or None."""
+    rho, theta, votes = np.array(lines).T
     # Every line left runs within _MAX_TILT of vertical (normal near 0 or pi) or horizontal.
-    vertical = [x for x in lines if _angle_between(x[1], 0.0) <= _MAX_TILT]
-    horizontal = [x for x in lines if _angle_between(x[1], 0.0) > _MAX_TILT]
+    is_vertical = _angle_between(theta, 0.0) <= _MAX_TILT
 
-    def pairs(family: list) -> list:
-        return [
-            (a, b)
-            for a, b in itertools.combinations(family, 2)
-            if _angle_between(a[1], b[1]) < _PARALLEL
-            and min_spacing <= _spacing(a[:2], b[:2], center) <= max_spacing
-        ]
+    def pairs(family: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Indices (first, second) of the near-parallel pairs of lines of a family spaced
+        as a grid's, in the order of itertools.combinations."""
+        i, j = np.triu_indices(len(family), 1)
+        first, second = family[i], family[j]
+        spacing = _spacing((rho[first], theta[first]), (rho[second], theta[second]), center)
+        ok = (
+            (_angle_between(theta[first], theta[second]) < _PARALLEL)
+            & (spacing >= min_spacing)
+            & (spacing <= max_spacing)
+        )
+        return first[ok], second[ok]
 
-    candidates = [
-        (p, q)
-        for p in pairs(vertical)
-        for q in pairs(horizontal)
-        if abs(_angle_between(p[0][1], q[0][1]) - math.pi / 2) <= _CROSSING
-    ]
+    (va, vb), (ha, hb) = pairs(np.flatnonzero(is_vertical)), pairs(np.flatnonzero(~is_vertical))
+    # Every vertical pair with every horizontal one, vertical pairs outermost, as long as
+    # the two cross near a right angle.
+    crossing = np.abs(_angle_between(theta[va][:, None], theta[ha][None, :]) - math.pi / 2)
+    p, q = np.nonzero(crossing <= _CROSSING)
     # The grid's lines are the longest in view: try the best-voted quadruples first, and only
     # so many of them, so that a cluttered sheet cannot blow the time budget.
-    candidates.sort(key=lambda pq: -sum(x[2] for x in (*pq[0], *pq[1])))
-    passed: list[tuple[float, Four]] = []
-    for p, q in candidates[:_MAX_GRIDS]:
-        four = _order(p, q)
+    total = votes[va[p]] + votes[vb[p]] + votes[ha[q]] + votes[hb[q]]
+    tried = np.argsort(-total, kind="stable")[:_MAX_GRIDS]
+    fours, lattices, totals = [], [], []
+    for k in tried:
+        pair = (lines[va[p[k]]], lines[vb[p[k]]])
+        four = _order(pair, (lines[ha[q[k]]], lines[hb[q[k]]]))
         lattice = _lattice(*four, min_side=0.8 * min_spacing)
-        if lattice is None:
-            continue
-        support, middle, closeness = _line_support(lattice, strokes)
-        if (
-            support.min() < _MIN_SUPPORT
-            or support.mean() < _MIN_MEAN_SUPPORT
-            or middle.min() < _MIN_MIDDLE_SUPPORT_UNFITTED
-        ):
-            continue
-        passed.append((closeness + 1e-4 * sum(x[2] for x in (*p, *q)), four))
+        if lattice is not None:
+            fours.append(four)
+            lattices.append(lattice)
+            totals.append(float(total[k]))
+    passed: list[tuple[float, Four]] = []
+    if lattices:
+        support, middle, closeness = _line_support(np.array(lattices), strokes)
+        ok = (
+            (support.min(axis=1) >= _MIN_SUPPORT)
+            & (support.mean(axis=1) >= _MIN_MEAN_SUPPORT)
+            & (middle.min(axis=1) >= _MIN_MIDDLE_SUPPORT_UNFITTED)
+        )
+        passed = [(float(closeness[k]) + 1e-4 * totals[k], fours[k]) for k in np.flatnonzero(ok)]
     # A Hough line a few degrees off a wobbly grid line can score below a line that grazes
     # several symbols; fitted to the ink, the grid's real lines win. So the leaders are
     # refitted once and judged again.
-    best: tuple[float, Four] | None = None
+    fitted_fours, lattices = [], []
     for _, four in sorted(passed, key=lambda x: -x[0])[:_FINALISTS]:
         fitted = _refine(four, strokes.pixels, bands=(0.15,))
         lattice = _lattice(*fitted, min_side=0.8 * min_spacing)
-        if lattice is None:
-            continue
-        _, middle, closeness = _line_support(lattice, strokes)
-        if middle.min() < _MIN_MIDDLE_SUPPORT:
-            continue
-        if best is None or closeness > best[0]:
-            best = (closeness, fitted)
+        if lattice is not None:
+            fitted_fours.append(fitted)
+            lattices.append(lattice)
+    best: tuple[float, Four] | None = None
+    if lattices:
+        _, middle, closeness = _line_support(np.array(lattices), strokes)
+        for k, fitted in enumerate(fitted_fours):
+            if middle[k].min() >= _MIN_MIDDLE_SUPPORT and (best is None or closeness[k] > best[0]):
+                best = (float(closeness[k]), fitted)
     return None if best is None else (best[1], best[0])
 
 
@@ -339,15 +377,15 @@ def _order(p: tuple, q: tuple) -> Four:
     # The pair whose normals point more along x holds the vertical lines.
     if abs(math.cos(p[0][1])) < abs(math.cos(q[0][1])):
         p, q = q, p
-    mid = _intersect(p[0][:2], q[0][:2])
-    mid = np.zeros(2) if mid is None else mid
+    mid = _crossing(p[0][:2], q[0][:2]) or (0.0, 0.0)
 
     def position(line: tuple, axis: int) -> float:
         # Where the line crosses the other family's direction through `mid`: its x or y.
+        # (Plain floats; the two lines of a pair lie far apart, so rounding cannot swap them.)
         rho, theta = line[0], line[1]
-        n = np.array([math.cos(theta), math.sin(theta)])
-        foot = mid - (mid @ n - rho) * n
-        return float(foot[axis])
+        n = (math.cos(theta), math.sin(theta))
+        off = mid[0] * n[0] + mid[1] * n[1] - rho
+        return mid[axis] - off * n[axis]
 
     left, right = sorted((p[0][:2], p[1][:2]), key=lambda line: position(line, 0))
     top, bottom = sorted((q[0][:2], q[1][:2]), key=lambda line: position(line, 1))
@@ -358,50 +396,63 @@ def _lattice(
     left: Line, right: Line, top: Line, bottom: Line, min_side: float = 1.0
 ) -> np.ndarray | None:
     """The (4, 4, 2) lattice of cell corners of four lines, or None if they make no grid."""
-    q = np.zeros((4, 4, 2))
-    for r, hz in ((1, top), (2, bottom)):
-        for c, v in ((1, left), (2, right)):
-            point = _intersect(v, hz)
-            if point is None:
-                return None
-            q[r, c] = point
-    middle = np.array([q[1, 1], q[1, 2], q[2, 2], q[2, 1]], np.float32)
+    inner = [_crossing(v, hz) for hz in (top, bottom) for v in (left, right)]
+    if None in inner:
+        return None
+    middle = np.array([inner[0], inner[1], inner[3], inner[2]], np.float32)  # clockwise
     if not np.isfinite(middle).all() or not cv2.isContourConvex(middle.reshape(-1, 1, 2)):
         return None
-    sides = np.linalg.norm(middle - middle[[3, 0, 1, 2]], axis=1)
-    if sides.min() < min_side or not (
-        0.6 < sides[0] / sides[2] < 1 / 0.6
-        and 0.6 < sides[1] / sides[3] < 1 / 0.6
-        and 0.5 < sides[0] / sides[1] < 2
-    ):
+    sides = np.sqrt(((middle - middle[[3, 0, 1, 2]]) ** 2).sum(axis=1))
+    # Opposite sides alike (0 to 2, 1 to 3), and the cell not too oblong (0 to 1).
+    ratios = sides[[0, 1, 0]] / sides[[2, 3, 1]]
+    if sides.min() < min_side or not ((ratios > _RATIO_LOW) & (ratios < _RATIO_HIGH)).all():
         return None
-    return _extend(q)
+    return _extend(inner)
 
 
-def _extend(q: np.ndarray) -> np.ndarray:
-    """Fill in the outer lattice points from the four inner ones, in place: one middle cell
-    further out along each line."""
-    for r in (1, 2):  # along each horizontal line, a cell further out on either side
-        q[r, 0] = 2 * q[r, 1] - q[r, 2]
-        q[r, 3] = 2 * q[r, 2] - q[r, 1]
-    for c in (1, 2):  # along each vertical line
-        q[0, c] = 2 * q[1, c] - q[2, c]
-        q[3, c] = 2 * q[2, c] - q[1, c]
-    for r0, rn in ((0, 1), (3, 2)):  # the outer corners complete parallelograms
-        for c0, cn in ((0, 1), (3, 2)):
-            q[r0, c0] = q[r0, cn] + q[rn, c0] - q[rn, cn]
-    return q
+_RATIO_LOW = np.array([0.6, 0.6, 0.5], np.float32)
+_RATIO_HIGH = np.array([1 / 0.6, 1 / 0.6, 2], np.float32)
 
 
-def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """For the four lines (left, right, top, bottom): a crossing A on each, the step D of one
-    cell along it, its unit normal N, and the mean cell size."""
-    q = lattice
-    a = np.array([q[1, 1], q[1, 2], q[1, 1], q[2, 1]])
-    d = np.array([q[2, 1] - q[1, 1], q[2, 2] - q[1, 2], q[1, 2] - q[1, 1], q[2, 2] - q[2, 1]])
-    length = np.linalg.norm(d, axis=1, keepdims=True)
-    n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.maximum(length, 1e-9)
-    return a, d, n, float(length.mean())
+def _extend(inner: list) -> np.ndarray:
+    """The (4, 4, 2) lattice of its four inner points (x, y), row by row (at (1, 1), (1, 2),
+    (2, 1), (2, 2)): the outer points lie one middle cell further out along each line, and
+    the corners complete parallelograms. (In plain floats: numpy would spend more time per
+    call than on the arithmetic.)"""
+    a, b, c, d = ((float(x), float(y)) for x, y in inner)
+
+    def beyond(p: tuple, o: tuple) -> tuple[float, float]:  # one cell past p, away from o
+        return 2 * p[0] - o[0], 2 * p[1] - o[1]
+
+    def corner(row: tuple, column: tuple, diagonal: tuple) -> tuple[float, float]:
+        return row[0] + column[0] - diagonal[0], row[1] + column[1] - diagonal[1]
+
+    top_a, top_b, bottom_c, bottom_d = beyond(a, c), beyond(b, d), beyond(c, a), beyond(d, b)
+    left_a, right_b, left_c, right_d = beyond(a, b), beyond(b, a), beyond(c, d), beyond(d, c)
+    return np.array(
+        [
+            [corner(top_a, left_a, a), top_a, top_b, corner(top_b, right_b, b)],
+            [left_a, a, b, right_b],
+            [left_c, c, d, right_d],
+            [corner(bottom_c, left_c, c), bottom_c, bottom_d, corner(bottom_d, right_d, d)],
+        ]
+    )
+
+
+def _line_frames(lattice: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """For the four lines (left, right, top, bottom) of a lattice (4, 4, 2), or of each of a
+    stack of them (..., 4, 4, 2): a crossing A on each (..., 4, 2), the step D of one cell
+    along it, its unit normal N, and the mean cell size (...)."""
+    # Left from q[1, 1] to q[2, 1], right q[1, 2] to q[2, 2], top q[1, 1] to q[1, 2],
+    # bottom q[2, 1] to q[2, 2].
+    a = lattice[..., [1, 1, 1, 2], [1, 2, 1, 1], :]
+    d = lattice[..., [2, 2, 1, 2], [1, 2, 2, 2], :] - a
+    length = np.sqrt((d * d).sum(axis=-1, keepdims=True))
+    n = d[..., ::-1] * _TURN_LEFT / np.maximum(length, 1e-9)
+    return a, d, n, length[..., 0].sum(axis=-1) / 4  # (np.mean, less its overhead)
+
+
+_TURN_LEFT = np.array([-1.0, 1.0])  # (dx, dy)[::-1] * this = (-dy, dx)
 
 
 # Points along each inner line (in cells from its first crossing) and small steps across it:
@@ -413,45 +464,61 @@ _CLOSENESS = 1 - np.abs(_ACROSS) / 0.18
 _MIDDLE = (_ALONG > 0.1) & (_ALONG < 0.9)  # the stretch between the line's two crossings
 
 
-def _line_support(lattice: np.ndarray, strokes: _Strokes) -> tuple[np.ndarray, np.ndarray, float]:
-    """Share of each of the four lines along which ink is found (4,), the same along the
-    middle cell only (4,), and how close to the lines the ink lies (0-1). Only ink whose
-    stroke runs the line's way counts: a line through a symbol crosses its strokes."""
+def _line_support(
+    lattices: np.ndarray, strokes: _Strokes
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each of a stack of lattices (C, 4, 4, 2): the share of each of its four lines along
+    which ink is found (C, 4), the same along the middle cell only (C, 4), and how close to
+    the lines the ink lies, 0-1 (C,). Only ink whose stroke runs the line's way counts: a line
+    through a symbol crosses its strokes. (All candidates at once: numpy's cost per call,
+    not per point, dominates.)"""
     ink = strokes.mask
-    a, d, n, size = _line_frames(lattice)
-    pts = (
-        a[:, None, None, :]
-        + _ALONG[None, :, None, None] * d[:, None, None, :]
-        + (_ACROSS * size)[None, None, :, None] * n[:, None, None, :]
+    a, d, n, size = _line_frames(lattices)
+    across = (_ACROSS[None, :] * size[:, None])[:, None, None, :]
+    # The points looked at, x and y: (C, line, along, across).
+    x, y = (
+        np.round(
+            a[:, :, None, None, k]
+            + _ALONG[:, None] * d[:, :, None, None, k]
+            + across * n[:, :, None, None, k]
+        ).astype(np.int64)
+        for k in (0, 1)
     )
     h, w = ink.shape
-    x = np.round(pts[..., 0]).astype(np.int64)
-    y = np.round(pts[..., 1]).astype(np.int64)
     inside = (x >= 0) & (x < w) & (y >= 0) & (y < h)
-    hit = np.zeros(x.shape, bool)
-    hit[inside] = ink[y[inside], x[inside]] > 0
-    way = np.degrees(np.arctan2(d[:, 1], d[:, 0])) % 180  # each line's direction
-    way = np.broadcast_to(way[:, None, None], x.shape)
-    hit[hit] = strokes.runs_along(x[hit], y[hit], way[hit])
-    closeness = (hit * _CLOSENESS).max(axis=2)
-    inked = hit.any(axis=2)
+    hit = inside & (ink.ravel().take(np.where(inside, y * w + x, 0)) > 0)
+    way = np.degrees(np.arctan2(d[..., 1], d[..., 0])) % 180  # each line's direction (C, 4)
+    hits = np.flatnonzero(hit)
+    hit.ravel()[hits] = strokes.runs_along(
+        x.ravel()[hits], y.ravel()[hits], way.ravel()[hits // (len(_ALONG) * len(_ACROSS))]
+    )
+    closeness = (hit * _CLOSENESS).max(axis=3)
+    inked = hit.any(axis=3)
     # Half from the middle stretch, which every grid has: ink beyond the crossings may be a
-    # symbol's as well as the line's, which may stop short there.
-    score = 0.5 * closeness[:, _MIDDLE].mean() + 0.5 * closeness[:, ~_MIDDLE].mean()
-    return inked.mean(axis=1), inked[:, _MIDDLE].mean(axis=1), float(score)
+    # symbol's as well as the line's, which may stop short there. (Summed one lattice at a
+    # time: a sum over several axes adds in another order, and candidates that tie must
+    # still tie.)
+    middle, beyond = closeness[:, :, _MIDDLE], closeness[:, :, ~_MIDDLE]
+    score = np.array(
+        [
+            0.5 * (m.sum() / m.size) + 0.5 * (b.sum() / b.size)
+            for m, b in zip(middle, beyond, strict=True)
+        ]
+    )
+    return inked.mean(axis=2), inked[:, :, _MIDDLE].mean(axis=2), score
 
 
 @dataclass(frozen=True)
 class _Strokes:
-    """The ink of the work image, and which way its strokes run at each pixel."""
+    """The ink of the work image, and the structure tensor that tells which way its strokes
+    run."""
 
     mask: np.ndarray
     """uint8 (H, W) ink mask, 0/255."""
     pixels: np.ndarray
-    """(N, 2) float x, y of the ink pixels."""
-    direction: np.ndarray
-    """uint8 (H, W): at each ink pixel, the direction its stroke runs in degrees (0-179, 0
-    along x), or `_UNCLEAR` where the stroke is not clear-cut (a crossing, a blob)."""
+    """(N, 2) float x, y of the ink pixels, row by row."""
+    tensor: tuple[np.ndarray, np.ndarray, np.ndarray]
+    """float32 (H, W) maps of the structure tensor's xx, yy and xy parts."""
 
     @classmethod
     def of(cls, small: np.ndarray, ink: np.ndarray) -> _Strokes:
@@ -462,31 +529,34 @@ class _Strokes:
         jxx = cv2.boxFilter(gx * gx, -1, (5, 5))
         jyy = cv2.boxFilter(gy * gy, -1, (5, 5))
         jxy = cv2.boxFilter(gx * gy, -1, (5, 5))
-        ys, xs = np.nonzero(ink)
-        xx, yy, xy = jxx[ys, xs], jyy[ys, xs], jxy[ys, xs]
-        clear = np.hypot(xx - yy, 2 * xy) >= _MIN_CLEARNESS * np.maximum(xx + yy, 1e-3)
-        degrees = np.degrees(0.5 * np.arctan2(-2 * xy, yy - xx)) % 180
-        direction = np.full(ink.shape, _UNCLEAR, np.uint8)
-        direction[ys, xs] = np.where(clear, np.round(degrees) % 180, _UNCLEAR)
-        return cls(ink, np.stack([xs, ys], axis=1).astype(np.float64), direction)
+        found = cv2.findNonZero(ink)  # as np.nonzero's order, several times faster
+        pixels = np.zeros((0, 2)) if found is None else found.reshape(-1, 2).astype(np.float64)
+        return cls(ink, pixels, (jxx, jyy, jxy))
 
-    def running(self, way: float, agree: float) -> np.ndarray:
-        """uint8 mask of the ink whose strokes run within `agree` degrees of `way`, or are
-        too unclear to say."""
-        off = np.abs(self.direction.astype(np.int16) - round(way)) % 180
-        along = (np.minimum(off, 180 - off) <= agree) | (self.direction == _UNCLEAR)
-        return np.where(along, self.mask, 0).astype(np.uint8)
+    def direction(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """The direction the strokes at ink pixels (x, y) run, in whole degrees (0-179, 0
+        along x), or `_UNCLEAR` where a stroke is not clear-cut (a crossing, a blob). Worked
+        out only where asked: most ink is never looked at."""
+        jxx, jyy, jxy = self.tensor
+        xx, yy, xy = jxx[y, x], jyy[y, x], jxy[y, x]
+        clear = np.hypot(xx - yy, 2 * xy) >= _MIN_CLEARNESS * np.maximum(xx + yy, 1e-3)
+        degrees = np.degrees(0.5 * np.arctan2(-2 * xy, yy - xx))  # -90 to 90
+        # Modulo 180, without numpy's slow float modulo: these are at most half a turn off.
+        degrees[degrees < 0] += 180
+        whole = np.round(degrees)
+        whole[whole == 180] = 0
+        return np.where(clear, whole, _UNCLEAR)
 
     def runs_along(self, x: np.ndarray, y: np.ndarray, way: np.ndarray) -> np.ndarray:
         """Whether the strokes at ink pixels (x, y) run within `_AGREE` degrees of `way`
         (degrees), or are too unclear to say."""
-        seen = self.direction[y, x]
-        off = np.abs(seen - way) % 180
+        seen = self.direction(x, y)
+        off = np.abs(seen - way)  # 0-180 for directions 0-179 and `way` 0-180
         return (np.minimum(off, 180 - off) <= _AGREE) | (seen == _UNCLEAR)
 
 
 def _near_lines(lattice: np.ndarray, pixels: np.ndarray, band: float) -> np.ndarray:
-    """(N, 4): which pixels lie within `band` cells of each of the four lines, from 1.3 cells
+    """(4, N): which pixels lie within `band` cells of each of the four lines, from 1.3 cells
     before its first crossing to 1.3 cells after its second."""
     along, across, size = _along_across(lattice, pixels)
     return (across < band * size) & (along > -1.3) & (along < 2.3)
@@ -497,7 +567,7 @@ def _pixels_near(four: Four, pixels: np.ndarray, band: float) -> np.ndarray:
     lattice = _lattice(*four)
     if lattice is None:
         return pixels
-    return pixels[_near_lines(lattice, pixels, band).any(axis=1)]
+    return pixels[_near_lines(lattice, pixels, band).any(axis=0)]
 
 
 def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.12, 0.08)) -> Four:
@@ -515,7 +585,7 @@ def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.1
         near = _near_lines(lattice, pixels, band)
         fitted = []
         for k in range(4):
-            line = _fit_line(pixels[near[:, k]])
+            line = _fit_line(pixels[near[k]])
             if line is None:
                 return four
             fitted.append(line)
@@ -544,34 +614,42 @@ def _crossings_near(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.n
     """One round of `_local_crossings`: the lattice on the crossings of the lines fitted to
     the ink near each of its crossings, or None where one moves more than a quarter cell."""
     along, near, size = _along_lines(lattice, pixels)
+    around = (  # near each line's first crossing, and its second
+        near & (np.abs(along) < _LOCAL_REACH),
+        near & (np.abs(along - 1) < _LOCAL_REACH),
+    )
     local = {}
     for k in range(4):
-        for end in (0, 1):  # around the line's first and second crossing
-            line = _fit_line(pixels[near[:, k] & (np.abs(along[:, k] - end) < _LOCAL_REACH)])
+        for end in (0, 1):
+            line = _fit_line(pixels[around[end][k]])
             local[k, end] = line if line is not None else four[k]
-    q = lattice.copy()
+    inner = []
     for r, top_or_bottom in ((1, 2), (2, 3)):
         for c, left_or_right in ((1, 0), (2, 1)):
             # Line k's crossings run along it: verticals top to bottom, horizontals left to right.
             point = _intersect(local[left_or_right, r - 1], local[top_or_bottom, c - 1])
             if point is None or np.linalg.norm(point - lattice[r, c]) > 0.25 * size:
                 return None
-            q[r, c] = point
-    return _extend(q)
+            inner.append(point)
+    return _extend(inner)
 
 
 def _along_across(lattice: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """Where each pixel of (N, 2) lies along each of the four lines, in cells from its first
-    crossing (N, 4); how far across each line it lies, in pixels (N, 4); the mean cell size."""
+    crossing (4, N); how far across each line it lies, in pixels (4, N); the mean cell size.
+    (Line by line in rows: each line's pixels are then picked out of one contiguous row.)"""
     a, d, n, size = _line_frames(lattice)
-    along = (pixels @ d.T - (a * d).sum(axis=1)) / (d * d).sum(axis=1)
-    across = np.abs(pixels @ n.T - (a * n).sum(axis=1))
+    # Both projections in one product: rows 0-3 along the lines, 4-7 across them.
+    both = np.concatenate([d, n]) @ pixels.T
+    both -= np.concatenate([(a * d).sum(axis=1), (a * n).sum(axis=1)])[:, None]
+    along = both[:4] / (d * d).sum(axis=1)[:, None]
+    across = np.abs(both[4:], out=both[4:])
     return along, across, size
 
 
 def _along_lines(lattice: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """Where each pixel lies along each of the four lines, in cells from its first crossing
-    (N, 4); whether it lies within 0.12 cells of the line (N, 4); and the mean cell size."""
+    (4, N); whether it lies within 0.12 cells of the line (4, N); and the mean cell size."""
     along, across, size = _along_across(lattice, pixels)
     return along, across < 0.12 * size, size
 
@@ -595,22 +673,23 @@ def _bend_outer(q: np.ndarray, pixels: np.ndarray, straight: np.ndarray) -> np.n
     }
     for (k, end), (here, there, outer) in ends.items():
         outside = (
-            (along[:, k] > -0.9) & (along[:, k] < 0.1)
+            (along[k] > -0.9) & (along[k] < 0.1)
             if end == 0
-            else (along[:, k] > 0.9) & (along[:, k] < 1.9)
+            else (along[k] > 0.9) & (along[k] < 1.9)
         )
-        line = _fit_line(pixels[near[:, k] & outside])
+        line = _fit_line(pixels[near[k] & outside])
         if line is None:
             continue
         step = q[here] - q[there]  # one middle cell, pointing outwards
         direction = np.array([-math.sin(line[1]), math.cos(line[1])])
         direction *= np.sign(direction @ step) or 1.0
-        if direction @ step < 0.9 * np.linalg.norm(step):
+        length = np.linalg.norm(step)
+        if direction @ step < 0.9 * length:
             continue  # turns more than about 25 degrees: not the same line
-        q[outer] = q[here] + direction * np.linalg.norm(step)
-    for r0, rn in ((0, 1), (3, 2)):  # the outer corners complete parallelograms
-        for c0, cn in ((0, 1), (3, 2)):
-            q[r0, c0] = q[r0, cn] + q[rn, c0] - q[rn, cn]
+        q[outer] = q[here] + direction * length
+    # The outer corners (rows and columns 0, 3) complete parallelograms with their
+    # neighbours (rows and columns 1, 2).
+    q[::3, ::3] = q[::3, 1:3] + q[1:3, ::3] - q[1:3, 1:3]
     return q
 
 
@@ -631,7 +710,9 @@ def _fit_line(points: np.ndarray) -> Line | None:
 def _principal_axis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The points' mean, the points about it, and the unit normal of their direction of most
     spread."""
-    mean = points.sum(axis=0) / len(points)
+    # Pixel positions are whole numbers, summed exactly in any order: as a matrix product,
+    # several times faster than numpy's sum down the columns.
+    mean = np.ones(len(points)) @ points / len(points)
     centered = points - mean
     (sxx, sxy), (_, syy) = (centered.T @ centered).tolist()
     along = 0.5 * math.atan2(2 * sxy, sxx - syy)
@@ -668,27 +749,28 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 
     """
     lattice = grid.lattice
     frame_cell = grid.cell_size()
-    if frame_cell > 1.6 * cell:  # shrink first: a perspective warp does not average pixels
+    shrink = frame_cell > 1.6 * cell  # shrink first: a perspective warp does not average pixels
+    if shrink:
         f = 1.25 * cell / frame_cell
-        gray = cv2.resize(gray, None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
         lattice = lattice * f
     edges = [0, cell, 2 * cell, 3 * cell]
     if border > 0:
         lattice = _ring(lattice, border / cell)
         edges = [0] + [border + e for e in edges] + [3 * cell + 2 * border]
+    if shrink:
+        gray = _shrink_up_to(gray, f, lattice.reshape(-1, 2).max(axis=0))
     side = edges[-1]
     sheet = np.empty((side, side), np.uint8)
     n = len(edges) - 1
+    corners = lattice.astype(np.float32)
+    # Each cell's corners clockwise from its upper left, (n, n, 4, 2).
+    quads = np.stack([corners[:-1, :-1], corners[:-1, 1:], corners[1:, 1:], corners[1:, :-1]], 2)
     for r in range(n):
         for c in range(n):
             x0, x1, y0, y1 = edges[c], edges[c + 1], edges[r], edges[r + 1]
             w, h = x1 - x0, y1 - y0
             rect = np.array([[0, 0], [w, 0], [w, h], [0, h]], np.float32)
-            quad = np.array(
-                [lattice[r, c], lattice[r, c + 1], lattice[r + 1, c + 1], lattice[r + 1, c]],
-                np.float32,
-            )
-            to_frame = cv2.getPerspectiveTransform(rect, quad)
+            to_frame = cv2.getPerspectiveTransform(rect, quads[r, c])
             sheet[y0:y1, x0:x1] = cv2.warpPerspective(
                 gray,
                 to_frame,
@@ -697,6 +779,22 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 
                 borderMode=cv2.BORDER_REPLICATE,
             )
     return even_out_light(sheet)
+
+
+def _shrink_up_to(gray: np.ndarray, f: float, reach: np.ndarray) -> np.ndarray:
+    """`gray` shrunk by `f` with INTER_AREA as far right and down as the point `reach` (x, y
+    in the shrunk image) needs: the same pixels there as shrinking the whole frame, sooner.
+
+    An INTER_AREA pixel averages the frame's pixels under it, found counting from the frame's
+    top left; cutting the frame off to the right and below changes only the shrunk pixels
+    whose areas the cut shortens, two pixels past those a warp up to `reach` reads (it reads
+    one pixel past its last point). Shrinking is one of the reader's costliest steps, and
+    the sheet often leaves a good part of the frame to its right or below it.
+    """
+    h, w = gray.shape
+    right = min(w, math.ceil((float(reach[0]) + 4) / f) + 2)
+    bottom = min(h, math.ceil((float(reach[1]) + 4) / f) + 2)
+    return cv2.resize(gray[:bottom, :right], None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
 
 
 def _ring(q: np.ndarray, share: float) -> np.ndarray:
@@ -755,7 +853,12 @@ def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool)
         keep = known & (np.abs(center - curve) < 2.5)
     # The line's half-width: its typical inked extent, plus a pixel of anti-aliasing.
     inked = strip > 60
-    half = float(np.median(inked[keep].sum(axis=1))) / 2 + 1.5
+    widths = np.sort(inked[keep].sum(axis=1))
+    if len(widths) == 0:
+        return  # no row lies on the curve: nothing to paint over
+    mid = len(widths) // 2  # their median, without np.median's overhead
+    median = widths[mid] if len(widths) % 2 else (widths[mid - 1] + widths[mid]) / 2
+    half = float(median) / 2 + 1.5
     # Paint over only where the line is drawn: runs of rows whose ink is one narrow stroke on
     # the curve (a symbol beside or across the line interrupts a run only briefly). Beyond a
     # line that stops short, a symbol in its way stays whole.
@@ -776,7 +879,8 @@ def _parabola(x: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:
     """The least-squares parabola through points (x, y), evaluated at `at` (as np.polyfit with
     np.polyval, at half the time: this runs for every line of every frame)."""
     x = x.astype(np.float64)
-    a = np.stack([x * x, x, np.ones_like(x)], axis=1)
+    a = np.empty((len(x), 3))
+    a[:, 0], a[:, 1], a[:, 2] = x * x, x, 1.0
     c = np.linalg.solve(a.T @ a, a.T @ y)
     return (c[0] * at + c[1]) * at + c[2]
 
@@ -786,8 +890,9 @@ def _drawn_rows(good: np.ndarray, min_run: int, max_gap: int, grow: int = 2) -> 
     good rows, taking in shorter runs of 3 or more beyond them while less than `max_gap`
     rows apart, grown by `grow` rows at both ends."""
     padded = np.concatenate([[False], good, [False]]).astype(np.int8)
-    change = np.diff(padded)
-    starts, ends = np.nonzero(change == 1)[0], np.nonzero(change == -1)[0]
+    change = padded[1:] - padded[:-1]
+    # Plain ints from here on: a handful of runs, walked in Python.
+    starts, ends = np.flatnonzero(change == 1).tolist(), np.flatnonzero(change == -1).tolist()
     runs = [(a, b) for a, b in zip(starts, ends, strict=True) if b - a >= 3]
     long = [k for k, (a, b) in enumerate(runs) if b - a >= min_run]
     out = np.zeros(good.shape, bool)
@@ -853,8 +958,12 @@ def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int 
         near_lines[at - reach : at + reach + 1, :] = True
     owner: dict[int, list[int]] = {}
     side_max = sheet.shape[0]
-    for k in range(1, count):
-        x, y, w, h, area = stats[k]
+    # Plain ints and floats: most pieces are specks, dismissed faster than numpy scalars allow.
+    for k, ((x, y, w, h, area), centre) in enumerate(
+        zip(stats.tolist(), centres.tolist(), strict=True)
+    ):
+        if k == 0:
+            continue  # the background
         if area < 12 or max(w, h) > 1.15 * cell or _is_line_piece(labels, k, stats[k], cell):
             continue
         on_lines = np.count_nonzero(
@@ -864,8 +973,8 @@ def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int 
             continue  # what is left of a grid line
         if x == 0 or y == 0 or x + w == side_max or y + h == side_max:
             continue  # the desk, a shadow, the paper's edge or what is beyond the ring
-        col = math.floor((centres[k][0] - border) / cell)
-        row = math.floor((centres[k][1] - border) / cell)
+        col = math.floor((centre[0] - border) / cell)
+        row = math.floor((centre[1] - border) / cell)
         if not (0 <= row < 3 and 0 <= col < 3):
             # The ring around the grid belongs to the outer cells next to it: a symbol
             # drawn out there, but no specks or bits of line.
@@ -891,7 +1000,9 @@ def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int 
             continue
         part = sheet[sy0:sy1, sx0:sx1].copy()
         lab = labels[sy0:sy1, sx0:sx1]
-        others = (lab > 0) & ~np.isin(lab, pieces)
+        ours = np.zeros(count, bool)  # by label: a lookup, several times faster than np.isin
+        ours[pieces] = True
+        others = (lab > 0) & ~ours[lab]
         part[others] = 245
         crop[sy0 - top : sy1 - top, sx0 - left : sx1 - left] = part
         cells[i] = cv2.resize(crop, (CELL_SIZE, CELL_SIZE), interpolation=cv2.INTER_AREA)
