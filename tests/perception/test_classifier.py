@@ -40,6 +40,13 @@ def test_network_is_the_papers_architecture():
     assert net(torch.zeros(2, 1, 40, 40)).shape == (2, 3)
 
 
+def test_inference_scores_are_the_trained_networks(shipped):
+    # `scores` pools by strided maxima instead of MaxPool2d, for speed; the scores must not move.
+    x = torch.from_numpy(np.random.default_rng(3).normal(size=(9, 1, 40, 40)).astype(np.float32))
+    with torch.inference_mode():
+        torch.testing.assert_close(shipped.net.scores(x), shipped.net(x), rtol=0, atol=1e-6)
+
+
 def test_shipped_model_labels_a_batch_of_cells(shipped, cells):
     images, labels = cells
     predicted = shipped.predict(images)
