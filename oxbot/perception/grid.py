@@ -535,8 +535,7 @@ class _Strokes:
 
     def direction(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """The direction the strokes at ink pixels (x, y) run, in whole degrees (0-179, 0
-        along x), or `_UNCLEAR` where a stroke is not clear-cut (a crossing, a blob). Worked
-        out only where asked: most ink is never looked at."""
+        along x), or `_UNCLEAR` where a stroke is not clear-cut (a crossing, a blob)."""
         jxx, jyy, jxy = self.tensor
         xx, yy, xy = jxx[y, x], jyy[y, x], jxy[y, x]
         clear = np.hypot(xx - yy, 2 * xy) >= _MIN_CLEARNESS * np.maximum(xx + yy, 1e-3)
