@@ -70,10 +70,16 @@ def test_maskable_env_offers_the_environments_mask():
 
 @pytest.mark.parametrize("algorithm", ["dqn", "maskable_ppo"])
 def test_a_peer_trains_for_its_budget_and_is_evaluated_in_every_condition(algorithm):
-    run = train_peer_agent(algorithm, OxbotConfig(), budget_s=1.5, eval_every_s=1.0, eval_games=4)
+    run = train_peer_agent(algorithm, OxbotConfig(), budget_s=1.5, eval_every_s=0.5, eval_games=4)
     assert run.steps > 100
     assert 1.5 <= run.train_s < 3.0
-    assert [e["train_s"] for e in run.evaluations] == [1.0, 1.5]
+    times = [e["train_s"] for e in run.evaluations]
+    if algorithm == "dqn":  # SB3 calls back after every step: each evaluation is on time
+        assert times == [0.5, 1.0, 1.5]
+    else:
+        # PPO learns from 2,048 steps at a time, with no call back while it does: a point
+        # that falls in there is evaluated at the next step, 1.0 here possibly at 1.5.
+        assert times in ([0.5, 1.0, 1.5], [0.5, 1.5])
     last = run.evaluations[-1]["results"]
     assert set(last) == {f"{o}/{'robot' if s else 'person'}" for o, s in CONDITIONS}
     assert all(r["games"] == 4 for r in last.values())
