@@ -264,10 +264,11 @@ function addLog(speaker, act, text) {
   li.className = speaker;
   li.dataset.act = act; li.dataset.speaker = speaker;
   const who = document.createElement("span"); who.className = "who";
-  who.textContent = speaker === "sys" ? "SYS: " : "USR: ";
-  const a = document.createElement("span"); a.className = "act"; a.textContent = `[${act}] `;
+  // as the paper's Figure 1 prints a turn: "Rob: Your turn. [Request(userGameMove)]"
+  who.textContent = speaker === "sys" ? "Rob: " : "Usr: ";
   const t = document.createElement("span"); t.className = "text"; t.textContent = text;
-  li.append(who, a, t);
+  const a = document.createElement("span"); a.className = "act"; a.textContent = ` [${act}]`;
+  li.append(who, t, a);
   appendLog(li);
 }
 
