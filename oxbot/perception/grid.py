@@ -211,7 +211,7 @@ def _hough_lines(strokes: _Strokes, votes: int) -> list[tuple[float, float, floa
     45 degrees to the grid, then cannot add up to lines that crowd out the grid's own.
     """
     x, y = strokes.pixels.T.astype(np.intp)
-    seen = strokes.direction(x, y)
+    seen = strokes.direction[y, x].astype(np.int16)
     low, high = math.pi / 2 - _MAX_TILT, math.pi / 2 + _MAX_TILT + 1e-6
     kept: list[tuple[float, float, float]] = []
     for way in (0, 90):  # horizontal strokes, then vertical ones
@@ -510,15 +510,16 @@ def _line_support(
 
 @dataclass(frozen=True)
 class _Strokes:
-    """The ink of the work image, and the structure tensor that tells which way its strokes
-    run."""
+    """The ink of the work image, and which way its strokes run at each pixel."""
 
     mask: np.ndarray
     """uint8 (H, W) ink mask, 0/255."""
     pixels: np.ndarray
     """(N, 2) float x, y of the ink pixels, row by row."""
-    tensor: tuple[np.ndarray, np.ndarray, np.ndarray]
-    """float32 (H, W) maps of the structure tensor's xx, yy and xy parts."""
+    direction: np.ndarray
+    """uint8 (H, W): at each ink pixel, the direction its stroke runs in whole degrees
+    (0-179, 0 along x), or `_UNCLEAR` where the stroke is not clear-cut (a crossing, a
+    blob). Every ink pixel is looked at: all of them vote for lines."""
 
     @classmethod
     def of(cls, small: np.ndarray, ink: np.ndarray) -> _Strokes:
@@ -530,26 +531,23 @@ class _Strokes:
         jyy = cv2.boxFilter(gy * gy, -1, (5, 5))
         jxy = cv2.boxFilter(gx * gy, -1, (5, 5))
         found = cv2.findNonZero(ink)  # as np.nonzero's order, several times faster
-        pixels = np.zeros((0, 2)) if found is None else found.reshape(-1, 2).astype(np.float64)
-        return cls(ink, pixels, (jxx, jyy, jxy))
-
-    def direction(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """The direction the strokes at ink pixels (x, y) run, in whole degrees (0-179, 0
-        along x), or `_UNCLEAR` where a stroke is not clear-cut (a crossing, a blob)."""
-        jxx, jyy, jxy = self.tensor
-        xx, yy, xy = jxx[y, x], jyy[y, x], jxy[y, x]
-        clear = np.hypot(xx - yy, 2 * xy) >= _MIN_CLEARNESS * np.maximum(xx + yy, 1e-3)
-        degrees = np.degrees(0.5 * np.arctan2(-2 * xy, yy - xx))  # -90 to 90
+        xy = np.zeros((0, 2), np.intp) if found is None else found.reshape(-1, 2)
+        x, y = xy[:, 0], xy[:, 1]
+        xx, yy, xy_part = jxx[y, x], jyy[y, x], jxy[y, x]
+        clear = np.hypot(xx - yy, 2 * xy_part) >= _MIN_CLEARNESS * np.maximum(xx + yy, 1e-3)
+        degrees = np.degrees(0.5 * np.arctan2(-2 * xy_part, yy - xx))  # -90 to 90
         # Modulo 180, without numpy's slow float modulo: these are at most half a turn off.
         degrees[degrees < 0] += 180
         whole = np.round(degrees)
         whole[whole == 180] = 0
-        return np.where(clear, whole, _UNCLEAR)
+        direction = np.full(ink.shape, _UNCLEAR, np.uint8)
+        direction[y, x] = np.where(clear, whole, _UNCLEAR)
+        return cls(ink, xy.astype(np.float64), direction)
 
     def runs_along(self, x: np.ndarray, y: np.ndarray, way: np.ndarray) -> np.ndarray:
         """Whether the strokes at ink pixels (x, y) run within `_AGREE` degrees of `way`
         (degrees), or are too unclear to say."""
-        seen = self.direction(x, y)
+        seen = self.direction[y, x]
         off = np.abs(seen - way)  # 0-180 for directions 0-179 and `way` 0-180
         return (np.minimum(off, 180 - off) <= _AGREE) | (seen == _UNCLEAR)
 
