@@ -850,12 +850,10 @@ def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool)
         keep = known & (np.abs(center - curve) < 2.5)
     # The line's half-width: its typical inked extent, plus a pixel of anti-aliasing.
     inked = strip > 60
-    widths = np.sort(inked[keep].sum(axis=1))
+    widths = inked[keep].sum(axis=1)
     if len(widths) == 0:
         return  # no row lies on the curve: nothing to paint over
-    mid = len(widths) // 2  # their median, without np.median's overhead
-    median = widths[mid] if len(widths) % 2 else (widths[mid - 1] + widths[mid]) / 2
-    half = float(median) / 2 + 1.5
+    half = float(np.median(widths)) / 2 + 1.5
     # Paint over only where the line is drawn: runs of rows whose ink is one narrow stroke on
     # the curve (a symbol beside or across the line interrupts a run only briefly). Beyond a
     # line that stops short, a symbol in its way stays whole.
