@@ -224,7 +224,8 @@ def see(
     """Print the board read from each photo of the game sheet (O circles, X crosses)."""
     from rich.markup import escape
 
-    from oxbot.perception.board import default_reader, format_board, save_debug
+    from oxbot.game.board import render_labels
+    from oxbot.perception.board import default_reader, save_debug
     from oxbot.perception.sources import load_image
 
     failed = 0
@@ -237,7 +238,7 @@ def see(
             err_console.print(f"[bold red]error:[/] {escape(f'{path}: {exc}')}", soft_wrap=True)
             continue
         typer.echo(f"{path}: {' '.join(reading.labels)}")
-        typer.echo(format_board(reading.labels))
+        typer.echo(render_labels(reading.labels))
         if debug is not None:
             written = save_debug(reading, frame, debug, path.stem)
             typer.echo(f"wrote {len(written)} images to {debug}/{path.stem}_*.png")

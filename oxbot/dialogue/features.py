@@ -34,7 +34,16 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from oxbot.errors import DataError
-from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, Board, to_move, winner
+from oxbot.game.board import (
+    CELL_NAMES,
+    EMPTY,
+    ROBOT,
+    USER,
+    Board,
+    symmetries,
+    to_move,
+    winner,
+)
 
 GAME_FLAGS: tuple[str, ...] = (
     "game:robot_to_move",
@@ -63,18 +72,10 @@ _FLAG_OF_ACT: dict[str, int] = {
     if act.startswith(prefix)
 }
 
-# The 8 symmetries of the square as permutations of the cells: new[i] = old[perm[i]].
-_ROTATE = (6, 3, 0, 7, 4, 1, 8, 5, 2)
-_MIRROR = (2, 1, 0, 5, 4, 3, 8, 7, 6)
-
 
 def board_symmetries() -> np.ndarray:
-    """The 8 rotations and reflections of the board, as (8, 9) cell permutations."""
-    perms = [tuple(range(9))]
-    for _ in range(3):
-        perms.append(tuple(perms[-1][i] for i in _ROTATE))
-    perms += [tuple(p[i] for i in _MIRROR) for p in perms[:4]]
-    return np.array(perms, dtype=np.int64)
+    """The 8 rotations and reflections of the board, as (8, N_CELLS) cell permutations."""
+    return np.array(symmetries(), dtype=np.int64)
 
 
 class FeatureLayout:

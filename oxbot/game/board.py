@@ -17,35 +17,46 @@ from oxbot.errors import IllegalMoveError
 Board = tuple[int, ...]
 Outcome = Literal["win", "draw", "loss"]
 
-EMPTY, ROBOT, USER = 0, 1, 2
-EMPTY_BOARD: Board = (EMPTY,) * 9
+SIZE = 3
+"""Cells along each side of the grid. Everything below is derived from it and from the row and
+column names: a 4x4 game is a change of these three, then retraining."""
+ROW_NAMES: tuple[str, ...] = ("upper", "middle", "lower")
+COLUMN_NAMES: tuple[str, ...] = ("left", "middle", "right")
+N_CELLS = SIZE * SIZE
 
-CELL_NAMES: tuple[str, ...] = (
-    "upperleft",
-    "uppermiddle",
-    "upperright",
-    "middleleft",
-    "middle",
-    "middleright",
-    "lowerleft",
-    "lowermiddle",
-    "lowerright",
+EMPTY, ROBOT, USER = 0, 1, 2
+EMPTY_BOARD: Board = (EMPTY,) * N_CELLS
+
+CELL_NAMES: tuple[str, ...] = tuple(
+    "middle" if row == column == "middle" else row + column
+    for row in ROW_NAMES
+    for column in COLUMN_NAMES
 )
-"""SPEC §2: the paper's cell names, row-major from the upper left."""
+"""SPEC §2: the paper's cell names, row-major from the upper left (`upperleft` ... `lowerright`,
+the centre is `middle`)."""
 
 LABELS: tuple[str, ...] = ("circle", "cross", "nothing")
 """SPEC §1: the perceiver's labels, in this order when indexed 0, 1, 2."""
 
-LINES: tuple[tuple[int, int, int], ...] = (
-    (0, 1, 2),
-    (3, 4, 5),
-    (6, 7, 8),
-    (0, 3, 6),
-    (1, 4, 7),
-    (2, 5, 8),
-    (0, 4, 8),
-    (2, 4, 6),
+_ROWS = tuple(tuple(range(r * SIZE, (r + 1) * SIZE)) for r in range(SIZE))
+LINES: tuple[tuple[int, ...], ...] = (
+    *_ROWS,
+    *(tuple(row[c] for row in _ROWS) for c in range(SIZE)),
+    tuple(_ROWS[i][i] for i in range(SIZE)),
+    tuple(_ROWS[i][SIZE - 1 - i] for i in range(SIZE)),
 )
+"""The rows, the columns and the two diagonals: SIZE in one of them wins."""
+
+
+def symmetries() -> tuple[tuple[int, ...], ...]:
+    """The 8 rotations and reflections of the board as cell permutations, identity first:
+    under permutation p the new board is `tuple(board[i] for i in p)`."""
+    rotate = tuple((SIZE - 1 - c) * SIZE + r for r in range(SIZE) for c in range(SIZE))
+    mirror = tuple(r * SIZE + (SIZE - 1 - c) for r in range(SIZE) for c in range(SIZE))
+    turns = [tuple(range(N_CELLS))]
+    for _ in range(3):
+        turns.append(tuple(turns[-1][i] for i in rotate))
+    return (*turns, *(tuple(p[i] for i in mirror) for p in turns))
 
 
 def other(player: int) -> int:
@@ -54,27 +65,17 @@ def other(player: int) -> int:
 
 
 def cell_index(name: str) -> int:
-    """The index 0-8 of a cell given by its paper name (`middle`) or its number 1-9."""
+    """The index of a cell given by its paper name (`middle`) or its number, 1 for the first."""
     text = name.strip().lower()
-    if text.isdigit() and 1 <= int(text) <= 9:
+    if text.isdigit() and 1 <= int(text) <= N_CELLS:
         return int(text) - 1
     word = re.sub(r"[\s_-]", "", text)
     if word.isalpha() and word in CELL_NAMES:
         return CELL_NAMES.index(word)
     raise IllegalMoveError(
-        f"{name!r} is not a cell; use 1-9 (row by row from the upper left) or one of "
+        f"{name!r} is not a cell; use 1-{N_CELLS} (row by row from the upper left) or one of "
         f"{', '.join(CELL_NAMES)}"
     )
-
-
-def check_board(board: Sequence[int]) -> Board:
-    """`board` as a Board tuple, or IllegalMoveError if it is not 9 cells of 0, 1 or 2."""
-    cells = tuple(board)
-    if len(cells) != 9 or any(c not in (EMPTY, ROBOT, USER) for c in cells):
-        raise IllegalMoveError(
-            f"a board is 9 cells of 0 (empty), 1 (robot) or 2 (person); got {board!r}"
-        )
-    return cells
 
 
 def legal_moves(board: Board) -> list[int]:
@@ -84,8 +85,8 @@ def legal_moves(board: Board) -> list[int]:
 
 def play(board: Board, cell: int, player: int) -> Board:
     """The board after `player` marks `cell`; IllegalMoveError if the cell is not empty."""
-    if not isinstance(cell, int) or isinstance(cell, bool) or not 0 <= cell < 9:
-        raise IllegalMoveError(f"cell {cell!r} is out of range; cells are numbered 0-8")
+    if not isinstance(cell, int) or isinstance(cell, bool) or not 0 <= cell < N_CELLS:
+        raise IllegalMoveError(f"cell {cell!r} is out of range; cells are numbered 0-{N_CELLS - 1}")
     if board[cell] != EMPTY:
         raise IllegalMoveError(f"cell {CELL_NAMES[cell]} is already taken; pick an empty cell")
     return (*board[:cell], player, *board[cell + 1 :])
@@ -93,9 +94,10 @@ def play(board: Board, cell: int, player: int) -> Board:
 
 def winner(board: Board) -> int:
     """ROBOT or USER if that player has three in a row, else EMPTY."""
-    for a, b, c in LINES:
-        if board[a] != EMPTY and board[a] == board[b] == board[c]:
-            return board[a]
+    for line in LINES:
+        first = board[line[0]]
+        if first != EMPTY and all(board[i] == first for i in line):
+            return first
     return EMPTY
 
 
@@ -146,13 +148,21 @@ def symbol_of(player: int, robot_starts: bool) -> str:
 
 
 def render(board: Board, robot_starts: bool = True, numbered: bool = True) -> str:
-    """The board as three text rows, O for circles, X for crosses, empty cells by number."""
-    marks = {
-        ROBOT: "O" if symbol_of(ROBOT, robot_starts) == "circle" else "X",
-        USER: "O" if symbol_of(USER, robot_starts) == "circle" else "X",
-    }
-    cells = [
-        marks[c] if c != EMPTY else (str(i + 1) if numbered else " ") for i, c in enumerate(board)
+    """The board as text rows, O for circles, X for crosses, empty cells by number."""
+    labels = [
+        symbol_of(c, robot_starts) if c != EMPTY else (str(i + 1) if numbered else "")
+        for i, c in enumerate(board)
     ]
-    rows = [" " + " | ".join(cells[r * 3 : r * 3 + 3]) for r in range(3)]
-    return "\n---+---+---\n".join(rows)
+    return render_labels(labels)
+
+
+MARKS = {"circle": "O", "cross": "X", "nothing": " "}
+"""How a label is written in text: O circle, X cross, blank for nothing."""
+
+
+def render_labels(labels: Sequence[str]) -> str:
+    """One mark per cell as text rows: a label is written as its MARKS entry, any other text
+    (a cell number) as itself."""
+    marks = [MARKS.get(label, label) or " " for label in labels]
+    rows = [" " + " | ".join(marks[r * SIZE : (r + 1) * SIZE]) for r in range(SIZE)]
+    return ("\n" + "+".join(["---"] * SIZE) + "\n").join(rows)

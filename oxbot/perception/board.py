@@ -170,16 +170,6 @@ def read_board(frame: np.ndarray) -> list[str]:
     return list(default_reader().read(frame).labels)
 
 
-SYMBOL_MARKS = {"circle": "O", "cross": "X", "nothing": " "}
-
-
-def format_board(labels: tuple[str, ...] | list[str]) -> str:
-    """Nine labels as three text rows, O for circles and X for crosses."""
-    marks = [SYMBOL_MARKS[label] for label in labels]
-    rows = [" " + " | ".join(marks[r * 3 : r * 3 + 3]) for r in range(3)]
-    return "\n---+---+---\n".join(rows)
-
-
 def save_debug(
     reading: BoardReading, frame: np.ndarray, folder: str | Path, stem: str
 ) -> list[Path]:
