@@ -106,11 +106,6 @@ def is_full(board: Board) -> bool:
     return EMPTY not in board
 
 
-def is_over(board: Board) -> bool:
-    """True when someone has won or the board is full."""
-    return winner(board) != EMPTY or is_full(board)
-
-
 def outcome(board: Board) -> Outcome | None:
     """The finished game's result from the robot's side, or None while it goes on."""
     w = winner(board)

@@ -2,7 +2,7 @@
 
 from oxbot.speech.audio import RATE, Audio, add_noise, pcm16, read_wav, resample, to_wav_bytes
 from oxbot.speech.recognition import Hypothesis, Recognizer, recognize
-from oxbot.speech.synthesis import Voice, espeak_available, synthesize, synthesize_audio
+from oxbot.speech.synthesis import Voice, espeak_available, synthesize
 
 __all__ = [
     "RATE",
@@ -17,6 +17,5 @@ __all__ = [
     "recognize",
     "resample",
     "synthesize",
-    "synthesize_audio",
     "to_wav_bytes",
 ]

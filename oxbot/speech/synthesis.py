@@ -11,7 +11,6 @@ import subprocess
 from dataclasses import dataclass
 
 from oxbot.errors import SpeechUnavailable
-from oxbot.speech.audio import Audio, read_wav
 
 ESPEAK = "espeak-ng"
 
@@ -51,11 +50,6 @@ def synthesize(text: str, voice: Voice = Voice()) -> bytes:
             f"espeak-ng could not say {text!r} with voice {voice.name!r}: {message}"
         )
     return _fix_stream_header(result.stdout)
-
-
-def synthesize_audio(text: str, voice: Voice = Voice()) -> Audio:
-    """`text` spoken by espeak-ng, as samples."""
-    return read_wav(synthesize(text, voice))
 
 
 def _fix_stream_header(wav: bytes) -> bytes:
