@@ -682,6 +682,12 @@ def _ratio(peer: float | None, ours: float | None, budget: float) -> str:
     return f"{peer / ours:.1f}x"
 
 
+def _error_ratio(peer: float, ours: float) -> str:
+    if ours >= 1.0:
+        return "against none in" if peer < 1.0 else "equal to"
+    return f"{(1 - peer) / (1 - ours):.0f} times"
+
+
 def render_report(f: dict[str, Any]) -> str:
     """REPORT.md from the figures `reproduce` measured."""
     quick = f["mode"] == "quick"
@@ -970,9 +976,3 @@ def render_report(f: dict[str, Any]) -> str:
         "",
     ]
     return "\n".join(lines)
-
-
-def _error_ratio(peer: float, ours: float) -> str:
-    if ours >= 1.0:
-        return "against none in" if peer < 1.0 else "equal to"
-    return f"{(1 - peer) / (1 - ours):.0f} times"
