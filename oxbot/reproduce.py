@@ -689,20 +689,33 @@ def _error_ratio(peer: float, ours: float) -> str:
 
 
 def render_report(f: dict[str, Any]) -> str:
-    """REPORT.md from the figures `reproduce` measured."""
+    """REPORT.md from the figures `reproduce` measured, one function per section, in order."""
+    sections = (
+        _header_section,
+        _paper_figures_section,
+        _shipped_models_note,
+        _learning_curves_section,
+        _perception_peers_section,
+        _agent_peers_section,
+        _agent_peers_notes,
+        _environment_section,
+    )
+    # each section's lines end with a blank one, so the report ends with a newline
+    return "\n".join(line for section in sections for line in section(f))
+
+
+def _header_section(f: dict[str, Any]) -> list[str]:
+    """The title, a quick run's warning, the paper and how and when the report was made."""
     quick = f["mode"] == "quick"
-    per, svm, agent, data = f["perceiver"], f["perceiver_peer"], f["agent"], f["data"]
-    env = f["environment"]
-    n_images = per["train_images"]
-    games = f["budgets"]["evaluation_games"]
     lines = ["# Reproducing the paper, side by side", ""]
     if quick:
         lines += [
             "> **Quick run (`oxbot reproduce --quick`)**: smaller budgets "
-            f"({n_images:,} training images, {agent['experiences']:,} experiences, "
-            f"{games:,} evaluation games per condition), so the figures below check the "
-            "pipeline, not the paper. The full report is `oxbot reproduce` "
-            "(reports/REPORT.md in the repository).",
+            f"({f['perceiver']['train_images']:,} training images, "
+            f"{f['agent']['experiences']:,} experiences, "
+            f"{f['budgets']['evaluation_games']:,} evaluation games per condition), so the "
+            "figures below check the pipeline, not the paper. The full report is "
+            "`oxbot reproduce` (reports/REPORT.md in the repository).",
             "",
         ]
     lines += [
@@ -711,137 +724,187 @@ def render_report(f: dict[str, Any]) -> str:
         + (" --quick" if quick else "")
         + f"` in {f['wall_clock_s']:.0f} s, started {f['started']}.",
         "",
+    ]
+    return lines
+
+
+def _paper_figures_section(f: dict[str, Any]) -> list[str]:
+    """The table of the paper's figures, this run's, the shipped models' and the goals."""
+    return [
         "## The paper's figures and oxbot's",
         "",
         "| measured | paper | oxbot, this run | oxbot, shipped model | goal | goal met: "
         "run / shipped |",
         "|---|---|---|---|---|---|",
+        *_perceiver_rows(f),
+        *_game_outcome_rows(f),
+        *_interaction_manager_rows(f),
+        *_seed_data_rows(f),
+        "",
     ]
+
+
+def _row(measured: str, paper: str, ours: str, shipped: str, goal: str, met: str) -> str:
+    """One row of the paper's figures table."""
+    return f"| {measured} | {paper} | {ours} | {shipped} | {goal} | {met} |"
+
+
+def _met(run_ok: bool, shipped_ok: bool) -> str:
+    return f"{_yes(run_ok)} / {_yes(shipped_ok)}"
+
+
+def _perceiver_rows(f: dict[str, Any]) -> list[str]:
+    """The perceiver's accuracy on generated images and on another hand, and its training time."""
+    per, sp = f["perceiver"], f["shipped"]["perceiver"]
+    n_images, timed = per["train_images"], per["timed_refit"]
     paper = PAPER_FIGURES
-    sp, sa = f["shipped"]["perceiver"], f["shipped"]["agent"]
-
-    def row(measured: str, paper_cell: str, ours: str, shipped: str, goal: str, ok: str) -> None:
-        lines.append(f"| {measured} | {paper_cell} | {ours} | {shipped} | {goal} | {ok} |")
-
-    def met(run_ok: bool, shipped_ok: bool) -> str:
-        return f"{_yes(run_ok)} / {_yes(shipped_ok)}"
-
-    row(
-        f"classification accuracy, {per['test_images']:,} generated test images "
-        "(same distribution)",
-        f"{_pct(paper['accuracy'][0], 1)} ({paper['accuracy'][1]})",
-        _pct(per["accuracy"], 1),
-        _pct(sp["accuracy"], 1),
-        "≥ 99.9%",
-        met(per["accuracy"] >= GOALS["accuracy"], sp["accuracy"] >= GOALS["accuracy"]),
-    )
-    row(
-        f"classification accuracy, {per['other_hand_images'] or 0:,} cells from another hand "
-        "(handwriting fonts, never trained on)",
-        "not measured (pilot test with people only)",
-        _pct(per["other_hand"], 1),
-        _pct(sp["other_hand"], 1),
-        "≥ 99.5%",
-        met(
-            (per["other_hand"] or 0) >= GOALS["other_hand"],
-            (sp["other_hand"] or 0) >= GOALS["other_hand"],
-        ),
-    )
     time_label = "10K" if n_images == 10_000 else f"{n_images:,}"
-    timed = per["timed_refit"]
-    row(
-        f"training time, {time_label} images",
-        f"6 min ({paper['train_time_10k_s'][1]})",
-        f"{_seconds(timed['train_cpu_s'])} of CPU time ({timed['generate_cpu_s']:.1f} s "
-        f"generating, {timed['fit_cpu_s']:.1f} s fitting, one torch thread); wall-clock "
-        f"{_seconds(timed['train_s'])}",
-        "the same model: the same time"
-        if per["same_as_shipped"]
-        else f"{_seconds(sp['train_s'])} wall-clock for {sp['train_images']:,} images (its "
-        "metrics file)",
-        "≤ 30 s on 2 cores",
-        met(
-            n_images == 10_000 and timed["train_cpu_s"] <= GOALS["train_time_10k_s"],
-            n_images == 10_000 and timed["train_cpu_s"] <= GOALS["train_time_10k_s"]
-            if per["same_as_shipped"]
-            else sp["train_images"] == 10_000 and sp["train_s"] <= GOALS["train_time_10k_s"],
+    return [
+        _row(
+            f"classification accuracy, {per['test_images']:,} generated test images "
+            "(same distribution)",
+            f"{_pct(paper['accuracy'][0], 1)} ({paper['accuracy'][1]})",
+            _pct(per["accuracy"], 1),
+            _pct(sp["accuracy"], 1),
+            "≥ 99.9%",
+            _met(per["accuracy"] >= GOALS["accuracy"], sp["accuracy"] >= GOALS["accuracy"]),
         ),
-    )
+        _row(
+            f"classification accuracy, {per['other_hand_images'] or 0:,} cells from another "
+            "hand (handwriting fonts, never trained on)",
+            "not measured (pilot test with people only)",
+            _pct(per["other_hand"], 1),
+            _pct(sp["other_hand"], 1),
+            "≥ 99.5%",
+            _met(
+                (per["other_hand"] or 0) >= GOALS["other_hand"],
+                (sp["other_hand"] or 0) >= GOALS["other_hand"],
+            ),
+        ),
+        _row(
+            f"training time, {time_label} images",
+            f"6 min ({paper['train_time_10k_s'][1]})",
+            f"{_seconds(timed['train_cpu_s'])} of CPU time ({timed['generate_cpu_s']:.1f} s "
+            f"generating, {timed['fit_cpu_s']:.1f} s fitting, one torch thread); wall-clock "
+            f"{_seconds(timed['train_s'])}",
+            "the same model: the same time"
+            if per["same_as_shipped"]
+            else f"{_seconds(sp['train_s'])} wall-clock for {sp['train_images']:,} images (its "
+            "metrics file)",
+            "≤ 30 s on 2 cores",
+            _met(
+                n_images == 10_000 and timed["train_cpu_s"] <= GOALS["train_time_10k_s"],
+                n_images == 10_000 and timed["train_cpu_s"] <= GOALS["train_time_10k_s"]
+                if per["same_as_shipped"]
+                else sp["train_images"] == 10_000 and sp["train_s"] <= GOALS["train_time_10k_s"],
+            ),
+        ),
+    ]
+
+
+def _game_outcome_rows(f: dict[str, Any]) -> list[str]:
+    """Win / draw / loss against each simulated person, robot or person starting."""
+    agent, sa = f["agent"], f["shipped"]["agent"]
+    rows = []
     for name, robot_starts in CONDITIONS:
         key = condition_key(name, robot_starts)
         r, rs = agent["final"][key], sa["final"][key]
         who = "robot starts" if robot_starts else "person starts"
         if name == "random" and robot_starts:
-            paper_cell = f"98% win/draw ({paper['win_draw'][1]}; a semi-random person)"
+            paper_cell = f"98% win/draw ({PAPER_FIGURES['win_draw'][1]}; a semi-random person)"
         else:
             paper_cell = "not reported (a semi-random person; the robot starts in Figure 1)"
         goal_win = GOALS["win_random"][robot_starts] - 0.01
-
-        def ok(x: dict[str, Any], name: str = name, goal_win: float = goal_win) -> bool:
-            return x["loss_rate"] == 0 and (name != "random" or x["win_rate"] >= goal_win)
-
-        row(
-            f"win / draw / loss, {OPPONENT_NAMES[name]} person, {who}, {r['games']:,} games",
-            paper_cell,
-            f"{_wdl(r)} (win/draw {_pct(r['win_rate'] + r['draw_rate'])})",
-            f"{_wdl(rs)} (win/draw {_pct(rs['win_rate'] + rs['draw_rate'])})",
-            f"0 losses; wins ≥ {_pct(goal_win)}" if name == "random" else "0 losses",
-            met(ok(r), ok(rs)),
+        rows.append(
+            _row(
+                f"win / draw / loss, {OPPONENT_NAMES[name]} person, {who}, {r['games']:,} games",
+                paper_cell,
+                f"{_wdl(r)} (win/draw {_pct(r['win_rate'] + r['draw_rate'])})",
+                f"{_wdl(rs)} (win/draw {_pct(rs['win_rate'] + rs['draw_rate'])})",
+                f"0 losses; wins ≥ {_pct(goal_win)}" if name == "random" else "0 losses",
+                _met(_outcome_ok(r, name, goal_win), _outcome_ok(rs, name, goal_win)),
+            )
         )
+    return rows
+
+
+def _outcome_ok(r: dict[str, Any], opponent: str, goal_win: float) -> bool:
+    """No game lost and, against the random person, at least `goal_win` of them won."""
+    return r["loss_rate"] == 0 and (opponent != "random" or r["win_rate"] >= goal_win)
+
+
+def _interaction_manager_rows(f: dict[str, Any]) -> list[str]:
+    """The agent's well-formed dialogues over all games, and its training time."""
+    agent, sa = f["agent"], f["shipped"]["agent"]
     well_formed = min(r["well_formed"] for r in agent["final"].values())
     shipped_well_formed = min(r["well_formed"] for r in sa["final"].values())
     total_games = sum(r["games"] for r in agent["final"].values())
-    row(
-        "well-formed dialogues (greeting, name, invitation, right feedback, goodbye), all "
-        f"{total_games:,} games",
-        "not measured",
-        _pct(well_formed),
-        _pct(shipped_well_formed),
-        "100%",
-        met(well_formed == 1.0, shipped_well_formed == 1.0),
-    )
-    row(
-        "training time of the interaction manager",
-        f"3 hours ({paper['agent_time_s'][1]})",
-        f"{_seconds(agent['cpu_s'])} of CPU time, wall-clock {_seconds(agent['train_s'])}, "
-        f"for {agent['experiences']:,} experiences ({agent['games']:,} games, evaluations "
-        "included); "
-        + (
-            f"first evaluation without a loss after {_seconds(agent['time_to_zero_losses_s'])}"
-            if agent["time_to_zero_losses_s"] is not None
-            else "no evaluation without a loss"
+    return [
+        _row(
+            "well-formed dialogues (greeting, name, invitation, right feedback, goodbye), all "
+            f"{total_games:,} games",
+            "not measured",
+            _pct(well_formed),
+            _pct(shipped_well_formed),
+            "100%",
+            _met(well_formed == 1.0, shipped_well_formed == 1.0),
         ),
-        f"{_seconds(sa['train_s'])} wall-clock for {sa['experiences']:,} experiences "
-        "(its metrics file); first evaluation without a loss after "
-        f"{_seconds(sa['time_to_zero_losses_s'])}",
-        "≤ 5 min on 2 cores",
-        met(agent["cpu_s"] <= GOALS["agent_time_s"], sa["train_s"] <= GOALS["agent_time_s"]),
-    )
+        _row(
+            "training time of the interaction manager",
+            f"3 hours ({PAPER_FIGURES['agent_time_s'][1]})",
+            f"{_seconds(agent['cpu_s'])} of CPU time, wall-clock {_seconds(agent['train_s'])}, "
+            f"for {agent['experiences']:,} experiences ({agent['games']:,} games, evaluations "
+            "included); "
+            + (
+                f"first evaluation without a loss after {_seconds(agent['time_to_zero_losses_s'])}"
+                if agent["time_to_zero_losses_s"] is not None
+                else "no evaluation without a loss"
+            ),
+            f"{_seconds(sa['train_s'])} wall-clock for {sa['experiences']:,} experiences "
+            "(its metrics file); first evaluation without a loss after "
+            f"{_seconds(sa['time_to_zero_losses_s'])}",
+            "≤ 5 min on 2 cores",
+            _met(agent["cpu_s"] <= GOALS["agent_time_s"], sa["train_s"] <= GOALS["agent_time_s"]),
+        ),
+    ]
+
+
+def _seed_data_rows(f: dict[str, Any]) -> list[str]:
+    """The seed images and seed dialogues everything is learned from."""
+    data = f["data"]
     seeds_cell = (
         f"{data['seed_images']} ("
         + ", ".join(f"{v} {k}" for k, v in data["seed_images_per_label"].items())
         + "; drawn by oxbot's synthesiser)"
     )
-    row(
-        "data: seed images",
-        f"108 ({paper['seed_images'][1]})",
-        seeds_cell,
-        "the same 108 (`oxbot/data/seeds/`)"
-        if data["seed_images_same_as_shipped"]
-        else "108 others (`oxbot/data/seeds/`)",
-        "—",
-        "—",
-    )
-    row(
-        "data: seed dialogues",
-        f"10 ({paper['seed_dialogues'][1]})",
-        f"{data['seed_dialogues']} (`oxbot/data/dialogue/dialogues.txt`)",
-        f"the same {data['seed_dialogues']}",
-        "—",
-        "—",
-    )
-    lines += [
-        "",
+    return [
+        _row(
+            "data: seed images",
+            f"108 ({PAPER_FIGURES['seed_images'][1]})",
+            seeds_cell,
+            "the same 108 (`oxbot/data/seeds/`)"
+            if data["seed_images_same_as_shipped"]
+            else "108 others (`oxbot/data/seeds/`)",
+            "—",
+            "—",
+        ),
+        _row(
+            "data: seed dialogues",
+            f"10 ({PAPER_FIGURES['seed_dialogues'][1]})",
+            f"{data['seed_dialogues']} (`oxbot/data/dialogue/dialogues.txt`)",
+            f"the same {data['seed_dialogues']}",
+            "—",
+            "—",
+        ),
+    ]
+
+
+def _shipped_models_note(f: dict[str, Any]) -> list[str]:
+    """Under the paper's figures table: whether this run's models and seeds are the shipped
+    ones, and how both columns were measured."""
+    per, agent, data = f["perceiver"], f["agent"], f["data"]
+    sa = f["shipped"]["agent"]
+    return [
         "This run's models against the shipped ones (`oxbot/data/models/`): the perceiver is "
         + ("identical to" if per["same_as_shipped"] else "different from")
         + " `perceiver.pt`; the interaction manager (the best of its greedy evaluations, at "
@@ -863,11 +926,17 @@ def render_report(f: dict[str, Any]) -> str:
         + "; the seed images are "
         + ("identical to" if data["seed_images_same_as_shipped"] else "different from")
         + " `oxbot/data/seeds/`. Both columns are measured in this run on the same test "
-        f"images and the same games: greedy, {games:,} games per condition against the "
-        "default simulated person (as `oxbot evaluate agent --opponent all --robot-starts "
-        "both`), seed 0. The shipped models' training times are those their metrics files "
-        "recorded.",
+        f"images and the same games: greedy, {f['budgets']['evaluation_games']:,} games per "
+        "condition against the default simulated person (as `oxbot evaluate agent --opponent "
+        "all --robot-starts both`), seed 0. The shipped models' training times are those their "
+        "metrics files recorded.",
         "",
+    ]
+
+
+def _learning_curves_section(f: dict[str, Any]) -> list[str]:
+    """The paper's Figure "plots": the three learning curves side by side."""
+    return [
         '## Learning curves (the paper\'s Figure "plots")',
         "",
         "| classification accuracy against training images | average reward against "
@@ -877,10 +946,19 @@ def render_report(f: dict[str, Any]) -> str:
         "![win/draw](agent_win_draw.png) |",
         "",
         "Left: accuracy on the 1,000 test images after training on the first "
-        + ", ".join(f"{p['images']:,}" for p in per["learning_curve"])
+        + ", ".join(f"{p['images']:,}" for p in f["perceiver"]["learning_curve"])
         + " images (training time dotted). Middle and right: while training, exploring "
         "(epsilon-greedy), so below the greedy figures above.",
         "",
+    ]
+
+
+def _perception_peers_section(f: dict[str, Any]) -> list[str]:
+    """The peers' heading, then the perception peers table: oxbot's CNN+SVM beside the SVM on
+    raw pixels, and their accuracies compared."""
+    per, svm = f["perceiver"], f["perceiver_peer"]
+    timed = per["timed_refit"]
+    return [
         "## Peers, measured in the same run",
         "",
         "### Learning to perceive",
@@ -888,7 +966,7 @@ def render_report(f: dict[str, Any]) -> str:
         "| learner | training images | accuracy, generated test images | accuracy, other "
         "hand | training time (fit, CPU) | training-time ratio |",
         "|---|---|---|---|---|---|",
-        f"| oxbot CNN+SVM | {n_images:,} | {_pct(per['accuracy'], 1)} | "
+        f"| oxbot CNN+SVM | {per['train_images']:,} | {_pct(per['accuracy'], 1)} | "
         f"{_pct(per['other_hand'], 1)} | {timed['fit_cpu_s']:.1f} s "
         f"(wall-clock {timed['fit_s']:.1f} s) | 1.0x |",
         f"| {SVM_NAME} | {svm['train_images']:,} | {_pct(svm['accuracy'], 1)} | "
@@ -901,18 +979,21 @@ def render_report(f: dict[str, Any]) -> str:
         "on the other hand. Both learn from the same generated images (same seed and stream) "
         "and are measured on the same test sets.",
         "",
-        "### Learning to interact",
-        "",
     ]
-    budget = agent["train_s"]
-    ours = agent["time_to_zero_losses_s"]
+
+
+def _agent_peers_section(f: dict[str, Any]) -> list[str]:
+    """The interaction peers table: oxbot's DQN beside SB3's DQN and MaskablePPO, the time to
+    their first evaluation without a loss and their final games."""
+    agent = f["agent"]
+    budget, ours = agent["train_s"], agent["time_to_zero_losses_s"]
     header = "| learner | training (time, experiences) | first evaluation without a loss | "
     header += "ratio to oxbot | " + " | ".join(
         f"{OPPONENT_NAMES[n]}, {'robot' if s else 'person'} starts: W / D / L"
         for n, s in CONDITIONS
     )
     header += " | well formed |"
-    lines += [header, "|" + "---|" * (5 + len(CONDITIONS))]
+    lines = ["### Learning to interact", "", header, "|" + "---|" * (5 + len(CONDITIONS))]
     rows = [("oxbot DQN (`agent.toml`)", agent, ours)]
     rows += [(LEARNER_NAMES[k], p, p["time_to_zero_losses_s"]) for k, p in f["agent_peers"].items()]
     for name, run, t in rows:
@@ -926,43 +1007,57 @@ def render_report(f: dict[str, Any]) -> str:
         cells += [_wdl(run["final"][condition_key(n, s)]) for n, s in CONDITIONS]
         cells.append(_pct(min(r["well_formed"] for r in run["final"].values())))
         lines.append("| " + " | ".join(cells) + " |")
-    lines += [
-        "",
+    lines.append("")
+    return lines
+
+
+def _agent_peers_notes(f: dict[str, Any]) -> list[str]:
+    """Under the interaction peers table: the losses plot, how the peers were trained and
+    judged, and each peer's settings."""
+    agent = f["agent"]
+    lines = [
         "![losses against training time](losses_vs_time.png)",
         "",
         f"Each peer trains on `oxbot/NoughtsAndCrosses-v0` for oxbot's wall-clock time "
-        f"({budget:.0f} s, its evaluations not counted; oxbot's own time counts its "
+        f"({agent['train_s']:.0f} s, its evaluations not counted; oxbot's own time counts its "
         "evaluations), in oxbot's training conditions (the same opponent mix, both who-starts "
         "conditions, the same simulated person), with oxbot's network size and discount. "
         "Time without a loss: the first greedy evaluation "
         f"({len(agent['evaluations'])} along each run, every learner the same number, "
         f"{f['configs']['train']['agent']['eval_games']:,} games in each of the six "
         "conditions against the training person) with no game lost. Final columns: the last "
-        f"policy of each peer and oxbot's kept one, {games:,} games per condition against the "
-        "default person. DQN cannot mask its exploration, but it is judged like oxbot's "
-        "agent, greedy over the offered acts; MaskablePPO gets the mask through "
-        "sb3-contrib's `ActionMasker` and acts by its most likely act. Peer settings:",
+        f"policy of each peer and oxbot's kept one, {f['budgets']['evaluation_games']:,} games "
+        "per condition against the default person. DQN cannot mask its exploration, but it is "
+        "judged like oxbot's agent, greedy over the offered acts; MaskablePPO gets the mask "
+        "through sb3-contrib's `ActionMasker` and acts by its most likely act. Peer settings:",
         "",
     ]
     for k, p in f["agent_peers"].items():
         settings = ", ".join(f"{a}={b}" for a, b in p["settings"].items())
         lines.append(f"- {LEARNER_NAMES[k]}: {settings}; SB3 defaults otherwise.")
-    timed = per["timed_refit"]
-    lines += [
-        "",
+    lines.append("")
+    return lines
+
+
+def _environment_section(f: dict[str, Any]) -> list[str]:
+    """Seeds, versions and machine: how times were judged, the seeds, commit, packages and
+    machine."""
+    env, seeds = f["environment"], f["seeds"]
+    refit = f["perceiver"]["timed_refit"]
+    return [
         "## Seeds, versions and machine",
         "",
         "- Times: the cores were shared with other jobs, so the time goals are judged on CPU "
         "time (the learners run on one torch thread: their CPU time is what they take on a "
         "core of their own), with wall-clock beside it. The perceiver's time is of a second, "
         "timed generation and fit after the curve's runs; it gave "
-        + ("the very same" if timed["identical_weights"] else "**different**")
+        + ("the very same" if refit["identical_weights"] else "**different**")
         + " weights. The SB3 peers' budget is oxbot's wall-clock time, all run one after "
         "the other on the same machine.",
-        f"- Seeds: perception {f['seeds']['perception']} (seed images, training and test "
-        f"images, font set), agent {f['seeds']['agent']} (training, its evaluations "
-        f"10,000 + step), final evaluations {f['seeds']['evaluation']}, peers "
-        f"{f['seeds']['peers']} (their evaluations 20,000 + seed). The same seeds give the "
+        f"- Seeds: perception {seeds['perception']} (seed images, training and test "
+        f"images, font set), agent {seeds['agent']} (training, its evaluations "
+        f"10,000 + step), final evaluations {seeds['evaluation']}, peers "
+        f"{seeds['peers']} (their evaluations 20,000 + seed). The same seeds give the "
         "same figures on the same machine, except times and the SB3 peers' figures, which "
         "depend on how many steps fit into their time.",
         f"- Commit: {env['commit'] or 'unknown'}",
@@ -975,4 +1070,3 @@ def render_report(f: dict[str, Any]) -> str:
         "`report.json` beside this file.",
         "",
     ]
-    return "\n".join(lines)
