@@ -154,19 +154,8 @@ def reproduce(
 
     announce("6/6 measuring the shipped models and writing the report")
     figures["shipped"] = measure_shipped(work_dir, train_config, eval_config, budgets)
-    shipped_agent = figures["shipped"]["agent"]
-    shipped_agent["same_config"] = shipped_agent["config"] == _json_safe(
-        dataclasses.asdict(agent_config)
-    )
-    shipped_agent["diverges_at"] = next(
-        (
-            ours[0]
-            for ours, theirs in zip(
-                figures["agent"]["reward_curve"], shipped_agent["reward_curve"], strict=False
-            )
-            if ours != theirs
-        ),
-        None,
+    figures["shipped"]["agent"].update(
+        _shipped_agent_against_run(figures["shipped"]["agent"], figures["agent"], agent_config)
     )
     figures["seeds"] = {
         "perception": train_config.perception.seed,
@@ -405,6 +394,26 @@ def measure_shipped(
             "config": agent_metrics["config"],
             "reward_curve": agent_metrics["reward_curve"],
         },
+    }
+
+
+def _shipped_agent_against_run(
+    shipped: dict[str, Any], agent: dict[str, Any], agent_config: OxbotConfig
+) -> dict[str, Any]:
+    """Whether the shipped agent was trained with this run's config, and the first experience
+    at which its average reward parts from this run's agent's (None if it never does)."""
+    return {
+        "same_config": shipped["config"] == _json_safe(dataclasses.asdict(agent_config)),
+        "diverges_at": next(
+            (
+                ours[0]
+                for ours, theirs in zip(
+                    agent["reward_curve"], shipped["reward_curve"], strict=False
+                )
+                if ours != theirs
+            ),
+            None,
+        ),
     }
 
 
