@@ -8,7 +8,7 @@ Issue 7's goal: a stroke becomes a move within 0.5 s after it ends — the board
 processing. Starts a real server (real robots) on a free localhost port and measures, from the
 moment the finished sheet leaves the client to the moment the robot's GameMove arrives back:
 
-- scripted games over the WebSocket (`oxbot.web.player`: the page's sheet drawn in Python,
+- scripted games over the WebSocket (`oxbot.testing.player`: the page's sheet drawn in Python,
   the whole symbol sent when its last stroke ends, as the page does on pointerup);
 - games in Debian's Chromium, drawn with the mouse (from `pointerup` to the GameMove message
   in the page, measured by the page's own clock);
@@ -31,9 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from oxbot.robot.session import RobotOptions
-from oxbot.web.browser import CHROMIUM, FLAGS, draw
-from oxbot.web.player import play_game
+from oxbot.config import load_config
+from oxbot.testing.browser import CHROMIUM, FLAGS, draw
+from oxbot.testing.player import play_game
 from oxbot.web.server import create_app, serving_in_background
 
 
@@ -116,9 +116,11 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 
-    options = RobotOptions(speed_factor=args.speed, answer_timeout=2.0 * args.speed)
+    config = load_config(
+        None, [f"robot.speed_factor={args.speed}", f"robot.answer_timeout={2.0 * args.speed}"]
+    )
     print(f"== stroke end -> accepted move (robot speech/arm x{args.speed:g}, board read 10 Hz)")
-    with serving_in_background(create_app(robot_options=options)) as url:
+    with serving_in_background(create_app(config)) as url:
         ws_url = url.replace("http://", "ws://") + "/ws"
         asyncio.run(scripted(ws_url, 1, 1, 999))  # loads the shared models; not measured
         summary(

@@ -1,7 +1,9 @@
-"""The `oxbot` command. Subcommands mirror the package: game, config (and more as they land).
+"""The `oxbot` command. Subcommands mirror the package: play, game, see, perceive, train,
+evaluate, reproduce, config.
 
 Every command reads the configuration from `--config FILE` and `--set section.field=value`
-given before the subcommand, e.g. `oxbot --set game.opponent=blocker game`.
+given before the subcommand, e.g. `oxbot --set game.opponent=blocker game`; a command's own
+options (`oxbot play --port 8080`) override both.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from typing import Annotated
 import typer
 from rich.console import Console
 
-from oxbot.config import OxbotConfig, load_config, to_toml
+from oxbot.config import OxbotConfig, load_config, to_toml, who_starts, with_overrides
 from oxbot.errors import OxbotError
 
 app = typer.Typer(
@@ -23,13 +25,18 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # click's plain help: no "<bool>" after every flag
 )
 
 err_console = Console(stderr=True, highlight=False)
 
 # Command groups; each domain registers its commands below, next to the others of its group.
-train_app = typer.Typer(help="Train a learner and write its model, metrics and plots.")
-evaluate_app = typer.Typer(help="Measure a trained learner, as in the paper's experiments.")
+train_app = typer.Typer(
+    help="Train a learner and write its model, metrics and plots.", rich_markup_mode=None
+)
+evaluate_app = typer.Typer(
+    help="Measure a trained learner, as in the paper's experiments.", rich_markup_mode=None
+)
 
 
 @app.callback()
@@ -90,7 +97,9 @@ def game(
 
 # --- perception commands (issue 3) ---
 
-perceive_app = typer.Typer(help="The perceiver's data: seed images and the other-hand test set.")
+perceive_app = typer.Typer(
+    help="The perceiver's data: seed images and the other-hand test set.", rich_markup_mode=None
+)
 
 
 @perceive_app.command("make-seeds")
@@ -302,9 +311,7 @@ def evaluate_agent_command(
     names = list(OPPONENTS) if opponent == "all" else [opponent]
     if any(n not in OPPONENTS for n in names):
         raise ConfigError(f"unknown opponent {opponent!r}; choose random, blocker, minimax or all")
-    starts = {"yes": [True], "no": [False], "both": [True, False]}.get(robot_starts)
-    if starts is None:
-        raise ConfigError(f"--robot-starts is {robot_starts!r}; use yes, no or both")
+    starts = who_starts(robot_starts, "--robot-starts")
     if games <= 0:
         raise ConfigError(f"--games is {games}; play at least one game")
     policy = load_policy(policy_file)
@@ -336,34 +343,54 @@ def evaluate_agent_command(
 
 @app.command("play")
 def play(
-    terminal: bool = typer.Option(
-        False, "--terminal", help="Play in this terminal instead of the web page."
-    ),
-    camera: str = typer.Option(
-        None, "--camera", help="Watch real paper: a camera index (0), a video or image folder."
-    ),
-    person_starts: bool = typer.Option(False, "--person-starts", help="You draw first."),
-    mute: bool = typer.Option(False, "--mute", help="Print the robot's words only."),
-    host: str = typer.Option("127.0.0.1", help="Web page: the address to listen on."),
-    port: int = typer.Option(8000, help="Web page: the port to listen on."),
-    speed: float = typer.Option(1.0, help="Run speech, the arm and the waits this much faster."),
+    ctx: typer.Context,
+    terminal: Annotated[
+        bool, typer.Option("--terminal", help="Play in this terminal instead of the web page.")
+    ] = False,
+    camera: Annotated[
+        str | None,
+        typer.Option(help="Watch real paper: a camera index (0), a video or an image folder."),
+    ] = None,
+    robot_starts: Annotated[
+        bool | None,
+        typer.Option("--robot-starts/--person-starts", help="Who draws first (default: config)."),
+    ] = None,
+    mute: Annotated[bool, typer.Option("--mute", help="Print the robot's words only.")] = False,
+    host: Annotated[
+        str | None, typer.Option(help="Web page: the address to listen on (default: config).")
+    ] = None,
+    port: Annotated[
+        int | None, typer.Option(help="Web page: the port to listen on (default: config).")
+    ] = None,
+    speed: Annotated[
+        float | None,
+        typer.Option(help="Run speech, the arm and the waits this much faster (default: 1)."),
+    ] = None,
 ) -> None:
     """Play with the whole robot: the web page at http://HOST:PORT, or --terminal."""
-    from oxbot.robot.session import RobotOptions
-
-    options = RobotOptions(robot_starts=not person_starts, speed_factor=speed)
+    changes = {
+        "game": {"robot_starts": robot_starts},
+        "robot": {"speed_factor": speed},
+        "web": {"host": host, "port": port},
+    }
+    config = with_overrides(
+        _config(ctx),
+        {
+            section: {k: v for k, v in values.items() if v is not None}
+            for section, values in changes.items()
+        },
+    )
     if terminal:
         from oxbot.perception.sources import open_source
         from oxbot.robot.session import Robot
         from oxbot.robot.terminal import Speakers, TerminalRobot
 
         source = open_source(camera) if camera is not None else None
-        robot = Robot(options, sheet_camera=source)
-        TerminalRobot(robot, speakers=Speakers(not mute)).run()
+        TerminalRobot(Robot(config, sheet_camera=source), speakers=Speakers(not mute)).run()
         return
     from oxbot.web.server import serve
 
-    serve(host=host, port=port, speed_factor=speed, robot_starts=not person_starts)
+    serve(config)
 
 
 # --- reproducing the paper: oxbot reproduce (issue 8) ---

@@ -20,6 +20,7 @@ import inspect
 import itertools
 import textwrap
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -188,8 +189,7 @@ class AgentConfig:
             raise ConfigError(
                 f"agent.exploration_fraction is {self.exploration_fraction}; use a value in (0, 1]"
             )
-        if self.robot_starts not in ("yes", "no", "both"):
-            raise ConfigError(f"agent.robot_starts is {self.robot_starts!r}; use yes, no or both")
+        who_starts(self.robot_starts, "agent.robot_starts")
         opponent_mix(self.opponents)
         if not 0.0 <= self.discount <= 1.0:
             raise ConfigError(f"agent.discount is {self.discount}; use a value in [0, 1]")
@@ -199,6 +199,14 @@ class AgentConfig:
             raise ConfigError(
                 f"agent.hidden_sizes is {self.hidden_sizes}; give one or more positive sizes"
             )
+
+
+def who_starts(text: str, where: str = "robot_starts") -> tuple[bool, ...]:
+    """The who-starts conditions `yes`, `no` or `both` names: True where the robot starts."""
+    conditions = {"yes": (True,), "no": (False,), "both": (True, False)}.get(text)
+    if conditions is None:
+        raise ConfigError(f"{where} is {text!r}; use yes, no or both")
+    return conditions
 
 
 def opponent_mix(text: str) -> dict[str, float]:
@@ -251,6 +259,130 @@ class DialogueConfig:
 
 
 @dataclass(frozen=True)
+class ArmConfig:
+    """The simulated arm: how big the cells are and how fast its pen moves."""
+
+    cell_size: float = 0.05
+    """oxbot: metres across one cell of the drawn grid (a 15 cm grid on an A4 sheet)."""
+    fill: float = 0.7
+    """oxbot: fraction of the cell the symbol spans, leaving a margin clear of the grid lines."""
+    pen_speed: float = 0.15
+    """oxbot: metres per second along a stroke, a steady hand: a symbol takes one to two seconds."""
+    pen_lift: float = 0.2
+    """oxbot: seconds to lift the pen and put it down at the next stroke's start."""
+    travel: float = 0.3
+    """oxbot: seconds to move from rest to the cell, and again from the cell back to rest."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "cell_size", "pen_speed")
+        if not 0 < self.fill <= 1:
+            raise ConfigError(f"robot.arm.fill is {self.fill}; use a value in (0, 1]")
+        if min(self.pen_lift, self.travel) < 0:
+            raise ConfigError("robot.arm.pen_lift and travel are durations; use 0 or more")
+
+
+@dataclass(frozen=True)
+class HeadConfig:
+    """Head-move recognition: how faces are found and how far a head must turn to count."""
+
+    calibration_detections: int = 5
+    """oxbot: detections averaged into the centre when nobody calibrates (person looks ahead)."""
+    horizontal_threshold: float = 0.35
+    """Paper §3.1 thresholds the head's pose; oxbot: face widths left or right of the centre."""
+    vertical_threshold: float = 0.25
+    """Paper §3.1 thresholds the head's pose; oxbot: face heights above or below the centre."""
+    detection_width: int = 480
+    """oxbot: wider frames are shrunk before detection (Haar cascades are slow on big frames)."""
+    min_face: int = 24
+    """oxbot: the smallest face, in pixels of the shrunk frame, the cascades look for."""
+    mirrored: bool = False
+    """oxbot: true when the camera mirrors its image, so the image's left is the person's left."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "calibration_detections")
+        _require_positive(self, "horizontal_threshold", "vertical_threshold")
+        if self.detection_width < 64 or self.min_face < 8:
+            raise ConfigError(
+                "robot.head.detection_width must be 64 or more and min_face 8 or more pixels"
+            )
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """The integrated robot: how long it waits for the person, how fast it runs, its body."""
+
+    answer_timeout: float = 4.0
+    """oxbot: seconds to wait for an optional answer (to a greeting, say) before taking silence."""
+    question_timeout: float = 30.0
+    """oxbot: seconds to wait for the answer to a question before taking silence."""
+    move_timeout: float = 30.0
+    """oxbot: seconds to wait for the person's drawing after "Your turn"; then it asks again."""
+    speed_factor: float = 1.0
+    """oxbot: how many times faster than real time speech, the arm and the waits run (tests)."""
+    arm: ArmConfig = field(default_factory=ArmConfig)
+    """Paper §3.1: Baxter's arm drew the robot's symbol; oxbot's is simulated, as fast as a pen."""
+    head: HeadConfig = field(default_factory=HeadConfig)
+    """Paper §3.1: head-move recognition from a Kinect; oxbot's from a webcam."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "speed_factor")
+        for name in ("answer_timeout", "question_timeout", "move_timeout"):
+            value = getattr(self, name)
+            if not value >= 0:
+                raise ConfigError(f"robot.{name} is {value}; a wait cannot be negative")
+
+
+@dataclass(frozen=True)
+class SpeechConfig:
+    """Hearing and speaking: the recogniser and the voice."""
+
+    recognizer: str = "pocketsphinx"
+    """Paper §3.1 used Google ASR; oxbot: pocketsphinx, or `module:factory` for another."""
+    nbest: int = 5
+    """Paper §3.1: the recogniser's N-best list is passed on; oxbot keeps this many entries."""
+    voice: str = "en-us"
+    """Paper §3.1 used MARY TTS; oxbot: the espeak-ng voice of the robot."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "nbest")
+        if not self.recognizer.strip():
+            raise ConfigError("speech.recognizer is empty; use pocketsphinx or module:factory")
+
+
+@dataclass(frozen=True)
+class WebConfig:
+    """The web page's server (`oxbot play`) and what one tab may send it."""
+
+    host: str = "127.0.0.1"
+    """oxbot: the address to listen on; 0.0.0.0 serves the LAN (see README, security)."""
+    port: int = 8000
+    """oxbot: the port to listen on."""
+    max_message_bytes: int = 4_000_000
+    """oxbot: largest message from a tab (a 1280x720 PNG as a data URL is about 1-2 MB)."""
+    max_image_side: int = 2048
+    """oxbot: largest width or height of a sheet or webcam image, in pixels."""
+    min_image_side: int = 64
+    """oxbot: smallest width or height: a smaller image cannot show a readable grid."""
+    audio_rate: int = 16_000
+    """oxbot: the recogniser's sample rate (pocketsphinx en-us); the page resamples to it."""
+    max_audio_seconds: float = 30.0
+    """oxbot: longest push-to-talk recording."""
+    max_text_chars: int = 500
+    """oxbot: longest typed answer."""
+    max_sessions: int = 32
+    """oxbot: sessions (tabs) served at once; more are refused with a message."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "max_message_bytes", "max_image_side", "min_image_side")
+        _require_positive(self, "audio_rate", "max_audio_seconds", "max_text_chars")
+        _require_positive(self, "max_sessions")
+        if not 0 < self.port < 65536:
+            raise ConfigError(f"web.port is {self.port}; use a port in 1-65535")
+        if self.min_image_side > self.max_image_side:
+            raise ConfigError("web.min_image_side is larger than web.max_image_side")
+
+
+@dataclass(frozen=True)
 class OxbotConfig:
     """The whole configuration, one section per part of the system."""
 
@@ -260,20 +392,30 @@ class OxbotConfig:
     reward: RewardConfig = field(default_factory=RewardConfig)
     agent: AgentConfig = field(default_factory=AgentConfig)
     dialogue: DialogueConfig = field(default_factory=DialogueConfig)
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    speech: SpeechConfig = field(default_factory=SpeechConfig)
+    web: WebConfig = field(default_factory=WebConfig)
 
 
 def _require_positive(config: Any, *names: str) -> None:
     section = _section_name(type(config))
     for name in names:
         value = getattr(config, name)
-        if value <= 0:
+        if not value > 0:  # NaN is not greater than 0 either
             raise ConfigError(f"{section}.{name} is {value}; it must be greater than 0")
 
 
-def _section_name(cls: type) -> str:
-    for f in dataclasses.fields(OxbotConfig):
-        if f.default_factory is cls:  # type: ignore[comparison-overlap]
-            return f.name
+def _section_name(cls: type, root: type | None = None, prefix: str = "") -> str:
+    """Where a config class sits in OxbotConfig, e.g. `robot.arm`."""
+    for f in dataclasses.fields(root or OxbotConfig):
+        if not callable(f.default_factory):
+            continue
+        if f.default_factory is cls:
+            return prefix + f.name
+        if dataclasses.is_dataclass(f.default_factory):
+            found = _section_name(cls, f.default_factory, f"{prefix}{f.name}.")
+            if found != cls.__name__:
+                return found
     return cls.__name__
 
 
@@ -295,9 +437,8 @@ def field_docs(cls: type) -> dict[str, str]:
     return docs
 
 
-def _coerce(section: str, name: str, default: Any, value: Any) -> Any:
+def _coerce(where: str, default: Any, value: Any) -> Any:
     """Check a value from TOML or the command line against the type of the field's default."""
-    where = f"{section}.{name}"
     if isinstance(default, bool):
         if isinstance(value, bool):
             return value
@@ -324,43 +465,51 @@ def _coerce(section: str, name: str, default: Any, value: Any) -> Any:
     )
 
 
-def with_overrides(config: OxbotConfig, overrides: dict[str, dict[str, Any]]) -> OxbotConfig:
+Overrides = dict[str, Any]
+"""`{section: {field: value}}`, a nested section being a table in its section."""
+
+
+def with_overrides(config: OxbotConfig, overrides: Overrides) -> OxbotConfig:
     """A copy of `config` with `{section: {field: value}}` applied, each value type-checked."""
-    sections = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
-    for section, values in overrides.items():
-        if section not in sections:
-            raise ConfigError(
-                f"unknown config section [{section}]; sections are {', '.join(sections)}"
-            )
-        if not isinstance(values, dict):
-            raise ConfigError(f"[{section}] must be a table of field = value lines")
-        current = sections[section]
-        known = {f.name for f in dataclasses.fields(current)}
-        changes = {}
-        for name, value in values.items():
-            if name not in known:
+    return _apply(config, overrides, "")
+
+
+def _apply(node: Any, values: Any, path: str) -> Any:
+    if not isinstance(values, dict):
+        raise ConfigError(f"[{path}] must be a table of field = value lines")
+    known = {f.name for f in dataclasses.fields(node)}
+    changes = {}
+    for name, value in values.items():
+        where = f"{path}.{name}" if path else name
+        if name not in known:
+            if not path:
                 raise ConfigError(
-                    f"unknown field {section}.{name}; fields are {', '.join(sorted(known))}"
+                    f"unknown config section [{name}]; sections are {', '.join(sorted(known))}"
                 )
-            changes[name] = _coerce(section, name, getattr(current, name), value)
-        sections[section] = dataclasses.replace(current, **changes)
-    return OxbotConfig(**sections)
+            raise ConfigError(f"unknown field {where}; fields are {', '.join(sorted(known))}")
+        current = getattr(node, name)
+        if dataclasses.is_dataclass(current):
+            changes[name] = _apply(current, value, where)
+        else:
+            changes[name] = _coerce(where, current, value)
+    return dataclasses.replace(node, **changes)
 
 
-def parse_assignment(text: str) -> tuple[str, str, Any]:
-    """Split a command-line override `section.field=value`; the value is read as TOML."""
+def parse_assignment(text: str) -> tuple[list[str], Any]:
+    """Split a command-line override `section.field=value` (or `section.table.field=value`)
+    into its keys and value; the value is read as TOML."""
     key, sep, raw = text.partition("=")
-    section, dot, name = key.strip().partition(".")
-    if not sep or not dot or not section or not name:
+    keys = [k.strip() for k in key.split(".")]
+    if not sep or len(keys) < 2 or not all(keys):
         raise ConfigError(f"--set {text!r} is malformed; write it as section.field=value")
     try:
         value = tomllib.loads(f"v = {raw.strip()}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw.strip()  # a bare word such as blocker reads as a string
-    return section, name, value
+    return keys, value
 
 
-def load_config(path: str | Path | None = None, assignments: list[str] = ()) -> OxbotConfig:
+def load_config(path: str | Path | None = None, assignments: Sequence[str] = ()) -> OxbotConfig:
     """The defaults, overridden by the TOML file at `path`, then by `section.field=value` items."""
     config = OxbotConfig()
     if path is not None:
@@ -369,13 +518,20 @@ def load_config(path: str | Path | None = None, assignments: list[str] = ()) -> 
             data = tomllib.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise ConfigError(f"config file {path} does not exist; check the path") from None
+        except IsADirectoryError:
+            raise ConfigError(f"config file {path} is a folder; give a TOML file") from None
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise ConfigError(f"config file {path} is not valid TOML: {exc}") from None
         config = with_overrides(config, data)
-    overrides: dict[str, dict[str, Any]] = {}
+    overrides: Overrides = {}
     for item in assignments:
-        section, name, value = parse_assignment(item)
-        overrides.setdefault(section, {})[name] = value
+        keys, value = parse_assignment(item)
+        table = overrides
+        for key in keys[:-1]:
+            table = table.setdefault(key, {})
+            if not isinstance(table, dict):
+                raise ConfigError(f"--set {item!r} sets {key} both as a value and as a table")
+        table[keys[-1]] = value
     return with_overrides(config, overrides)
 
 
@@ -383,15 +539,27 @@ def to_toml(config: OxbotConfig) -> str:
     """The configuration as a commented TOML file that `load_config` reads back."""
     lines: list[str] = []
     for section_field in dataclasses.fields(config):
-        section = getattr(config, section_field.name)
-        docs = field_docs(type(section))
-        lines.append(f"[{section_field.name}]")
-        for f in dataclasses.fields(section):
-            if f.name in docs:
-                lines.append(f"# {docs[f.name]}")
-            lines.append(f"{f.name} = {_toml_value(getattr(section, f.name))}")
-        lines.append("")
+        _table_lines(getattr(config, section_field.name), section_field.name, lines)
     return "\n".join(lines)
+
+
+def _table_lines(section: Any, name: str, lines: list[str]) -> None:
+    docs = field_docs(type(section))
+    lines.append(f"[{name}]")
+    tables = []
+    for f in dataclasses.fields(section):
+        value = getattr(section, f.name)
+        if dataclasses.is_dataclass(value):
+            tables.append(f)
+            continue
+        if f.name in docs:
+            lines.append(f"# {docs[f.name]}")
+        lines.append(f"{f.name} = {_toml_value(value)}")
+    lines.append("")
+    for f in tables:  # a TOML table's own fields come before its sub-tables
+        if f.name in docs:
+            lines.append(f"# {docs[f.name]}")
+        _table_lines(getattr(section, f.name), f"{name}.{f.name}", lines)
 
 
 def _toml_value(value: Any) -> str:

@@ -22,25 +22,18 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from oxbot.config import OxbotConfig, opponent_mix
+from oxbot.config import OxbotConfig, opponent_mix, who_starts
 from oxbot.dialogue import ENV_ID
-from oxbot.dialogue.evaluation import Policy, evaluate
+from oxbot.dialogue.agent import greedy_batch_policy
+from oxbot.dialogue.evaluation import CONDITIONS, Policy, condition_key, evaluate
 from oxbot.errors import ConfigError
-from oxbot.game.opponents import OPPONENTS, make_opponent
+from oxbot.game.opponents import make_opponent
 from oxbot.perception.synth import LABELS
 
 log = logging.getLogger(__name__)
 
 PEER_AGENTS = ("dqn", "maskable_ppo")
 """The interaction-manager peers: SB3's DQN and sb3-contrib's MaskablePPO."""
-CONDITIONS = tuple((name, robot_starts) for name in OPPONENTS for robot_starts in (True, False))
-"""Every opponent in both who-starts conditions, in the order reports list them."""
-STARTS = {"yes": (True,), "no": (False,), "both": (True, False)}
-
-
-def condition_key(opponent: str, robot_starts: bool) -> str:
-    """`random/robot` or `random/person`: who starts, as in the training metrics."""
-    return f"{opponent}/{'robot' if robot_starts else 'person'}"
 
 
 # --- learning to perceive: a linear SVM on raw pixels ---------------------------------------
@@ -106,7 +99,7 @@ class TrainingConditions(gym.Wrapper):
         self.names = list(mix)
         self.weights = np.array([mix[n] for n in self.names], dtype=float)
         self.opponents = {name: make_opponent(name, self.rng) for name in self.names}
-        self.starts = STARTS[config.agent.robot_starts]
+        self.starts = who_starts(config.agent.robot_starts)
         self.action_mask = np.ones(env.action_space.n, dtype=bool)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -183,16 +176,8 @@ def peer_batch_policy(algorithm: str, model: Any) -> Policy:
     DQN cannot mask while it learns, but it is judged as oxbot is: the best Q-value among the
     offered acts. MaskablePPO takes the mask itself and acts by its most likely act.
     """
-    import torch
-
     if algorithm == "dqn":
-
-        def act(states: np.ndarray, masks: np.ndarray) -> np.ndarray:
-            with torch.inference_mode():
-                q = model.q_net(torch.as_tensor(np.asarray(states, np.float32))).numpy()
-            return np.argmax(np.where(masks, q, -np.inf), axis=1)
-
-        return act
+        return greedy_batch_policy(model.q_net)
 
     def act_masked(states: np.ndarray, masks: np.ndarray) -> np.ndarray:
         actions, _ = model.predict(

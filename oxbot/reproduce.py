@@ -34,12 +34,11 @@ import numpy as np
 
 from oxbot.atomic import atomic_write, write_text_atomic
 from oxbot.config import OxbotConfig, with_overrides
+from oxbot.dialogue.evaluation import CONDITIONS, condition_key
 from oxbot.errors import ConfigError, DataError
 from oxbot.peers import (
-    CONDITIONS,
     PEER_AGENTS,
     PixelSVM,
-    condition_key,
     evaluate_conditions,
     peer_batch_policy,
     peer_settings,

@@ -29,7 +29,15 @@ def test_defaults_are_the_papers_values():
     assert (cfg.perception.conv1_filters, cfg.perception.conv2_filters) == (8, 16)
 
 
-@pytest.mark.parametrize("section", [f.default_factory for f in dataclasses.fields(OxbotConfig)])
+def _sections(cls: type) -> list[type]:
+    found = []
+    for f in dataclasses.fields(cls):
+        if dataclasses.is_dataclass(f.default_factory):
+            found += [f.default_factory, *_sections(f.default_factory)]
+    return found
+
+
+@pytest.mark.parametrize("section", _sections(OxbotConfig))
 def test_every_field_has_a_docstring_saying_where_it_comes_from(section):
     docs = field_docs(section)
     for f in dataclasses.fields(section):
@@ -68,7 +76,12 @@ def test_printed_config_reads_back_identically(tmp_path):
         ("agent.batch_size=0", "agent.batch_size is 0; it must be greater than 0"),
         ("agent.batch_size=3.5", "wrong type; expected int"),
         ("agent.colour=3", "unknown field agent.colour"),
-        ("robot.speed=3", r"unknown config section \[robot\]"),
+        ("robots.speed=3", r"unknown config section \[robots\]"),
+        ("robot.speed=3", "unknown field robot.speed"),
+        ("robot.arm.fill=2", r"robot.arm.fill is 2.0; use a value in \(0, 1\]"),
+        ("robot.arm=3", r"\[robot.arm\] must be a table"),
+        ("robot.speed_factor=nan", "robot.speed_factor is nan; it must be greater than 0"),
+        ("web.port=70000", "web.port is 70000"),
         ("discount=3", "write it as section.field=value"),
         ("game.opponent=perfect", "choose one of random, blocker, minimax"),
     ],
@@ -91,3 +104,20 @@ def test_configs_are_frozen():
     with pytest.raises(dataclasses.FrozenInstanceError):
         AgentConfig().discount = 0.9  # type: ignore[misc]
     assert PerceptionConfig(train_images=500).train_images == 500
+
+
+def test_nested_tables_override_and_read_back(tmp_path):
+    path = tmp_path / "robot.toml"
+    path.write_text("[robot]\nspeed_factor = 2\n[robot.arm]\npen_speed = 0.3\n[web]\nport = 8123\n")
+    cfg = load_config(path, ["robot.arm.travel=0.1"])
+    assert (cfg.robot.speed_factor, cfg.robot.arm.pen_speed, cfg.robot.arm.travel) == (2, 0.3, 0.1)
+    assert cfg.web.port == 8123 and cfg.robot.arm.fill == 0.7  # untouched
+    text = to_toml(cfg)
+    assert "[robot.arm]" in text and "[robot.head]" in text
+    (tmp_path / "back.toml").write_text(text)
+    assert load_config(tmp_path / "back.toml") == cfg
+
+
+def test_a_folder_given_as_config_file_is_a_clear_error(tmp_path):
+    with pytest.raises(ConfigError, match="is a folder"):
+        load_config(tmp_path)

@@ -5,25 +5,27 @@ probabilities derived from a Naive Bayes classifier trained from example dialogu
 addition, if a physical action was included in the action set, we included all valid physical
 actions". The same probabilities are the DR term of the reward.
 
-The classifier (scikit-learn's `BernoulliNB`) predicts the act *type*: the nine GameMoves are
-one class, because ten seed games say nothing about which cell is good; every valid cell gets
-the GameMove probability and an occupied cell gets 0. It reads the word features and the game
-and dialogue flags (see `FeatureLayout.dialogue_columns`); a word counts as heard above `binarize`.
+The classifier (scikit-learn's `BernoulliNB`) predicts the act *type*: the GameMoves are one
+class, because ten seed games say nothing about which cell is good; every valid cell gets the
+GameMove probability and an occupied cell gets 0. It reads the word features and the game and
+dialogue flags, not the cells: the seeds' ten boards say nothing about which act follows which
+board, and per-cell features would let it veto acts on boards it has never seen. A word counts
+as heard above `binarize`.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from sklearn.naive_bayes import BernoulliNB
 
-from oxbot.dialogue.domain import ACTION_INDEX, SYSTEM_ACTS, Domain, game_move_cell
+from oxbot.dialogue.domain import ACTION_INDEX, N_ACTIONS, SYSTEM_ACTS, Domain, is_game_move
 from oxbot.dialogue.features import FeatureLayout
-from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, play
+from oxbot.dialogue.state import DialogueState
+from oxbot.game.board import EMPTY, N_CELLS, Board
 
 GAME_MOVE_CLASS = "GameMove"
-N_ACTIONS = len(SYSTEM_ACTS)
-
-
 REPEAT_SUFFIX = "#again"
 
 
@@ -34,7 +36,7 @@ def act_class(act: str, repeated: bool = False) -> str:
     class of its own, `Act#again`: its states look nothing like the first time's, and one Naive
     Bayes class cannot model both.
     """
-    if game_move_cell(act) is not None:
+    if is_game_move(act):
         return GAME_MOVE_CLASS
     return act + REPEAT_SUFFIX if repeated else act
 
@@ -47,35 +49,28 @@ def class_act(label: str) -> str:
 def seed_examples(domain: Domain, layout: FeatureLayout) -> tuple[np.ndarray, list[str]]:
     """Replay the seed dialogues: the state before each system act, and its class label.
 
-    The state is built exactly as the environment builds it: the last system words (1), the
-    words of the person's answer to them (confidence 1 in the seeds; none if silent), the board.
+    The states are the ones a dialogue reaches (`DialogueState`): the last system words (1),
+    the words of the person's answer to them (confidence 1 in the seeds; none if silent), the
+    board, the acts said so far.
     """
     states: list[np.ndarray] = []
     acts: list[str] = []
     for dialogue in domain.dialogues:
-        first = next(u for u in dialogue if u.cell is not None)
-        robot_starts = first.speaker == "SYS"
-        board: Board = EMPTY_BOARD
-        system_words: list[str] = []
-        user_words: list[tuple[str, float]] = []
-        said: set[str] = set()
-        previous = ""
+        first_move = next(u for u in dialogue if u.cell is not None)
+        state = DialogueState(layout, robot_starts=first_move.speaker == "SYS")
         for utterance in dialogue:
             if utterance.speaker == "SYS":
-                states.append(layout.encode(system_words, user_words, board, robot_starts, said))
-                acts.append(act_class(utterance.act, repeated=utterance.act == previous))
-                system_words, user_words = utterance.words, []
-                said.add(utterance.act)
-                previous = utterance.act
+                states.append(state.encode())
+                acts.append(act_class(utterance.act, repeated=utterance.act == state.last_act))
+                state.robot_says(utterance.act, utterance.text)
             else:
-                user_words = [(w, 1.0) for w in utterance.words]
-            if utterance.cell is not None:
-                board = play(board, utterance.cell, ROBOT if utterance.speaker == "SYS" else USER)
+                heard = tuple((w, 1.0) for w in utterance.words)
+                state.person_says(utterance.act, utterance.text, heard)
     return np.stack(states), acts
 
 
 class ActionModel:
-    """Pr(a|s) over the 18 actions, from Bernoulli Naive Bayes on the dialogue features.
+    """Pr(a|s) over the system acts, from Bernoulli Naive Bayes on the dialogue features.
 
     Configured in `__init__`, learned by `fit`, and `predict_proba` takes a batch. Prediction is
     computed from the fitted log-probabilities with one matrix product (the same numbers as
@@ -88,11 +83,13 @@ class ActionModel:
         alpha: float = 0.01,
         binarize: float = 0.5,
         flag_weight: int = 4,
+        threshold: float = 0.001,
     ) -> None:
         self.layout = layout
         self.alpha = alpha
         self.binarize = binarize
         self.flag_weight = flag_weight
+        self.threshold = threshold
         words = np.arange(layout.n_words)
         flags = np.r_[layout.flags.start : layout.dialogue_flags.stop]
         # weighted Naive Bayes: a flag column repeated k times counts as k independent features
@@ -107,7 +104,7 @@ class ActionModel:
         log_not_p = np.log1p(-np.exp(log_p))
         self._weights = (log_p - log_not_p).T.astype(np.float64)  # (n_columns, n_classes)
         self._bias = log_not_p.sum(axis=1) + self.classifier_.class_log_prior_
-        # where each class's probability goes among the 18 actions (GameMove: each of 9 cells)
+        # where each class's probability goes among the acts (GameMove: each cell)
         self._memo.clear()
         self._to_actions = np.zeros((len(self.classifier_.classes_), N_ACTIONS))
         for k, label in enumerate(self.classifier_.classes_):
@@ -117,7 +114,7 @@ class ActionModel:
         return self
 
     @classmethod
-    def from_domain(cls, domain: Domain, layout: FeatureLayout, **kwargs: float) -> ActionModel:
+    def from_domain(cls, domain: Domain, layout: FeatureLayout, **kwargs: Any) -> ActionModel:
         """The action model trained on the domain's seed dialogues."""
         states, acts = seed_examples(domain, layout)
         return cls(layout, **kwargs).fit(states, acts)
@@ -131,7 +128,7 @@ class ActionModel:
         return p / p.sum(axis=1, keepdims=True)
 
     def offered(
-        self, state: np.ndarray, board: Board, robot_to_move: bool, threshold: float
+        self, state: np.ndarray, board: Board, robot_to_move: bool
     ) -> tuple[np.ndarray, np.ndarray]:
         """Pr(a|s) and the action mask of one state (the same numbers as `predict_proba` and
         `action_mask`), memoised on the heard words and flags, which repeat a lot."""
@@ -145,14 +142,14 @@ class ActionModel:
         for cell, mark in enumerate(board):
             if mark:
                 probs[cell] = 0.0
-        return probs, action_mask(probs, board, robot_to_move, threshold)
+        return probs, action_mask(probs, board, robot_to_move, self.threshold)
 
     def predict_proba(self, states: np.ndarray) -> np.ndarray:
-        """Pr(a|s) for the 18 actions, (N, 18); a GameMove on an occupied cell has 0."""
+        """Pr(a|s) of every act, (N, N_ACTIONS); a GameMove on an occupied cell has 0."""
         states = np.atleast_2d(states)
         probs = self.class_proba(states) @ self._to_actions
         occupied = (states[:, self.layout.robot_cells] + states[:, self.layout.person_cells]) > 0
-        probs[:, :9] = np.where(occupied, 0.0, probs[:, :9])
+        probs[:, :N_CELLS] = np.where(occupied, 0.0, probs[:, :N_CELLS])
         return probs
 
 
@@ -165,10 +162,11 @@ def action_mask(
     the threshold, the most likely act that can be done is offered, so the set is never empty.
     """
     offered = probs > threshold
-    valid_moves = np.array([c == 0 for c in board]) & robot_to_move
-    offered[:9] = valid_moves if offered[:9].any() else False
+    valid_moves = np.array([c == EMPTY for c in board]) & robot_to_move
+    offered[:N_CELLS] = valid_moves if offered[:N_CELLS].any() else False
     if not offered.any():
-        candidates = np.where(np.r_[valid_moves, np.ones(N_ACTIONS - 9, dtype=bool)], probs, -1.0)
+        others = np.ones(N_ACTIONS - N_CELLS, dtype=bool)
+        candidates = np.where(np.r_[valid_moves, others], probs, -1.0)
         offered[int(np.argmax(candidates))] = True
     return offered
 

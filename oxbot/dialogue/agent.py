@@ -11,7 +11,7 @@ from another layout (another vocabulary) is refused with a `ModelFileError`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -21,7 +21,7 @@ import torch
 from torch import nn
 
 from oxbot.atomic import atomic_write
-from oxbot.dialogue.domain import SYSTEM_ACTS
+from oxbot.dialogue.domain import N_ACTIONS, SYSTEM_ACTS
 from oxbot.errors import ModelFileError
 
 POLICY_FORMAT = "oxbot-dqn-policy/1"
@@ -32,7 +32,10 @@ class QNetwork(nn.Module):
     """Q(s, ·): state features -> hidden ReLU layers -> one value per act (paper: 57-60-60-18)."""
 
     def __init__(
-        self, n_features: int, hidden_sizes: Sequence[int] = (60, 60), n_actions: int = 18
+        self,
+        n_features: int,
+        hidden_sizes: Sequence[int] = (60, 60),
+        n_actions: int = N_ACTIONS,
     ):
         super().__init__()
         layers: list[nn.Module] = []
@@ -50,8 +53,19 @@ class QNetwork(nn.Module):
 
 
 def masked_argmax(q_values: np.ndarray, masks: np.ndarray) -> np.ndarray:
-    """The best offered act of each row."""
+    """The best offered act of each row (of the one row, for 1-D input): the greedy policy."""
     return np.argmax(np.where(masks, q_values, -np.inf), axis=-1)
+
+
+def greedy_batch_policy(q_network: nn.Module) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """A Q-network (states -> one value per act) as a greedy batch policy over offered acts."""
+
+    def act(states: np.ndarray, masks: np.ndarray) -> np.ndarray:
+        with torch.inference_mode():
+            q = q_network(torch.as_tensor(np.asarray(states, dtype=np.float32))).numpy()
+        return masked_argmax(q, np.asarray(masks, dtype=bool))
+
+    return act
 
 
 class DQNPolicy:
@@ -68,7 +82,7 @@ class DQNPolicy:
         self.metadata = dict(metadata or {})
 
     def q_values(self, states: np.ndarray) -> np.ndarray:
-        """Q(s, a) for a batch of states (N, n_features) -> (N, 18)."""
+        """Q(s, a) for a batch of states (N, n_features) -> (N, N_ACTIONS)."""
         with torch.inference_mode():
             x = torch.as_tensor(np.asarray(states, dtype=np.float32))
             return self.q_network(x).numpy()
@@ -111,9 +125,9 @@ def load_policy(
     """
     path = Path(path) if path is not None else shipped_policy_path()
     if feature_names is None:
-        from oxbot.dialogue.env import shipped_components
+        from oxbot.dialogue.model import shipped_dialogue_model
 
-        feature_names = shipped_components()[1].names
+        feature_names = shipped_dialogue_model().layout.names
     try:
         payload = torch.load(path, map_location="cpu", weights_only=True)
     except FileNotFoundError:

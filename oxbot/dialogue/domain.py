@@ -1,4 +1,4 @@
-"""The dialogue domain: the 18 system acts, the user acts, and the parser of the domain files.
+"""The dialogue domain: the acts, named once, and the parser of the domain files.
 
 The domain lives in three plain text files under `oxbot/data/dialogue/`, in a format like
 SimpleDS's. Every utterance is one line, `SPEAKER:[Act]"words"`:
@@ -11,7 +11,7 @@ SimpleDS's. Every utterance is one line, `SPEAKER:[Act]"words"`:
   dialogues. A drawing is written in square brackets like the paper's Figure 1
   (`[who=usr what=draw where=middle]`); it must name the act's `gridloc`, an empty cell, and
   the game must end with the feedback act of its real outcome.
-- `templates.txt`: `SYS:[Act]"words"` lines, one or more per system act (all 18 must have one);
+- `templates.txt`: `SYS:[Act]"words"` lines, one or more per system act (every act must have one);
   `$loc` stands for the cell in the GameMove template.
 - `user_responses.txt`: `SystemAct => USR:[UserAct]"words"` lines, the person's alternatives to
   each system act (`""` is silence).
@@ -32,6 +32,7 @@ from oxbot.errors import DataError, IllegalMoveError
 from oxbot.game.board import (
     CELL_NAMES,
     EMPTY_BOARD,
+    N_CELLS,
     ROBOT,
     USER,
     Board,
@@ -39,40 +40,106 @@ from oxbot.game.board import (
     play,
 )
 
-GAME_MOVES: tuple[str, ...] = tuple(f"GameMove(gridloc={cell})" for cell in CELL_NAMES)
+# --- the acts, named once ---------------------------------------------------------------------
+# The robot's acts (SPEC §3) other than its moves; the person greets and says goodbye with the
+# same acts as the robot.
+GREETING = "Salutation(greeting)"
+CLOSING = "Salutation(closing)"
+INTRODUCTION = "Provide(name)"
+INVITATION = "Request(playGame)"
+LETS_PLAY = "Reply(playGame=yes)"
+MOVE_REQUEST = "Request(userGameMove)"
+FEEDBACK_WIN = "Provide(feedback=win)"
+FEEDBACK_DRAW = "Provide(feedback=draw)"
+FEEDBACK_LOSS = "Provide(feedback=loose)"
+"""The paper's spelling."""
+
+# The person's acts.
+ACCEPT = "Confirm(playGame=yes)"
+DECLINE = "Reject(playGame=no)"
+ACKNOWLEDGE = "Acknowledge"
+SILENCE = "Silence"
+"""The person said nothing (or nothing was heard)."""
+UNKNOWN = "Unknown"
+"""The person said something that matches no phrase of the domain."""
+
+PROBLEM = "Inform(problem)"
+"""The robot's fixed sentences about impossible drawings: said, never chosen by the policy."""
+
+_MOVE_PREFIX = "GameMove(gridloc="
+GAME_MOVE_TEMPLATE = _MOVE_PREFIX + "$loc)"
+"""A GameMove on any cell, as the domain files write it."""
+
+
+def game_move(cell: int) -> str:
+    """The act of a drawing on `cell`: `GameMove(gridloc=middle)`."""
+    return f"{_MOVE_PREFIX}{CELL_NAMES[cell]})"
+
+
+GAME_MOVES: tuple[str, ...] = tuple(game_move(cell) for cell in range(N_CELLS))
 SYSTEM_ACTS: tuple[str, ...] = (
     *GAME_MOVES,
-    "Provide(feedback=draw)",
-    "Provide(feedback=loose)",
-    "Provide(feedback=win)",
-    "Provide(name)",
-    "Reply(playGame=yes)",
-    "Request(playGame)",
-    "Request(userGameMove)",
-    "Salutation(closing)",
-    "Salutation(greeting)",
+    FEEDBACK_DRAW,
+    FEEDBACK_LOSS,
+    FEEDBACK_WIN,
+    INTRODUCTION,
+    LETS_PLAY,
+    INVITATION,
+    MOVE_REQUEST,
+    CLOSING,
+    GREETING,
 )
-"""SPEC §3: the 18 actions, in the paper's order; index 0-8 is a GameMove on that cell."""
-
+"""SPEC §3: the paper's 18 actions, in its order: first a GameMove on each cell (the act's index
+is its cell's), then the rest. A new act goes at the end, with its templates, its user
+responses and a seed dialogue that uses it (the action model never offers an act no seed
+dialogue shows)."""
+N_ACTIONS = len(SYSTEM_ACTS)
 ACTION_INDEX: dict[str, int] = {act: i for i, act in enumerate(SYSTEM_ACTS)}
-FEEDBACK_ACTS: dict[str, str] = {
-    "win": "Provide(feedback=win)",
-    "draw": "Provide(feedback=draw)",
-    "loss": "Provide(feedback=loose)",
-}
+
+FEEDBACK_ACTS: dict[str, str] = {"win": FEEDBACK_WIN, "draw": FEEDBACK_DRAW, "loss": FEEDBACK_LOSS}
 """The feedback act that matches each outcome (from the robot's side)."""
 
-GAME_MOVE_TEMPLATE = "GameMove(gridloc=$loc)"
 USER_ACTS: tuple[str, ...] = (
-    "Salutation(greeting)",
-    "Salutation(closing)",
-    "Confirm(playGame=yes)",
-    "Reject(playGame=no)",
-    "Acknowledge",
+    GREETING,
+    CLOSING,
+    ACCEPT,
+    DECLINE,
+    ACKNOWLEDGE,
     GAME_MOVE_TEMPLATE,
-    "Silence",
+    SILENCE,
 )
 """The person's acts; `GameMove(gridloc=$loc)` stands for a drawing on any cell."""
+
+
+def game_move_cell(act: str) -> int | None:
+    """The cell index of a `GameMove(gridloc=...)` act, or None for any other act."""
+    if act.startswith(_MOVE_PREFIX) and act.endswith(")"):
+        name = act[len(_MOVE_PREFIX) : -1]
+        if name in CELL_NAMES:
+            return CELL_NAMES.index(name)
+    return None
+
+
+def is_game_move(act: str | int) -> bool:
+    """True for a drawing, given as an act (any cell, or `$loc`) or as an index of SYSTEM_ACTS."""
+    if isinstance(act, str):
+        return act.startswith(_MOVE_PREFIX)
+    return 0 <= act < N_CELLS
+
+
+def is_feedback(act: str) -> bool:
+    """True for the robot's feedback on the game's outcome."""
+    return act in _FEEDBACK
+
+
+_FEEDBACK = frozenset(FEEDBACK_ACTS.values())
+
+
+def draw_tag(who: str, cell: int | str) -> str:
+    """The paper's bracketed drawing, `[who=usr what=draw where=middle]` (`who`: usr or rob)."""
+    where = cell if isinstance(cell, str) else CELL_NAMES[cell]
+    return f"[who={who} what=draw where={where}]"
+
 
 _UTTERANCE = re.compile(r'^(SYS|USR):\[([^\]]*)\]"([^"]*)"$')
 _RESPONSE = re.compile(r"^(\S+)\s*=>\s*(.*)$")
@@ -83,15 +150,6 @@ _WORD = re.compile(r"[a-z]+(?:'[a-z]+)?")
 def words_of(text: str) -> list[str]:
     """The spoken words of an utterance, lower-cased, without its bracketed game-move tag."""
     return _WORD.findall(_TAG.sub(" ", text.lower()))
-
-
-def game_move_cell(act: str) -> int | None:
-    """The cell index of a `GameMove(gridloc=...)` act, or None for any other act."""
-    if act.startswith("GameMove(gridloc=") and act.endswith(")"):
-        name = act[len("GameMove(gridloc=") : -1]
-        if name in CELL_NAMES:
-            return CELL_NAMES.index(name)
-    return None
 
 
 @dataclass(frozen=True)
@@ -121,9 +179,9 @@ class Domain:
 
     dialogues: tuple[tuple[Utterance, ...], ...]
     templates: dict[str, tuple[str, ...]]
-    """System act (`GameMove(gridloc=$loc)` for all nine) -> its template texts."""
+    """System act (`GameMove(gridloc=$loc)` for every cell) -> its template texts."""
     responses: dict[str, tuple[Utterance, ...]]
-    """System act (`GameMove(gridloc=$loc)` for all nine) -> the person's alternatives."""
+    """System act (`GameMove(gridloc=$loc)` for every cell) -> the person's alternatives."""
     vocabulary: tuple[str, ...]
     """The words of the templates and user responses, in order of first appearance."""
 
@@ -135,6 +193,13 @@ class Domain:
         return tuple(
             t.replace("$loc", CELL_NAMES[cell]) for t in self.templates[GAME_MOVE_TEMPLATE]
         )
+
+    def user_utterances(self) -> list[Utterance]:
+        """Everything the person says in the domain: the response alternatives, then the
+        seed dialogues' USR lines."""
+        spoken = [u for alternatives in self.responses.values() for u in alternatives]
+        spoken += [u for dialogue in self.dialogues for u in dialogue if u.speaker == "USR"]
+        return spoken
 
     def responses_to(self, act: str) -> tuple[Utterance, ...]:
         """The person's alternatives to a system act (empty means silence)."""
@@ -169,9 +234,8 @@ def parse_utterance(line: str, where: str, speaker: str | None = None) -> Uttera
         listed.append("GameMove(gridloc=<cell>)")
         raise DataError(f"{where}: unknown {kind} act {act!r}; {kind} acts are {', '.join(listed)}")
     tags = _TAG.findall(text)
-    is_move = act.startswith("GameMove(")
-    if is_move:
-        expected = ("rob" if who == "SYS" else "usr", act[len("GameMove(gridloc=") : -1])
+    if is_game_move(act):
+        expected = ("rob" if who == "SYS" else "usr", act[len(_MOVE_PREFIX) : -1])
         if tags != [expected]:
             raise DataError(
                 f"{where}: {act} must draw with [who={expected[0]} what=draw where={expected[1]}]"
@@ -182,7 +246,7 @@ def parse_utterance(line: str, where: str, speaker: str | None = None) -> Uttera
 
 
 def parse_templates(path: Path) -> dict[str, tuple[str, ...]]:
-    """The system templates file: act -> texts; every one of the 18 acts must have one."""
+    """The system templates file: act -> texts; every system act must have one."""
     templates: dict[str, list[str]] = {}
     for n, line in _lines(path):
         if not line or line.startswith("#"):
@@ -215,8 +279,8 @@ def parse_responses(path: Path) -> dict[str, tuple[Utterance, ...]]:
         system_act, rest = match.groups()
         if system_act not in (*SYSTEM_ACTS, GAME_MOVE_TEMPLATE) or system_act in GAME_MOVES:
             raise DataError(
-                f"{where}: unknown system act {system_act!r}; use one of the 18 acts, with "
-                f"{GAME_MOVE_TEMPLATE} for the robot's moves"
+                f"{where}: unknown system act {system_act!r}; use one of the {N_ACTIONS} system "
+                f"acts, with {GAME_MOVE_TEMPLATE} for the robot's moves"
             )
         utterance = parse_utterance(rest, where, speaker="USR")
         if utterance.cell is not None:
@@ -268,7 +332,7 @@ def _check_game(dialogue: tuple[Utterance, ...]) -> None:
                 board = play(board, cell, ROBOT if utterance.speaker == "SYS" else USER)
             except IllegalMoveError as exc:
                 raise DataError(f"{utterance.source}: {exc}") from None
-        elif utterance.act.startswith("Provide(feedback="):
+        elif is_feedback(utterance.act):
             result = outcome(board)
             if result is None or utterance.act != FEEDBACK_ACTS[result]:
                 raise DataError(
@@ -308,4 +372,12 @@ def load_domain(directory: str | Path | None = None) -> Domain:
             f"{root / 'user_responses.txt'} is empty; the templates need words"
         )
     dialogues = parse_dialogues(root / "dialogues.txt", vocabulary)
+    shown = {u.act for dialogue in dialogues for u in dialogue if u.speaker == "SYS"}
+    unseen = [a for a in SYSTEM_ACTS if not is_game_move(a) and a not in shown]
+    if unseen or not any(is_game_move(a) for a in shown):
+        raise DataError(
+            f"no seed dialogue in {root / 'dialogues.txt'} shows the robot's "
+            f"{', '.join(unseen) or 'GameMove'}; the action model never offers an act it has "
+            "not seen: add a dialogue that uses it"
+        )
     return Domain(dialogues, templates, responses, vocabulary)

@@ -13,16 +13,40 @@ from typing import Any
 import numpy as np
 
 from oxbot.config import OxbotConfig
-from oxbot.dialogue.domain import FEEDBACK_ACTS, game_move_cell, words_of
+from oxbot.dialogue.action_model import action_mask
+from oxbot.dialogue.domain import (
+    CLOSING,
+    FEEDBACK_ACTS,
+    GREETING,
+    INTRODUCTION,
+    INVITATION,
+    LETS_PLAY,
+    MOVE_REQUEST,
+    game_move_cell,
+    is_feedback,
+    is_game_move,
+)
 from oxbot.dialogue.env import InteractiveGameEnv, format_turn
-from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, play
+from oxbot.dialogue.model import build_dialogue_model
+from oxbot.dialogue.simulator import UserSimulator
+from oxbot.dialogue.state import Turn
+from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, legal_moves, play, winner
 from oxbot.game.board import outcome as game_outcome
+from oxbot.game.opponents import OPPONENTS
 
 Policy = Callable[[np.ndarray, np.ndarray], np.ndarray]
-"""A batch policy: (states (N, F), masks (N, 18)) -> acts (N,)."""
+"""A batch policy: (states (N, F), masks (N, N_ACTIONS)) -> acts (N,)."""
+
+CONDITIONS = tuple((name, robot_starts) for name in OPPONENTS for robot_starts in (True, False))
+"""Every opponent in both who-starts conditions, in the order reports list them."""
 
 
-def check_dialogue(transcript: list[dict[str, str]], outcome: str | None) -> str | None:
+def condition_key(opponent: str, robot_starts: bool) -> str:
+    """`random/robot` or `random/person`: an opponent and who starts, as metrics key them."""
+    return f"{opponent}/{'robot' if robot_starts else 'person'}"
+
+
+def check_dialogue(transcript: list[Turn], outcome: str | None) -> str | None:
     """Why a finished dialogue is not well formed, or None if it is.
 
     Well formed: it greets first, introduces itself and invites before the first move, asks for
@@ -30,19 +54,17 @@ def check_dialogue(transcript: list[dict[str, str]], outcome: str | None) -> str
     feedback act, the one matching the real outcome, after the game, and closes last.
     """
     acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
-    if not acts or acts[0] != "Salutation(greeting)":
+    if not acts or acts[0] != GREETING:
         return "does not greet first"
-    first_move = next(
-        (i for i, t in enumerate(transcript) if game_move_cell(t["act"]) is not None), None
-    )
+    first_move = next((i for i, t in enumerate(transcript) if is_game_move(t["act"])), None)
     if first_move is None:
         return "no game was played"
     before = {t["act"] for t in transcript[:first_move] if t["speaker"] == "sys"}
-    if "Provide(name)" not in before:
+    if INTRODUCTION not in before:
         return "does not introduce itself before the first move"
-    if "Request(playGame)" not in before:
+    if INVITATION not in before:
         return "does not invite the person before the first move"
-    feedback_at = [i for i, a in enumerate(acts) if a.startswith("Provide(feedback=")]
+    feedback_at = [i for i, a in enumerate(acts) if is_feedback(a)]
     board: Board = EMPTY_BOARD
     sys_index = -1
     for turn in transcript:
@@ -54,7 +76,7 @@ def check_dialogue(transcript: list[dict[str, str]], outcome: str | None) -> str
         board = play(board, cell, ROBOT if turn["speaker"] == "sys" else USER)
         if turn["speaker"] == "sys" and game_outcome(board) is None:
             following = acts[sys_index + 1] if sys_index + 1 < len(acts) else None
-            if following != "Request(userGameMove)":
+            if following != MOVE_REQUEST:
                 return f"does not ask for the person's move after its move {turn['act']}"
     if outcome is None:
         return "the game did not finish"
@@ -62,7 +84,7 @@ def check_dialogue(transcript: list[dict[str, str]], outcome: str | None) -> str
         return f"gives {len(feedback_at)} feedback acts instead of one"
     if acts[feedback_at[0]] != FEEDBACK_ACTS[outcome]:
         return f"says {acts[feedback_at[0]]} but the outcome is a {outcome}"
-    if acts[-1] != "Salutation(closing)" or acts.count("Salutation(closing)") != 1:
+    if acts[-1] != CLOSING or acts.count(CLOSING) != 1:
         return "does not close with a goodbye"
     return None
 
@@ -84,7 +106,7 @@ class EvaluationResult:
     """Share of dialogues that `check_dialogue` accepts."""
     truncated: int
     problems: dict[str, int] = field(default_factory=dict)
-    transcripts: list[list[dict[str, str]]] = field(default_factory=list)
+    transcripts: list[list[Turn]] = field(default_factory=list)
 
     def summary(self) -> dict[str, Any]:
         """The figures as a plain dict (for --json), without the transcripts."""
@@ -127,7 +149,7 @@ def evaluate(
     good = 0
     truncated_games = 0
     problems: dict[str, int] = {}
-    kept: list[list[dict[str, str]]] = []
+    kept: list[list[Turn]] = []
     while active.any():
         idx = np.flatnonzero(active)
         actions = policy(states_arr[idx], masks_arr[idx])
@@ -177,7 +199,7 @@ def evaluate(
     )
 
 
-def format_transcript(transcript: list[dict[str, str]]) -> str:
+def format_transcript(transcript: list[Turn]) -> str:
     """A dialogue as lines like the paper's Figure 1."""
     return "\n".join(format_turn(turn) for turn in transcript)
 
@@ -191,64 +213,67 @@ def losing_positions(
 ) -> int:
     """Boards, reachable against *any* person, where the greedy policy can be made to lose.
 
-    Walks the whole game tree: at every robot turn the policy sees the state the environment
-    would build (after "Your turn." and the person's drawing, each of its utterances heard
-    cleanly and `noisy_variants` times through the noisy recogniser), and every cell it picks
-    in any of these is followed; the person tries every empty cell. Returns how many of the
-    robot's decision boards lead to a position the person wins at once, or where the policy
-    does not draw at all. Zero means no person can beat it (up to the sampled noise).
+    Walks the whole game tree: at every robot turn the policy sees the state a dialogue reaches
+    there (after "Your turn." and the person's drawing, each of its utterances heard cleanly and
+    `noisy_variants` times through the noisy recogniser), and every cell it picks in any of
+    these is followed; the person tries every empty cell. Returns how many of the robot's
+    decision boards lead to a position the person wins at once, or where the policy does not
+    draw at all. Zero means no person can beat it (up to the sampled noise).
     """
-    from oxbot.dialogue.action_model import action_mask
-    from oxbot.dialogue.simulator import UserSimulator
-    from oxbot.game.board import winner
-
     config = config if config is not None else OxbotConfig()
-    env = InteractiveGameEnv(config=config)
-    layout, model, domain = env.layout, env.action_model, env.domain
+    model = build_dialogue_model(config)
+    domain, action_model = model.domain, model.action_model
     hearing = UserSimulator(
         domain, rng=np.random.default_rng(seed), asr_noise=config.dialogue.asr_noise
     )
-    said = ("Salutation(greeting)", "Provide(name)", "Request(playGame)", "Reply(playGame=yes)")
-    moves = [u.words for u in domain.responses_to("Request(userGameMove)")]
-    openers = [w for t in domain.templates_for("Reply(playGame=yes)") for w in [words_of(t)]]
-    your_turn = [words_of(t) for t in domain.templates_for("Request(userGameMove)")]
+    agreed = model.new_state(robot_starts)  # greeted, introduced, invited; the person said yes
+    for act in (GREETING, INTRODUCTION, INVITATION):
+        agreed.robot_says(act, domain.templates_for(act)[0])
+    openings = []
+    for text in domain.templates_for(LETS_PLAY):
+        opening = agreed.copy()
+        opening.robot_says(LETS_PLAY, text)
+        openings.append(opening)
+    moves = domain.responses_to(MOVE_REQUEST)
     bad: set[Board] = set()
     seen: dict[Board, set[int]] = {}
+
+    def decision_states(board: Board) -> list[np.ndarray]:
+        if board == EMPTY_BOARD:
+            return [state.encode() for state in openings]
+        states = []
+        for your_turn in domain.templates_for(MOVE_REQUEST):
+            state = openings[0].at(board)
+            state.robot_says(MOVE_REQUEST, your_turn)
+            for move in moves:
+                clean = tuple((w, 1.0) for w in move.words)
+                noisy = [hearing.recognise(move.words) for _ in range(noisy_variants)]
+                for heard in [clean, *noisy]:  # each a new answer to the same "Your turn."
+                    state.person_says(move.act, move.text, heard)
+                    states.append(state.encode())
+        return states
 
     def choices(board: Board) -> set[int]:
         if board in seen:
             return seen[board]
-        states = []
-        if board == EMPTY_BOARD:
-            contexts = [(words, ()) for words in openers]
-        else:
-            contexts = [
-                (sys_words, heard)
-                for sys_words in your_turn
-                for words in moves
-                for heard in [tuple((w, 1.0) for w in words)]
-                + [hearing.recognise(words) for _ in range(noisy_variants)]
-            ]
-        for sys_words, heard in contexts:
-            states.append(layout.encode(sys_words, heard, board, robot_starts, said))
-        states_arr = np.stack(states)
-        probs = model.predict_proba(states_arr)
-        masks = np.stack([action_mask(p, board, True, config.reward.mask_threshold) for p in probs])
-        picked = {int(a) for a in policy(states_arr, masks)}
+        states = np.stack(decision_states(board))
+        probs = action_model.predict_proba(states)  # one batch: the same numbers as offered()
+        masks = np.stack([action_mask(p, board, True, action_model.threshold) for p in probs])
+        picked = {int(a) for a in policy(states, masks)}
         seen[board] = picked
         return picked
 
     def robot_turn(board: Board) -> None:
         picked = choices(board)
-        if any(a >= 9 for a in picked):
+        if not all(is_game_move(a) for a in picked):
             bad.add(board)
-        for cell in (a for a in picked if a < 9):
+        for cell in (a for a in picked if is_game_move(a)):
             after = play(board, cell, ROBOT)
             if game_outcome(after) is None:
                 person_turn(after, board)
 
     def person_turn(board: Board, decided_at: Board) -> None:
-        for cell in (c for c, v in enumerate(board) if v == 0):
+        for cell in legal_moves(board):
             after = play(board, cell, USER)
             if winner(after) == USER:
                 bad.add(decided_at)

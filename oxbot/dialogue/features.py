@@ -33,10 +33,18 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from oxbot.dialogue.domain import (
+    FEEDBACK_ACTS,
+    GREETING,
+    INTRODUCTION,
+    INVITATION,
+    N_ACTIONS,
+)
 from oxbot.errors import DataError
 from oxbot.game.board import (
     CELL_NAMES,
     EMPTY,
+    N_CELLS,
     ROBOT,
     USER,
     Board,
@@ -51,25 +59,15 @@ GAME_FLAGS: tuple[str, ...] = (
     "game:person_won",
     "game:draw",
 )
-DIALOGUE_FLAGS: dict[str, str] = {
-    "dialogue:greeted": "Salutation(greeting)",
-    "dialogue:introduced": "Provide(name)",
-    "dialogue:invited": "Request(playGame)",
-    "dialogue:gave_feedback": "Provide(feedback=",
+DIALOGUE_FLAGS: dict[str, tuple[str, ...]] = {
+    "dialogue:greeted": (GREETING,),
+    "dialogue:introduced": (INTRODUCTION,),
+    "dialogue:invited": (INVITATION,),
+    "dialogue:gave_feedback": tuple(FEEDBACK_ACTS.values()),
 }
-"""Context features: 1 once the robot has said the act (any feedback act for the last one)."""
+"""Context features: 1 once the robot has said one of the acts."""
 _FLAG_OF_ACT: dict[str, int] = {
-    act: k
-    for k, prefix in enumerate(DIALOGUE_FLAGS.values())
-    for act in (
-        "Salutation(greeting)",
-        "Provide(name)",
-        "Request(playGame)",
-        "Provide(feedback=win)",
-        "Provide(feedback=draw)",
-        "Provide(feedback=loose)",
-    )
-    if act.startswith(prefix)
+    act: k for k, acts in enumerate(DIALOGUE_FLAGS.values()) for act in acts
 }
 
 
@@ -89,9 +87,9 @@ class FeatureLayout:
         self.vocabulary: tuple[str, ...] = tuple(vocabulary)
         self.word_index: dict[str, int] = {w: i for i, w in enumerate(self.vocabulary)}
         n = len(self.vocabulary)
-        self.robot_cells = slice(n, n + 9)
-        self.person_cells = slice(n + 9, n + 18)
-        self.flags = slice(n + 18, n + 18 + len(GAME_FLAGS))
+        self.robot_cells = slice(n, n + N_CELLS)
+        self.person_cells = slice(n + N_CELLS, n + 2 * N_CELLS)
+        self.flags = slice(self.person_cells.stop, self.person_cells.stop + len(GAME_FLAGS))
         self.dialogue_flags = slice(self.flags.stop, self.flags.stop + len(DIALOGUE_FLAGS))
         self.names: tuple[str, ...] = (
             *(f"word:{w}" for w in self.vocabulary),
@@ -144,26 +142,18 @@ class FeatureLayout:
         flags[2] = w == USER
         flags[3] = w == EMPTY and full
 
-    def dialogue_columns(self) -> np.ndarray:
-        """The features the action model reads: the words and the flags, not the cells.
-
-        The seed dialogues' ten boards say nothing about which act follows which board, and
-        per-cell features would let Naive Bayes veto acts on boards it has never seen.
-        """
-        return np.r_[0 : self.n_words, self.flags.start : self.dialogue_flags.stop]
-
     def symmetry_permutations(self) -> tuple[np.ndarray, np.ndarray]:
-        """(8, n_features) feature and (8, 18) action permutations for the board symmetries.
+        """(8, n_features) feature and (8, N_ACTIONS) action permutations for the symmetries.
 
         Under symmetry k a state becomes `state[features[k]]` and an act `a` becomes
         `actions[k][a]`; only the cell features and the GameMoves move.
         """
         cells = board_symmetries()
         features = np.tile(np.arange(self.n_features), (len(cells), 1))
-        actions = np.tile(np.arange(18), (len(cells), 1))
+        actions = np.tile(np.arange(N_ACTIONS), (len(cells), 1))
         for k, perm in enumerate(cells):
             features[k, self.robot_cells] = self.robot_cells.start + perm
             features[k, self.person_cells] = self.person_cells.start + perm
             inverse = np.argsort(perm)  # old cell c moves to position inverse[c]
-            actions[k, :9] = inverse
+            actions[k, :N_CELLS] = inverse  # the GameMoves are the first acts, one per cell
         return features, actions

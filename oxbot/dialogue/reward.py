@@ -9,12 +9,15 @@ the last step (the closing act). The values come from `RewardConfig`.
 from __future__ import annotations
 
 from oxbot.config import RewardConfig
+from oxbot.dialogue.domain import is_game_move
 from oxbot.game.board import ROBOT, Board, Outcome, is_drawing_move, is_winning_move
 
 
 def bonus_reward(board: Board, action: int, config: RewardConfig) -> float:
-    """BR: the win bonus if `action` is a GameMove that wins, the draw bonus if it draws."""
-    if action >= 9:
+    """BR: the win bonus if `action` is a GameMove that wins, the draw bonus if it draws.
+
+    A GameMove's index in SYSTEM_ACTS is its cell's."""
+    if not is_game_move(action):
         return 0.0
     if is_winning_move(board, action, ROBOT):
         return config.win_bonus

@@ -26,11 +26,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from oxbot.dialogue.domain import Domain, Utterance
+from oxbot.dialogue.domain import (
+    ACCEPT,
+    DECLINE,
+    GREETING,
+    INTRODUCTION,
+    INVITATION,
+    MOVE_REQUEST,
+    SILENCE,
+    Domain,
+    Utterance,
+)
 from oxbot.game.board import CELL_NAMES, Board
 from oxbot.game.opponents import Opponent, checked_move, random_opponent
-
-SILENCE = "Silence"
 
 
 @dataclass(frozen=True)
@@ -65,15 +73,11 @@ class UserSimulator:
         self.asr_noise = asr_noise
         self.decline_probability = decline_probability
         self.out_of_turn_probability = out_of_turn_probability
-        self._accept = tuple(
-            u for u in domain.responses_to("Request(playGame)") if u.act == "Confirm(playGame=yes)"
-        )
-        self._decline = tuple(
-            u for u in domain.responses_to("Request(playGame)") if u.act == "Reject(playGame=no)"
-        )
+        self._accept = tuple(u for u in domain.responses_to(INVITATION) if u.act == ACCEPT)
+        self._decline = tuple(u for u in domain.responses_to(INVITATION) if u.act == DECLINE)
         self._small_talk = tuple(
             u
-            for act in ("Salutation(greeting)", "Provide(name)")
+            for act in (GREETING, INTRODUCTION)
             for u in domain.responses_to(act)
             if u.act != SILENCE
         )
@@ -87,7 +91,7 @@ class UserSimulator:
     def respond(self, system_act: str, board: Board, person_to_move: bool) -> UserTurn:
         """The person's answer to `system_act`, given the board and whether they may draw."""
         rng = self.rng
-        if system_act == "Request(playGame)" and self._accept:
+        if system_act == INVITATION and self._accept:
             first = not self.asked
             self.asked = True
             if first and self._decline and rng.random() < self.decline_probability:
@@ -95,7 +99,7 @@ class UserSimulator:
             self.accepted = True
             return self._say(self._accept[rng.integers(len(self._accept))])
         alternatives = self.domain.responses_to(system_act)
-        if system_act == "Request(userGameMove)":
+        if system_act == MOVE_REQUEST:
             if self._small_talk and rng.random() < self.out_of_turn_probability:
                 return self._say(self._small_talk[rng.integers(len(self._small_talk))])
             if not person_to_move:

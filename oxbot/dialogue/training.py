@@ -23,9 +23,9 @@ import json
 import logging
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
@@ -33,25 +33,36 @@ import torch.nn.functional as F
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from oxbot.atomic import atomic_write, write_text_atomic
-from oxbot.config import OxbotConfig, opponent_mix
-from oxbot.dialogue.agent import DQNPolicy, QNetwork
+from oxbot.config import AgentConfig, OxbotConfig, opponent_mix, who_starts
+from oxbot.dialogue.agent import DQNPolicy, QNetwork, greedy_batch_policy, masked_argmax
+from oxbot.dialogue.domain import N_ACTIONS
 from oxbot.dialogue.env import InteractiveGameEnv
-from oxbot.dialogue.evaluation import evaluate, losing_positions
+from oxbot.dialogue.evaluation import CONDITIONS, condition_key, evaluate, losing_positions
 from oxbot.errors import ModelFileError
 from oxbot.game.opponents import make_opponent
 
 log = logging.getLogger(__name__)
 
 CHECKPOINT_FORMAT = "oxbot-dqn-checkpoint/1"
-STARTS = {"yes": (True,), "no": (False,), "both": (True, False)}
 TREE_NOISE_VARIANTS = (10, 40)
 """Noisy hearings of each utterance per board in the game-tree check: always, for candidates."""
+
+
+class Batch(NamedTuple):
+    """A minibatch of experiences (s, a, r, s', offered in s', terminal), one row each."""
+
+    states: np.ndarray
+    actions: np.ndarray
+    rewards: np.ndarray
+    next_states: np.ndarray
+    next_masks: np.ndarray
+    dones: np.ndarray
 
 
 class ReplayBuffer:
     """The experience replay memory D: a ring of (s, a, r, s', offered in s', terminal)."""
 
-    def __init__(self, capacity: int, n_features: int, n_actions: int = 18) -> None:
+    def __init__(self, capacity: int, n_features: int, n_actions: int = N_ACTIONS) -> None:
         self.capacity = capacity
         self.states = np.zeros((capacity, n_features), dtype=np.float32)
         self.actions = np.zeros(capacity, dtype=np.int64)
@@ -69,36 +80,45 @@ class ReplayBuffer:
         self.position = (i + 1) % self.capacity
         self.size = min(self.size + 1, self.capacity)
 
-    def sample(self, batch_size: int, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    def sample(self, batch_size: int, rng: np.random.Generator) -> Batch:
         """A minibatch drawn uniformly at random, MB ~ U(D)."""
         i = rng.integers(self.size, size=batch_size)
-        return (
-            self.states[i],
-            self.actions[i],
-            self.rewards[i],
-            self.next_states[i],
-            self.next_masks[i],
-            self.dones[i],
-        )
+        return Batch(*(getattr(self, name)[i] for name in Batch._fields))
 
     def state_dict(self) -> dict[str, Any]:
         n = self.size
-        return {
-            "states": torch.from_numpy(self.states[:n].copy()),
-            "actions": torch.from_numpy(self.actions[:n].copy()),
-            "rewards": torch.from_numpy(self.rewards[:n].copy()),
-            "next_states": torch.from_numpy(self.next_states[:n].copy()),
-            "next_masks": torch.from_numpy(self.next_masks[:n].copy()),
-            "dones": torch.from_numpy(self.dones[:n].copy()),
-            "position": self.position,
-        }
+        arrays = {name: torch.from_numpy(getattr(self, name)[:n].copy()) for name in Batch._fields}
+        return {**arrays, "position": self.position}
 
     def load_state_dict(self, data: dict[str, Any]) -> None:
         n = len(data["actions"])
-        for name in ("states", "actions", "rewards", "next_states", "next_masks", "dones"):
+        for name in Batch._fields:
             getattr(self, name)[:n] = data[name].numpy()
         self.size = n
         self.position = int(data["position"])
+
+
+@dataclass
+class TrainingState:
+    """A run's bookkeeping, saved in every checkpoint beside the networks."""
+
+    step: int = 0
+    """Experiences collected so far."""
+    episodes: int = 0
+    updates: int = 0
+    elapsed_s: float = 0.0
+    """Wall-clock seconds of training before the current session (resumes add up)."""
+    outcomes: list[str] = field(default_factory=list)
+    """Every finished training dialogue's outcome ("unfinished" when truncated)."""
+    reward_curve: list[list[float]] = field(default_factory=list)
+    """[experiences, mean reward of the last `log_every` steps] pairs."""
+    win_draw_curve: list[list[float]] = field(default_factory=list)
+    """[games, win/draw rate of the last 500 games] every 100 games."""
+    evaluations: list[dict[str, Any]] = field(default_factory=list)
+    best_score: list[float] | None = None
+    best_step: int | None = None
+    best_state_dict: dict[str, Any] | None = None
+    """The weights of the best evaluated policy so far."""
 
 
 @dataclass
@@ -108,6 +128,17 @@ class TrainingResult:
     policy: DQNPolicy
     metrics: dict[str, Any]
     out_dir: Path
+
+
+@dataclass
+class _Learner:
+    """The networks, optimiser, replay memory and random generator of a run."""
+
+    q_network: QNetwork
+    target_network: QNetwork
+    optimizer: torch.optim.Optimizer
+    replay: ReplayBuffer
+    rng: np.random.Generator
 
 
 def epsilon_at(step: int, config: OxbotConfig) -> float:
@@ -137,15 +168,57 @@ def add_misheard_words(
     return states
 
 
-def greedy_batch_policy(q_network: QNetwork):
-    """The network as a batch policy for `evaluate` (greedy over the offered acts)."""
+class BatchAugmenter:
+    """What `agent.symmetries` and `agent.misheard_words` do to each sampled minibatch."""
 
-    def act(states: np.ndarray, masks: np.ndarray) -> np.ndarray:
-        with torch.inference_mode():
-            q = q_network(torch.from_numpy(np.asarray(states, dtype=np.float32))).numpy()
-        return np.argmax(np.where(masks, q, -np.inf), axis=1)
+    def __init__(self, env: InteractiveGameEnv, config: OxbotConfig) -> None:
+        self.config = config.agent
+        self.feature_perm, self.action_perm = env.layout.symmetry_permutations()
+        self.mask_perm = np.argsort(self.action_perm, axis=1)  # new_mask = old_mask[mask_perm[k]]
+        self.rows = np.arange(self.config.batch_size)[:, None]
+        self.n_words = env.layout.n_words
+        self.binarize = config.dialogue.nb_binarize
 
-    return act
+    def __call__(self, batch: Batch, rng: np.random.Generator) -> Batch:
+        s, a, r, s2, m2, done = batch
+        if self.config.symmetries:  # the same experience seen rotated or mirrored
+            k = rng.integers(len(self.feature_perm), size=self.config.batch_size)
+            s = s[self.rows, self.feature_perm[k]]
+            s2 = s2[self.rows, self.feature_perm[k]]
+            a = self.action_perm[k, a]
+            m2 = m2[self.rows, self.mask_perm[k]]
+        if self.config.misheard_words:  # a word heard with low confidence changes nothing
+            s = add_misheard_words(s, self.config.misheard_words, self.n_words, self.binarize, rng)
+        return Batch(s, a, r, s2, m2, done)
+
+
+def td_target(batch: Batch, learner: _Learner, config: AgentConfig) -> torch.Tensor:
+    """r + gamma * Q_target(s', a') over the acts offered in s' (a' by the online net with
+    Double DQN, by the target net otherwise); r alone at the end of a dialogue."""
+    s2_t, m2_t = torch.from_numpy(batch.next_states), torch.from_numpy(batch.next_masks)
+    with torch.no_grad():
+        next_target = learner.target_network(s2_t).masked_fill(~m2_t, -1e9)
+        if config.double_dqn:  # the online net picks a', the target net values it
+            online = learner.q_network(s2_t).masked_fill(~m2_t, -1e9)
+            next_value = next_target.gather(1, online.argmax(dim=1, keepdim=True)).squeeze(1)
+        else:
+            next_value = next_target.max(dim=1).values
+        not_done = 1.0 - torch.from_numpy(batch.dones)
+        return torch.from_numpy(batch.rewards) + config.discount * next_value * not_done
+
+
+def learn_from(batch: Batch, learner: _Learner, step: int, config: AgentConfig) -> None:
+    """One gradient step on the squared TD error of `batch`."""
+    target = td_target(batch, learner, config)
+    actions = torch.from_numpy(batch.actions)[:, None]
+    predicted = learner.q_network(torch.from_numpy(batch.states)).gather(1, actions).squeeze(1)
+    loss = F.mse_loss(predicted, target)
+    if config.anneal_learning_rate:
+        for group in learner.optimizer.param_groups:
+            group["lr"] = config.learning_rate * (1.0 - step / config.total_steps)
+    learner.optimizer.zero_grad()
+    loss.backward()
+    learner.optimizer.step()
 
 
 def evaluation_score(results: dict[str, Any]) -> tuple[float, float]:
@@ -175,64 +248,22 @@ def train_agent(
 
     # --- set-up: environment, networks, replay memory, opponents -------------------------------
     env = InteractiveGameEnv(config=config)
-    layout = env.layout
-    rng = np.random.default_rng(cfg.seed)
-    torch.manual_seed(cfg.seed)
-    q_network = QNetwork(layout.n_features, cfg.hidden_sizes)
-    target_network = copy.deepcopy(q_network)
-    optimizer = torch.optim.Adam(q_network.parameters(), lr=cfg.learning_rate)
-    replay = ReplayBuffer(cfg.replay_size, layout.n_features)
-    mix = opponent_mix(cfg.opponents)
-    opponent_names = list(mix)
-    opponent_weights = np.array([mix[n] for n in opponent_names])
-    opponents = {name: make_opponent(name, rng) for name in opponent_names}
-    starts = STARTS[cfg.robot_starts]
-    feature_perm, action_perm = layout.symmetry_permutations()
-    mask_perm = np.argsort(action_perm, axis=1)  # new_mask = old_mask[mask_perm[k]]
-    rows = np.arange(cfg.batch_size)[:, None]
-    binarize = config.dialogue.nb_binarize
-
-    def episode_options() -> dict[str, Any]:
-        name = opponent_names[rng.choice(len(opponent_names), p=opponent_weights)]
-        return {"opponent": opponents[name], "robot_starts": bool(rng.choice(starts))}
-
-    # --- curves and bookkeeping ---------------------------------------------------------------
-    state: dict[str, Any] = {
-        "step": 0,
-        "episodes": 0,
-        "outcomes": [],
-        "reward_curve": [],
-        "win_draw_curve": [],
-        "evaluations": [],
-        "best_score": None,
-        "best_state_dict": None,
-        "elapsed_s": 0.0,
-        "updates": 0,
-    }
+    learner = _new_learner(env, cfg)
+    rng = learner.rng
+    augment = BatchAugmenter(env, config)
+    next_episode = _episode_options(cfg, rng)
     checkpoint_path = out_dir / "checkpoint.pt"
+    run = TrainingState()
     if resume and checkpoint_path.exists():
-        state = _load_checkpoint(
-            checkpoint_path, config, q_network, target_network, optimizer, replay, rng
-        )
-        log.info("resumed from %s at step %d", checkpoint_path, state["step"])
+        run = _load_checkpoint(checkpoint_path, config, learner)
+        log.info("resumed from %s at step %d", checkpoint_path, run.step)
     recent_rewards: deque[float] = deque(maxlen=log_every)
-    recent_outcomes: deque[str] = deque(maxlen=500)
-    recent_outcomes.extend(state["outcomes"][-500:])
-    episode_reward = 0.0
+    recent_outcomes: deque[str] = deque(run.outcomes[-500:], maxlen=500)
 
-    obs, info = env.reset(seed=cfg.seed + state["step"], options=episode_options())
-    progress = Progress(
-        TextColumn("[bold]training[/]"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("{task.fields[stats]}"),
-        TimeElapsedColumn(),
-        disable=not show_progress,
-        transient=False,
-    )
-    task = progress.add_task("train", total=cfg.total_steps, completed=state["step"], stats="")
+    obs, info = env.reset(seed=cfg.seed + run.step, options=next_episode())
+    progress, task = _progress(show_progress, cfg.total_steps, run.step)
     with progress:
-        for step in range(state["step"], cfg.total_steps):
+        for step in range(run.step, cfg.total_steps):
             # 1. act: epsilon-greedy among the offered acts
             epsilon = epsilon_at(step, config)
             mask = info["action_mask"]
@@ -240,123 +271,142 @@ def train_agent(
                 action = int(rng.choice(np.flatnonzero(mask)))
             else:
                 with torch.inference_mode():
-                    q = q_network(torch.from_numpy(obs[None])).numpy()[0]
-                action = int(np.argmax(np.where(mask, q, -np.inf)))
+                    q = learner.q_network(torch.from_numpy(obs[None])).numpy()[0]
+                action = int(masked_argmax(q, mask))
 
             # 2. step the dialogue and store the experience
             next_obs, reward, terminated, truncated, info = env.step(action)
-            replay.add(obs, action, reward, next_obs, info["action_mask"], terminated)
+            learner.replay.add(obs, action, reward, next_obs, info["action_mask"], terminated)
             recent_rewards.append(reward)
-            episode_reward += reward
             obs = next_obs
             if terminated or truncated:
                 result = info["outcome"] if terminated and info["outcome"] else "unfinished"
-                state["episodes"] += 1
-                state["outcomes"].append(result)
-                recent_outcomes.append(result)
-                if state["episodes"] % 100 == 0:
-                    rate = sum(o in ("win", "draw") for o in recent_outcomes) / len(recent_outcomes)
-                    state["win_draw_curve"].append([state["episodes"], rate])
-                episode_reward = 0.0
-                obs, info = env.reset(options=episode_options())
+                _count_outcome(run, recent_outcomes, result)
+                obs, info = env.reset(options=next_episode())
 
             # 3. learn from a minibatch
             if step >= cfg.learning_starts and step % cfg.train_frequency == 0:
-                s, a, r, s2, m2, done = replay.sample(cfg.batch_size, rng)
-                if cfg.symmetries:  # the same experience seen rotated or mirrored
-                    k = rng.integers(len(feature_perm), size=cfg.batch_size)
-                    s = s[rows, feature_perm[k]]
-                    s2 = s2[rows, feature_perm[k]]
-                    a = action_perm[k, a]
-                    m2 = m2[rows, mask_perm[k]]
-                if cfg.misheard_words:  # a word heard with low confidence changes nothing
-                    s = add_misheard_words(s, cfg.misheard_words, layout.n_words, binarize, rng)
-                s_t, s2_t = torch.from_numpy(s), torch.from_numpy(s2)
-                m2_t = torch.from_numpy(m2)
-                with torch.no_grad():
-                    next_target = target_network(s2_t).masked_fill(~m2_t, -1e9)
-                    if cfg.double_dqn:  # the online net picks a', the target net values it
-                        best = q_network(s2_t).masked_fill(~m2_t, -1e9).argmax(dim=1, keepdim=True)
-                        next_value = next_target.gather(1, best).squeeze(1)
-                    else:
-                        next_value = next_target.max(dim=1).values
-                    target = torch.from_numpy(r) + cfg.discount * next_value * (
-                        1.0 - torch.from_numpy(done)
-                    )
-                predicted = q_network(s_t).gather(1, torch.from_numpy(a)[:, None]).squeeze(1)
-                loss = F.mse_loss(predicted, target)
-                if cfg.anneal_learning_rate:
-                    for group in optimizer.param_groups:
-                        group["lr"] = cfg.learning_rate * (1.0 - step / cfg.total_steps)
-                optimizer.zero_grad()
-                loss.backward()
-                optimizer.step()
-                state["updates"] += 1
+                batch = augment(learner.replay.sample(cfg.batch_size, rng), rng)
+                learn_from(batch, learner, step, cfg)
+                run.updates += 1
 
             # 4. sync the target network every C steps
             if step % cfg.target_update_interval == 0:
-                target_network.load_state_dict(q_network.state_dict())
+                learner.target_network.load_state_dict(learner.q_network.state_dict())
 
             # 5. log, evaluate, checkpoint
             done_steps = step + 1
             if done_steps % log_every == 0:
-                state["reward_curve"].append([done_steps, float(np.mean(recent_rewards))])
-                recent = list(recent_outcomes)
-                n = max(1, len(recent))
-                stats = (
-                    f"games {state['episodes']}  W/D/L {recent.count('win') / n:.0%}/"
-                    f"{recent.count('draw') / n:.0%}/{recent.count('loss') / n:.0%}  "
-                    f"eps {epsilon:.2f}  reward {np.mean(recent_rewards):+.2f}"
-                )
+                run.reward_curve.append([done_steps, float(np.mean(recent_rewards))])
+                stats = _stats(run, recent_outcomes, recent_rewards, epsilon)
                 progress.update(task, completed=done_steps, stats=stats)
             if cfg.eval_every and done_steps % cfg.eval_every == 0:
-                elapsed = state["elapsed_s"] + time.perf_counter() - started_at
-                _evaluate_and_keep_best(config, q_network, state, done_steps, elapsed)
+                elapsed = run.elapsed_s + time.perf_counter() - started_at
+                _evaluate_and_keep_best(config, learner.q_network, run, done_steps, elapsed)
             if checkpoint_every and done_steps % checkpoint_every == 0:
-                state["step"] = done_steps
-                state["elapsed_s"] += time.perf_counter() - started_at
+                run.step = done_steps
+                run.elapsed_s += time.perf_counter() - started_at
                 started_at = time.perf_counter()
-                _save_checkpoint(
-                    checkpoint_path,
-                    config,
-                    q_network,
-                    target_network,
-                    optimizer,
-                    replay,
-                    rng,
-                    state,
-                )
+                _save_checkpoint(checkpoint_path, config, learner, run)
         progress.update(task, completed=cfg.total_steps)
 
     # --- the result: the best evaluated network (or the last), its metrics and curves ----------
-    state["step"] = cfg.total_steps
-    state["elapsed_s"] += time.perf_counter() - started_at
-    if cfg.eval_every and state["best_state_dict"] is not None:
-        q_network.load_state_dict(state["best_state_dict"])
-    metrics = _metrics(config, state)
-    policy = DQNPolicy(q_network, layout.names, metadata=_json_safe(metrics))
+    run.step = cfg.total_steps
+    run.elapsed_s += time.perf_counter() - started_at
+    return _finish(config, env, learner, run, out_dir, checkpoint_path)
+
+
+def _new_learner(env: InteractiveGameEnv, cfg: AgentConfig) -> _Learner:
+    rng = np.random.default_rng(cfg.seed)
+    torch.manual_seed(cfg.seed)
+    q_network = QNetwork(env.layout.n_features, cfg.hidden_sizes)
+    return _Learner(
+        q_network=q_network,
+        target_network=copy.deepcopy(q_network),
+        optimizer=torch.optim.Adam(q_network.parameters(), lr=cfg.learning_rate),
+        replay=ReplayBuffer(cfg.replay_size, env.layout.n_features),
+        rng=rng,
+    )
+
+
+def _episode_options(cfg: AgentConfig, rng: np.random.Generator):
+    """Who the next training dialogue is with: an opponent from the mix, who starts."""
+    mix = opponent_mix(cfg.opponents)
+    names = list(mix)
+    weights = np.array([mix[n] for n in names])
+    opponents = {name: make_opponent(name, rng) for name in names}
+    starts = who_starts(cfg.robot_starts, "agent.robot_starts")
+
+    def next_episode() -> dict[str, Any]:
+        name = names[rng.choice(len(names), p=weights)]
+        return {"opponent": opponents[name], "robot_starts": bool(rng.choice(starts))}
+
+    return next_episode
+
+
+def _count_outcome(run: TrainingState, recent: deque[str], result: str) -> None:
+    run.episodes += 1
+    run.outcomes.append(result)
+    recent.append(result)
+    if run.episodes % 100 == 0:
+        rate = sum(o in ("win", "draw") for o in recent) / len(recent)
+        run.win_draw_curve.append([run.episodes, rate])
+
+
+def _stats(run: TrainingState, recent: deque[str], rewards: deque[float], eps: float) -> str:
+    n = max(1, len(recent))
+    return (
+        f"games {run.episodes}  W/D/L {recent.count('win') / n:.0%}/"
+        f"{recent.count('draw') / n:.0%}/{recent.count('loss') / n:.0%}  "
+        f"eps {eps:.2f}  reward {np.mean(rewards):+.2f}"
+    )
+
+
+def _progress(show: bool, total: int, done: int) -> tuple[Progress, Any]:
+    progress = Progress(
+        TextColumn("[bold]training[/]"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[stats]}"),
+        TimeElapsedColumn(),
+        disable=not show,
+        transient=False,
+    )
+    return progress, progress.add_task("train", total=total, completed=done, stats="")
+
+
+def _finish(
+    config: OxbotConfig,
+    env: InteractiveGameEnv,
+    learner: _Learner,
+    run: TrainingState,
+    out_dir: Path,
+    checkpoint_path: Path,
+) -> TrainingResult:
+    """Keep the best evaluated network (or the last); write it, its metrics and curves."""
+    if config.agent.eval_every and run.best_state_dict is not None:
+        learner.q_network.load_state_dict(run.best_state_dict)
+    metrics = _metrics(config, run)
+    policy = DQNPolicy(learner.q_network, env.layout.names, metadata=_json_safe(metrics))
     out_dir.mkdir(parents=True, exist_ok=True)
     policy.save(out_dir / "agent.pt")
     write_text_atomic(out_dir / "agent_metrics.json", json.dumps(metrics, indent=2) + "\n")
     plot_learning_curves(metrics, out_dir)
-    _save_checkpoint(
-        checkpoint_path, config, q_network, target_network, optimizer, replay, rng, state
-    )
+    _save_checkpoint(checkpoint_path, config, learner, run)
     return TrainingResult(policy, metrics, out_dir)
 
 
 def _evaluate_and_keep_best(
-    config: OxbotConfig, q_network: QNetwork, state: dict[str, Any], step: int, elapsed: float
+    config: OxbotConfig, q_network: QNetwork, run: TrainingState, step: int, elapsed: float
 ) -> None:
     cfg = config.agent
     policy = greedy_batch_policy(q_network)
-    results = {}
-    for name in ("random", "blocker", "minimax"):
-        for robot_starts in (True, False):
-            result = evaluate(
-                policy, name, robot_starts, cfg.eval_games, config, seed=10_000 + step, n_envs=100
-            )
-            results[f"{name}/{'robot' if robot_starts else 'person'}"] = result.summary()
+    results: dict[str, Any] = {
+        condition_key(name, robot_starts): evaluate(
+            policy, name, robot_starts, cfg.eval_games, config, seed=10_000 + step, n_envs=100
+        ).summary()
+        for name, robot_starts in CONDITIONS
+    }
     results["losing_positions"] = sum(
         losing_positions(policy, robot_starts, config, noisy_variants=TREE_NOISE_VARIANTS[0])
         for robot_starts in (True, False)
@@ -367,41 +417,38 @@ def _evaluate_and_keep_best(
             for s in (True, False)
         )
     score = evaluation_score(results)
-    state["evaluations"].append(
+    games = {k: r for k, r in results.items() if isinstance(r, dict)}
+    run.evaluations.append(
         {
             "step": step,
-            "episodes": state["episodes"],
+            "episodes": run.episodes,
             "elapsed_s": round(elapsed, 1),
             "losing_positions": results["losing_positions"],
-            **{
-                k: [r["win_rate"], r["draw_rate"], r["loss_rate"]]
-                for k, r in results.items()
-                if isinstance(r, dict)
-            },
-            "well_formed": min(r["well_formed"] for r in results.values() if isinstance(r, dict)),
+            **{k: [r["win_rate"], r["draw_rate"], r["loss_rate"]] for k, r in games.items()},
+            "well_formed": min(r["well_formed"] for r in games.values()),
         }
     )
-    if state["best_score"] is None or tuple(score) >= tuple(state["best_score"]):
-        state["best_score"] = list(score)
-        state["best_step"] = step
-        state["best_state_dict"] = copy.deepcopy(q_network.state_dict())
+    if run.best_score is None or tuple(score) >= tuple(run.best_score):
+        run.best_score = list(score)
+        run.best_step = step
+        run.best_state_dict = copy.deepcopy(q_network.state_dict())
     log.info("evaluation at step %d: %s", step, score)
 
 
-def _metrics(config: OxbotConfig, state: dict[str, Any]) -> dict[str, Any]:
-    outcomes = state["outcomes"]
+def _metrics(config: OxbotConfig, run: TrainingState) -> dict[str, Any]:
+    outcomes = run.outcomes
     return {
         "config": dataclasses.asdict(config),
         "seed": config.agent.seed,
-        "experiences": state["step"],
-        "updates": state["updates"],
-        "games": state["episodes"],
-        "wall_clock_s": round(state["elapsed_s"], 1),
+        "experiences": run.step,
+        "updates": run.updates,
+        "games": run.episodes,
+        "wall_clock_s": round(run.elapsed_s, 1),
         "training_outcomes": {o: outcomes.count(o) for o in sorted(set(outcomes))},
-        "reward_curve": state["reward_curve"],
-        "win_draw_curve": state["win_draw_curve"],
-        "evaluations": state["evaluations"],
-        "best_step": state.get("best_step"),
+        "reward_curve": run.reward_curve,
+        "win_draw_curve": run.win_draw_curve,
+        "evaluations": run.evaluations,
+        "best_step": run.best_step,
     }
 
 
@@ -436,38 +483,23 @@ def plot_learning_curves(metrics: dict[str, Any], out_dir: Path) -> None:
 
 
 def _save_checkpoint(
-    path: Path,
-    config: OxbotConfig,
-    q_network: QNetwork,
-    target_network: QNetwork,
-    optimizer: torch.optim.Optimizer,
-    replay: ReplayBuffer,
-    rng: np.random.Generator,
-    state: dict[str, Any],
+    path: Path, config: OxbotConfig, learner: _Learner, run: TrainingState
 ) -> None:
     payload = {
         "format": CHECKPOINT_FORMAT,
         "config": _json_safe(dataclasses.asdict(config.agent)),
-        "q_network": q_network.state_dict(),
-        "target_network": target_network.state_dict(),
-        "optimizer": optimizer.state_dict(),
-        "replay": replay.state_dict(),
-        "rng": _json_safe(rng.bit_generator.state),
-        "state": state,
+        "q_network": learner.q_network.state_dict(),
+        "target_network": learner.target_network.state_dict(),
+        "optimizer": learner.optimizer.state_dict(),
+        "replay": learner.replay.state_dict(),
+        "rng": _json_safe(learner.rng.bit_generator.state),
+        "state": {f.name: getattr(run, f.name) for f in dataclasses.fields(run)},
     }
     with atomic_write(path, "wb") as handle:
         torch.save(payload, handle)
 
 
-def _load_checkpoint(
-    path: Path,
-    config: OxbotConfig,
-    q_network: QNetwork,
-    target_network: QNetwork,
-    optimizer: torch.optim.Optimizer,
-    replay: ReplayBuffer,
-    rng: np.random.Generator,
-) -> dict[str, Any]:
+def _load_checkpoint(path: Path, config: OxbotConfig, learner: _Learner) -> TrainingState:
     try:
         payload = torch.load(path, map_location="cpu", weights_only=False)
     except Exception as exc:
@@ -485,11 +517,12 @@ def _load_checkpoint(
             "use the same settings to resume, or --no-resume"
         )
     try:
-        q_network.load_state_dict(payload["q_network"])
-        target_network.load_state_dict(payload["target_network"])
-    except RuntimeError as exc:
-        raise ModelFileError(f"checkpoint {path} does not match the network: {exc}") from None
-    optimizer.load_state_dict(payload["optimizer"])
-    replay.load_state_dict(payload["replay"])
-    rng.bit_generator.state = payload["rng"]
-    return payload["state"]
+        learner.q_network.load_state_dict(payload["q_network"])
+        learner.target_network.load_state_dict(payload["target_network"])
+        run = TrainingState(**payload["state"])
+    except (RuntimeError, TypeError) as exc:
+        raise ModelFileError(f"checkpoint {path} does not match this run: {exc}") from None
+    learner.optimizer.load_state_dict(payload["optimizer"])
+    learner.replay.load_state_dict(payload["replay"])
+    learner.rng.bit_generator.state = payload["rng"]
+    return run

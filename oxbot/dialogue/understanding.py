@@ -25,11 +25,15 @@ from difflib import SequenceMatcher
 from functools import lru_cache
 from typing import Protocol
 
-from oxbot.dialogue.domain import GAME_MOVE_TEMPLATE, Domain, game_move_cell, words_of
+from oxbot.dialogue.domain import (
+    GAME_MOVE_TEMPLATE,
+    SILENCE,
+    UNKNOWN,
+    Domain,
+    is_game_move,
+    words_of,
+)
 from oxbot.errors import DataError, InvalidInputError
-
-SILENCE = "Silence"
-UNKNOWN = "Unknown"
 
 MIN_SCORE = 0.3
 """Below this the nearest phrase shares too little with what was heard: the act is Unknown."""
@@ -86,15 +90,12 @@ class UserActClassifier:
     """Nearest known phrase -> user act, for typed text and recogniser hypotheses alike."""
 
     def __init__(self, domain: Domain, min_score: float = MIN_SCORE) -> None:
-        spoken = [u for alternatives in domain.responses.values() for u in alternatives]
-        spoken += [u for dialogue in domain.dialogues for u in dialogue if u.speaker == "USR"]
         # How often each (phrase, act) occurs breaks ties: "yes" is nearer to the acceptances,
         # which the domain has more of, than to "yes i won".
         self.counts: Counter[tuple[str, str]] = Counter()
-        for utterance in spoken:
+        for utterance in domain.user_utterances():
             if utterance.words:
-                is_move = game_move_cell(utterance.act) is not None
-                act = GAME_MOVE_TEMPLATE if is_move else utterance.act
+                act = GAME_MOVE_TEMPLATE if is_game_move(utterance.act) else utterance.act
                 self.counts[" ".join(utterance.words), act] += 1
         if not self.counts:
             raise DataError("the domain has no user phrase to classify answers by; add USR lines")

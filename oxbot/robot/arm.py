@@ -10,43 +10,17 @@ so a page or a rendered sheet can show the ink appear), then ArmDone.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 
 import numpy as np
 
-from oxbot.errors import InvalidInputError
+from oxbot.config import ArmConfig
+from oxbot.errors import ConfigError
 from oxbot.game.board import CELL_NAMES, cell_index
 from oxbot.perception.synth import symbol_strokes
 from oxbot.robot.bus import Bus, Component
 from oxbot.robot.messages import ArmCommand, ArmDone, ArmStroke, Message
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class ArmConfig:
-    """How big the cells are and how fast the simulated pen moves."""
-
-    cell_size: float = 0.05
-    """Metres across one cell of the drawn grid (a 15 cm grid on an A4 sheet)."""
-    fill: float = 0.7
-    """Fraction of the cell the symbol spans, leaving a margin clear of the grid lines."""
-    pen_speed: float = 0.15
-    """Metres per second along a stroke: a steady hand, so a symbol takes one to two seconds."""
-    pen_lift: float = 0.2
-    """Seconds to lift the pen and put it down at the next stroke's start."""
-    travel: float = 0.3
-    """Seconds to move from rest to the cell, and again from the cell back to rest."""
-    speed_factor: float = 1.0
-    """How many times faster than real time the arm runs (tests use large values)."""
-
-    def __post_init__(self) -> None:
-        if not 0 < self.fill <= 1:
-            raise InvalidInputError(f"fill must lie in (0, 1]; got {self.fill}")
-        if min(self.cell_size, self.pen_speed, self.speed_factor) <= 0:
-            raise InvalidInputError("cell_size, pen_speed and speed_factor must be positive")
-        if min(self.pen_lift, self.travel) < 0:
-            raise InvalidInputError("pen_lift and travel are durations; they cannot be negative")
 
 
 def cell_strokes(symbol: str, rng: np.random.Generator, fill: float = 0.7) -> list[np.ndarray]:
@@ -78,13 +52,17 @@ class ArmComponent(Component):
     def __init__(
         self,
         bus: Bus,
-        config: ArmConfig = ArmConfig(),
+        config: ArmConfig | None = None,
         rng: np.random.Generator | None = None,
+        speed_factor: float = 1.0,
         name: str | None = None,
     ) -> None:
         super().__init__(bus, name)
-        self.config = config
+        if not speed_factor > 0:
+            raise ConfigError(f"speed_factor must be positive; got {speed_factor}")
+        self.config = config if config is not None else ArmConfig()
         self.rng = rng if rng is not None else np.random.default_rng()
+        self.speed_factor = speed_factor
         self.drawing = False
 
     def handle(self, message: Message) -> None:
@@ -119,4 +97,4 @@ class ArmComponent(Component):
 
     def _take(self, seconds: float) -> bool:
         """Let `seconds` of arm time pass; False if the component is being stopped meanwhile."""
-        return not self._stop.wait(seconds / self.config.speed_factor)
+        return not self._stop.wait(seconds / self.speed_factor)

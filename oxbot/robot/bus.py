@@ -1,9 +1,11 @@
-"""The in-process publish/subscribe bus and the base class of the robot's components.
+"""The message bus and the base class of the robot's components.
 
 Components know only their messages (oxbot.robot.messages): they subscribe to message types
-and publish others. Each subscription is its own FIFO queue, so a burst of messages never
-reorders what one publisher sent, and a slow component never holds up another. The bus is
-thread-safe; each component runs in its own named thread.
+and publish others, through the two calls of the `Bus` protocol, so another transport (across
+processes or machines) can stand in for `LocalBus`, the in-process one. In `LocalBus` each
+subscription is its own FIFO queue, so a burst of messages never reorders what one publisher
+sent, and a slow component never holds up another; it is thread-safe, and each component runs
+in its own named thread.
 """
 
 from __future__ import annotations
@@ -15,16 +17,45 @@ import threading
 import time
 import traceback
 from collections.abc import Iterable
+from typing import Protocol
 
 from oxbot.robot.messages import ComponentFailed, Message
 
 log = logging.getLogger(__name__)
 
 
-class Subscription:
+class Subscription(Protocol):
     """The messages of some types, in the order they were published."""
 
-    def __init__(self, bus: Bus, types: tuple[type[Message], ...]) -> None:
+    def get(self, timeout: float | None = None) -> Message | None:
+        """The next message, or None after `timeout` seconds without one."""
+        ...
+
+    def drain(self) -> list[Message]:
+        """Every message waiting now, oldest first."""
+        ...
+
+    def close(self) -> None:
+        """Stop receiving."""
+        ...
+
+
+class Bus(Protocol):
+    """What a component needs of a transport: subscribe to message types, publish messages."""
+
+    def subscribe(self, *types: type[Message]) -> Subscription:
+        """A new queue of the messages of `types` (all messages when none are given)."""
+        ...
+
+    def publish(self, message: Message) -> None:
+        """Deliver `message` to every subscription that wants its type."""
+        ...
+
+
+class LocalSubscription:
+    """A `Subscription` of `LocalBus`: a thread-safe FIFO queue."""
+
+    def __init__(self, bus: LocalBus, types: tuple[type[Message], ...]) -> None:
         self.types = types
         self._bus = bus
         self._queue: queue.SimpleQueue[Message] = queue.SimpleQueue()
@@ -55,21 +86,21 @@ class Subscription:
         self._bus.unsubscribe(self)
 
 
-class Bus:
-    """Delivers each published message to every subscription that wants its type."""
+class LocalBus:
+    """The in-process `Bus`: each published message goes to every subscription wanting it."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self._subscriptions: list[Subscription] = []
+        self._subscriptions: list[LocalSubscription] = []
 
-    def subscribe(self, *types: type[Message]) -> Subscription:
+    def subscribe(self, *types: type[Message]) -> LocalSubscription:
         """A new queue of the messages of `types` (all messages when none are given)."""
-        subscription = Subscription(self, types or (Message,))
+        subscription = LocalSubscription(self, types or (Message,))
         with self._lock:
             self._subscriptions.append(subscription)
         return subscription
 
-    def unsubscribe(self, subscription: Subscription) -> None:
+    def unsubscribe(self, subscription: LocalSubscription) -> None:
         with self._lock:
             if subscription in self._subscriptions:
                 self._subscriptions.remove(subscription)

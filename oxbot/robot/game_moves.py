@@ -22,12 +22,13 @@ import cv2
 import numpy as np
 
 from oxbot.config import TrackerConfig
-from oxbot.errors import FrameSourceError, InvalidInputError, NoGridFound
+from oxbot.errors import FrameSourceError, NoGridFound
 from oxbot.perception.board import BoardReader, default_reader
 from oxbot.perception.sources import FrameSource
 from oxbot.perception.tracker import GameMove as AcceptedDrawing
 from oxbot.perception.tracker import ImpossibleEvent, MoveTracker
 from oxbot.robot.bus import Bus, Component
+from oxbot.robot.frames import check_frame, frame_pixels
 from oxbot.robot.messages import (
     ArmCommand,
     BoardProblem,
@@ -36,22 +37,10 @@ from oxbot.robot.messages import (
     GameMove,
     Message,
     NewGame,
+    SourceEnded,
 )
 
 log = logging.getLogger(__name__)
-
-
-def decode_frame(message: Frame) -> np.ndarray:
-    """The RGB image of a Frame message; InvalidInputError if its bytes are not that image."""
-    if message.format == "raw":
-        raise InvalidInputError("raw frames carry no shape; send the sheet as PNG or JPEG")
-    data = np.frombuffer(message.image, dtype=np.uint8)
-    image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
-    if image is None:
-        raise InvalidInputError(
-            f"the frame's {len(message.image)} bytes are not a {message.format.upper()} image"
-        )
-    return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
 
 
 def encode_cells(cells: np.ndarray) -> tuple[bytes, ...]:
@@ -102,18 +91,16 @@ class GameMoveComponent(Component):
         return self._off
 
     def push(self, frame: np.ndarray) -> None:
-        """Hand over the current view of the sheet: uint8 (H, W, 3) RGB or (H, W) gray."""
-        if not isinstance(frame, np.ndarray) or frame.dtype != np.uint8 or frame.size == 0:
-            raise InvalidInputError("a frame must be a non-empty uint8 array, (H, W, 3) or (H, W)")
-        if not (frame.ndim == 2 or (frame.ndim == 3 and frame.shape[2] == 3)):
-            raise InvalidInputError(f"a frame has shape {frame.shape}; give (H, W, 3) or (H, W)")
+        """Hand over the current view of the sheet: uint8 (H, W, 3) RGB or (H, W) gray (a
+        Frame message on the bus does the same)."""
+        frame = check_frame(frame).copy()
         with self._lock:
-            self._latest = frame.copy()
+            self._latest = frame
             self._version += 1
 
     def handle(self, message: Message) -> None:
         if isinstance(message, Frame):
-            self.push(decode_frame(message))
+            self.push(frame_pixels(message))
         elif isinstance(message, ArmCommand):
             self.tracker.robot_draws(message.where)
         elif isinstance(message, NewGame):
@@ -161,14 +148,18 @@ class GameMoveComponent(Component):
             self.source.open()
             frame = self.source.read()
         except FrameSourceError as exc:
-            self._off = True
+            self._turn_off(f"{exc}")
             log.warning("game-move recognition is off: %s; type your moves instead", exc)
             return None
         if frame is None:
-            self._off = True
+            self._turn_off(f"{self.source.name} has no more frames")
             log.info("%s has no more frames", self.source.name)
             return None
         return frame, -1
+
+    def _turn_off(self, reason: str) -> None:
+        self._off = True
+        self.bus.publish(SourceEnded(component=self.name, reason=reason))
 
     def _read(
         self, frame: np.ndarray, version: int

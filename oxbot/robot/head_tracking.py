@@ -19,42 +19,17 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from oxbot.config import HeadConfig
 from oxbot.errors import FrameSourceError, InvalidInputError
 from oxbot.perception.sources import FrameSource, PushedFrames
 from oxbot.robot.bus import Bus, Component
-from oxbot.robot.messages import Direction, HeadDirection
+from oxbot.robot.frames import check_frame, frame_pixels
+from oxbot.robot.messages import Direction, HeadDirection, Message, PersonFrame
 
 log = logging.getLogger(__name__)
 
 FRONTAL_CASCADE = "haarcascade_frontalface_default.xml"
 PROFILE_CASCADE = "haarcascade_profileface.xml"
-
-
-@dataclass(frozen=True)
-class HeadTrackingConfig:
-    """How faces are found and how far from the centre a head must move to count."""
-
-    calibration_detections: int = 5
-    """Detections averaged into the centre when `calibrate` is not called (person looks ahead)."""
-    horizontal_threshold: float = 0.35
-    """Face widths left or right of the centre before the head counts as turned (paper: a
-    threshold on the head's pose; ours is on the face's position)."""
-    vertical_threshold: float = 0.25
-    """Face heights above or below the centre before the head counts as up or down."""
-    detection_width: int = 480
-    """Frames wider than this are shrunk before detection: Haar cascades are slow on big frames."""
-    min_face: int = 24
-    """Smallest face, in pixels of the shrunk frame, the cascades look for."""
-    mirrored: bool = False
-    """True when the camera mirrors its image, so the image's left is the person's left."""
-
-    def __post_init__(self) -> None:
-        if self.calibration_detections < 1:
-            raise InvalidInputError("calibration_detections must be at least 1")
-        if self.horizontal_threshold <= 0 or self.vertical_threshold <= 0:
-            raise InvalidInputError("the thresholds must be positive (fractions of a face)")
-        if self.detection_width < 64 or self.min_face < 8:
-            raise InvalidInputError("detection_width must be >= 64 and min_face >= 8 pixels")
 
 
 @dataclass(frozen=True)
@@ -74,8 +49,8 @@ class Face:
 class FaceDetector:
     """The largest face in a frame, by OpenCV's frontal cascade and then its profile cascade."""
 
-    def __init__(self, config: HeadTrackingConfig = HeadTrackingConfig()) -> None:
-        self.config = config
+    def __init__(self, config: HeadConfig | None = None) -> None:
+        self.config = config if config is not None else HeadConfig()
         self._frontal = _cascade(FRONTAL_CASCADE)
         self._profile = _cascade(PROFILE_CASCADE)
 
@@ -107,9 +82,9 @@ class HeadTracker:
     "centre" meanwhile), unless `calibrate(frame)` sets it at once.
     """
 
-    def __init__(self, config: HeadTrackingConfig = HeadTrackingConfig()) -> None:
-        self.config = config
-        self.detector = FaceDetector(config)
+    def __init__(self, config: HeadConfig | None = None) -> None:
+        self.config = config if config is not None else HeadConfig()
+        self.detector = FaceDetector(self.config)
         self.centre: tuple[float, float] | None = None
         self._samples: list[tuple[float, float]] = []
 
@@ -169,10 +144,12 @@ class HeadTrackingComponent(Component):
     """Publishes HeadDirection whenever the person's head direction changes.
 
     Frames come from `source` (a webcam, a video, an image folder), one per `period`, or, when
-    no source is given, from `push(frame)` by other code. A frame without a face changes
-    nothing. A source that cannot be opened is reported by one warning and then left alone.
+    no source is given, from PersonFrame messages (or `push(frame)`). A frame without a face
+    changes nothing. A source that cannot be opened is reported by one warning and then left
+    alone.
     """
 
+    listens_to = (PersonFrame,)
     period = 0.1  # 10 Hz, the rate the game-move recognition reads frames at
 
     def __init__(
@@ -194,6 +171,10 @@ class HeadTrackingComponent(Component):
         if not isinstance(self.source, PushedFrames):
             raise FrameSourceError(f"{self.name} reads {self.source.name}; frames cannot be pushed")
         self.source.push(frame)
+
+    def handle(self, message: Message) -> None:
+        if isinstance(message, PersonFrame) and self._pushed:
+            self.push(frame_pixels(message))
 
     def tick(self) -> None:
         if self._unavailable:
@@ -240,10 +221,5 @@ def _cascade(name: str) -> cv2.CascadeClassifier:
 
 
 def _gray(frame: np.ndarray) -> np.ndarray:
-    if not isinstance(frame, np.ndarray) or frame.dtype != np.uint8 or frame.size == 0:
-        raise InvalidInputError("a frame must be a non-empty uint8 array, (H, W, 3) RGB or (H, W)")
-    if frame.ndim == 2:
-        return frame
-    if frame.ndim == 3 and frame.shape[2] == 3:
-        return cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY)
-    raise InvalidInputError(f"a frame has shape {frame.shape}; give (H, W, 3) RGB or (H, W)")
+    frame = check_frame(frame)
+    return frame if frame.ndim == 2 else cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY)

@@ -28,28 +28,26 @@ import enum
 import logging
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
-from oxbot.config import OxbotConfig
+from oxbot.config import OxbotConfig, RobotConfig
 from oxbot.dialogue.agent import DQNPolicy, load_policy, masked_argmax
-from oxbot.dialogue.domain import SYSTEM_ACTS, game_move_cell, words_of
-from oxbot.dialogue.env import CLOSING, build_components
-from oxbot.errors import ConfigError
-from oxbot.game.board import (
-    CELL_NAMES,
-    EMPTY,
-    EMPTY_BOARD,
-    ROBOT,
-    USER,
-    Board,
-    cell_index,
-    outcome,
-    play,
-    symbol_of,
-    to_move,
+from oxbot.dialogue.domain import (
+    CLOSING,
+    MOVE_REQUEST,
+    PROBLEM,
+    SILENCE,
+    SYSTEM_ACTS,
+    draw_tag,
+    game_move,
+    game_move_cell,
+    is_game_move,
+    words_of,
 )
+from oxbot.dialogue.model import build_dialogue_model
+from oxbot.dialogue.state import DialogueState, Turn
+from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, Board, cell_index, symbol_of
 from oxbot.robot.bus import Bus, Component
 from oxbot.robot.messages import (
     ArmCommand,
@@ -59,6 +57,7 @@ from oxbot.robot.messages import (
     DialogueAct,
     DialogueEnded,
     GameMove,
+    GameState,
     Message,
     NewGame,
     SpeakingFinished,
@@ -68,8 +67,6 @@ from oxbot.robot.messages import (
 
 log = logging.getLogger(__name__)
 
-PROBLEM_ACT = "Inform(problem)"
-"""The act of the fixed sentences about impossible drawings: not one of the 18 learned acts."""
 PROBLEM_SENTENCES = {
     "occupied_cell": "That cell is already taken. Please draw in an empty one.",
     "two_new_symbols": "I see two new symbols at once. Please draw one at a time.",
@@ -77,28 +74,10 @@ PROBLEM_SENTENCES = {
     "out_of_turn": "Please wait, it is my turn.",
     "game_over": "The game is over.",
 }
-MOVE_REQUEST = SYSTEM_ACTS.index("Request(userGameMove)")
+"""What the robot says (as the act PROBLEM, not one the policy chooses) about an impossible
+drawing, by the tracker's or the manager's problem kind."""
 Understand = Callable[[Sequence[tuple[str, float]]], str]
 """Maps what the person said (an N-best list) to their dialogue act, for the log."""
-
-
-@dataclass(frozen=True)
-class ManagerTiming:
-    """How long the robot waits for the person."""
-
-    answer_timeout: float = 4.0
-    """Seconds to wait for an optional answer (to a greeting, say) before taking silence."""
-    question_timeout: float = 30.0
-    """Seconds to wait for the answer to a question before taking silence."""
-    move_timeout: float = 30.0
-    """Seconds to wait for the person's drawing after "Your turn"; then the robot asks again."""
-    speed_factor: float = 1.0
-    """How many times faster than real time the waits run (tests use large values)."""
-
-    def __post_init__(self) -> None:
-        waits = (self.answer_timeout, self.question_timeout, self.move_timeout)
-        if min(waits) < 0 or self.speed_factor <= 0:
-            raise ConfigError("timeouts cannot be negative and speed_factor must be positive")
 
 
 class Phase(enum.Enum):
@@ -115,7 +94,13 @@ def spoken(text: str) -> str:
 
 
 class InteractionManagerComponent(Component):
-    """Greedy dialogue and game policy of the robot; starts a dialogue on NewGame."""
+    """Greedy dialogue and game policy of the robot; starts a dialogue on NewGame.
+
+    Its `state` is a `DialogueState`, driven as the training environment drives it; only the
+    person's answers differ: here they come from the recogniser, the keyboard and the camera.
+    Others learn of the dialogue through the bus: DialogueAct for each turn, GameState for
+    each change of the board, Decision for each choice.
+    """
 
     listens_to = (NewGame, SpeechHypotheses, GameMove, SpeakingFinished, ArmDone, BoardProblem)
     period = 0.02
@@ -124,7 +109,6 @@ class InteractionManagerComponent(Component):
         self,
         bus: Bus,
         policy: DQNPolicy | None = None,
-        timing: ManagerTiming = ManagerTiming(),
         config: OxbotConfig | None = None,
         understand: Understand | None = None,
         rng: np.random.Generator | None = None,
@@ -132,23 +116,36 @@ class InteractionManagerComponent(Component):
     ) -> None:
         super().__init__(bus, name)
         self.config = config if config is not None else OxbotConfig()
-        self.domain, self.layout, self.action_model = build_components(self.config.dialogue)
+        self.model = build_dialogue_model(self.config)
         self.policy = policy if policy is not None else load_policy()
-        self.timing = timing
         self.rng = rng if rng is not None else np.random.default_rng()
         self._understand = understand
-        answers = {act: {u.act for u in self.domain.responses_to(act)} for act in SYSTEM_ACTS}
-        self._unanswered = {act for act, a in answers.items() if a <= {"Silence"}}
-        self._questions = {act for act, a in answers.items() if a and "Silence" not in a}
+        domain = self.model.domain
+        answers = {act: {u.act for u in domain.responses_to(act)} for act in SYSTEM_ACTS}
+        self._unanswered = {act for act, a in answers.items() if a <= {SILENCE}}
+        self._questions = {act for act, a in answers.items() if a and SILENCE not in a}
         self.phase = Phase.IDLE
         self._reset(True)
 
-    # --- what others may read ---
+    @property
+    def timing(self) -> RobotConfig:
+        """The waits (`answer_timeout`, `question_timeout`, `move_timeout`, `speed_factor`)."""
+        return self.config.robot
+
+    # --- what others may read (the bus carries the same) ---
 
     @property
-    def transcript(self) -> list[dict[str, str]]:
+    def board(self) -> Board:
+        return self.state.board
+
+    @property
+    def robot_starts(self) -> bool:
+        return self.state.robot_starts
+
+    @property
+    def transcript(self) -> list[Turn]:
         """The dialogue so far as `{"speaker", "act", "text"}` dicts, like the environment's."""
-        return list(self._transcript)
+        return list(self.state.transcript)
 
     # --- messages ---
 
@@ -182,31 +179,21 @@ class InteractionManagerComponent(Component):
     # --- the turn ---
 
     def _reset(self, robot_starts: bool) -> None:
-        self.robot_starts = robot_starts
-        self.board: Board = EMPTY_BOARD
-        self._said: set[str] = set()
-        self._system_words: list[str] = []
-        self._heard_words: tuple[tuple[str, float], ...] = ()
+        self.state: DialogueState = self.model.new_state(robot_starts)
         self._moved_since = False
         self._spoke_since = False
-        self._last_act = ""
         self._speaking = ""
         self._arm_cell: int | None = None
         self._deferred: list[str] = []
         self._deadline = 0.0
-        self._transcript: list[dict[str, str]] = []
+        self._publish_game()
 
     def _decide(self) -> None:
         """Choose the next act greedily among the offered ones, and start saying it."""
-        obs = self.layout.encode(
-            self._system_words, self._heard_words, self.board, self.robot_starts, self._said
-        )
-        robot_to_move = bool(obs[self.layout.flags.start] > 0)
-        _, mask = self.action_model.offered(
-            obs, self.board, robot_to_move, self.config.reward.mask_threshold
-        )
+        obs = self.state.encode()
+        _, mask = self.state.offered()
         q = self.policy.q_values(obs[None])[0]
-        action = int(masked_argmax(q[None], mask[None])[0])
+        action = int(masked_argmax(q, mask))
         self.bus.publish(
             Decision(
                 offered=tuple(a for a, m in zip(SYSTEM_ACTS, mask, strict=True) if m),
@@ -214,21 +201,16 @@ class InteractionManagerComponent(Component):
                 chosen=SYSTEM_ACTS[action],
             )
         )
-        self._heard_words, self._moved_since, self._spoke_since = (), False, False
-        self._say(action)
+        self._moved_since, self._spoke_since = False, False
+        self._say(SYSTEM_ACTS[action])
 
-    def _say(self, action: int) -> None:
-        act = SYSTEM_ACTS[action]
-        templates = self.domain.templates_for(act)
-        cell = game_move_cell(act)
-        text = templates[int(self.rng.integers(len(templates)))]
-        if cell is not None:
-            text = text.replace("$loc", CELL_NAMES[cell])
-            self.board = play(self.board, cell, ROBOT)
-        self._said.add(act)
-        self._system_words = words_of(text)
-        self._last_act, self._arm_cell = act, cell
-        self._log("sys", act, text)
+    def _say(self, act: str) -> None:
+        text = self.model.template(act, self.rng)
+        self.state.robot_says(act, text)
+        self._arm_cell = game_move_cell(act)
+        self._publish_turn("sys", act, text)
+        if self._arm_cell is not None:
+            self._publish_game()
         self._speaking = spoken(text)
         self.phase = Phase.SPEAKING
         self.bus.publish(Utterance(text=self._speaking, act=act))
@@ -238,14 +220,15 @@ class InteractionManagerComponent(Component):
             self._listen()
             return
         self.phase = Phase.DRAWING
-        symbol = symbol_of(ROBOT, self.robot_starts)
+        symbol = symbol_of(ROBOT, self.state.robot_starts)
         self.bus.publish(ArmCommand(where=CELL_NAMES[self._arm_cell], symbol=symbol))
 
     def _listen(self) -> None:
         """The robot has finished its act: wait for the person, or end the dialogue."""
-        if self._last_act == SYSTEM_ACTS[CLOSING]:
+        last_act = self.state.last_act
+        if last_act == CLOSING:
             self.phase = Phase.DONE
-            self.bus.publish(DialogueEnded(outcome=outcome(self.board)))
+            self.bus.publish(DialogueEnded(outcome=self.state.outcome))
             return
         self.phase = Phase.LISTENING
         for sentence in self._deferred:
@@ -253,9 +236,9 @@ class InteractionManagerComponent(Component):
         self._deferred.clear()
         if self._expects_move():
             wait = self.timing.move_timeout
-        elif self._last_act in self._unanswered:
+        elif last_act in self._unanswered:
             wait = 0.0
-        elif self._last_act in self._questions:
+        elif last_act in self._questions:
             wait = self.timing.question_timeout
         else:
             wait = self.timing.answer_timeout
@@ -265,10 +248,9 @@ class InteractionManagerComponent(Component):
 
     def _expects_move(self) -> bool:
         return (
-            self._last_act == SYSTEM_ACTS[MOVE_REQUEST]
+            self.state.last_act == MOVE_REQUEST
             and not self._moved_since
-            and outcome(self.board) is None
-            and to_move(self.board, self.robot_starts) == USER
+            and self.state.person_to_move
         )
 
     # --- the person ---
@@ -277,13 +259,13 @@ class InteractionManagerComponent(Component):
         if not message.nbest:
             return  # the recogniser heard nothing: as if nobody spoke
         text, confidence = message.nbest[0]
+        # per-word confidences when the recogniser gives them (paper §2.2), else the utterance's
         words = message.words or tuple((w, confidence) for w in words_of(text))
         act = self._user_act(message.nbest)
-        self._log("usr", act, text)
-        self._heard_words, self._spoke_since = tuple(words), True
-        if self.phase is Phase.LISTENING and not (
-            self._expects_move() and act.startswith("GameMove")
-        ):
+        self.state.person_says(act, text, words)
+        self._publish_turn("usr", act, text)
+        self._spoke_since = True
+        if self.phase is Phase.LISTENING and not (self._expects_move() and is_game_move(act)):
             self._decide()
 
     def _moved(self, message: GameMove) -> None:
@@ -294,28 +276,30 @@ class InteractionManagerComponent(Component):
         if problem is not None:
             self._problem(problem)
             return
-        self.board = play(self.board, cell, USER)
         self._moved_since = True
-        where = CELL_NAMES[cell]
-        self._log("usr", f"GameMove(gridloc={where})", f"[who=usr what=draw where={where}]")
+        self.state.person_says(game_move(cell), draw_tag("usr", cell))  # heard words stay
+        self._publish_turn("usr", game_move(cell), draw_tag("usr", cell))
+        self._publish_game()
         if self.phase is Phase.LISTENING:
             self._decide()
 
     def _illegal(self, cell: int, symbol: str) -> str | None:
         """Why the person may not draw `symbol` in `cell` now, as a problem kind, or None."""
-        if outcome(self.board) is not None:
+        state = self.state
+        if state.outcome is not None:
             return "game_over"
-        if self.board[cell] != EMPTY:
+        if state.board[cell] != EMPTY:
             return "occupied_cell"
-        if to_move(self.board, self.robot_starts) != USER:
+        if not state.person_to_move:
             return "out_of_turn"
-        if symbol != symbol_of(USER, self.robot_starts):
+        if symbol != symbol_of(USER, state.robot_starts):
             return "wrong_symbol"
         return None
 
     def _problem(self, kind: str) -> None:
+        starts = self.state.robot_starts
         sentence = PROBLEM_SENTENCES.get(kind, "Something is wrong on the sheet.").format(
-            person=symbol_of(USER, self.robot_starts), robot=symbol_of(ROBOT, self.robot_starts)
+            person=symbol_of(USER, starts), robot=symbol_of(ROBOT, starts)
         )
         if self.phase is Phase.LISTENING:
             self._tell(sentence)
@@ -323,17 +307,21 @@ class InteractionManagerComponent(Component):
             self._deferred.append(sentence)  # never over the robot's own words or arm
 
     def _tell(self, sentence: str) -> None:
-        self._log("sys", PROBLEM_ACT, sentence)
-        self.bus.publish(Utterance(text=sentence, act=PROBLEM_ACT))
+        self.state.robot_informs(PROBLEM, sentence)
+        self._publish_turn("sys", PROBLEM, sentence)
+        self.bus.publish(Utterance(text=sentence, act=PROBLEM))
 
     def _user_act(self, nbest: Sequence[tuple[str, float]]) -> str:
         if self._understand is None:
             from oxbot.dialogue.understanding import UserActClassifier
 
-            classifier = UserActClassifier(self.domain)
+            classifier = UserActClassifier(self.model.domain)
             self._understand = lambda heard: classifier.intent_of(heard).act
         return self._understand(nbest)
 
-    def _log(self, speaker: str, act: str, text: str) -> None:
-        self._transcript.append({"speaker": speaker, "act": act, "text": text})
+    def _publish_turn(self, speaker: str, act: str, text: str) -> None:
         self.bus.publish(DialogueAct(speaker=speaker, act=act, text=text))
+
+    def _publish_game(self) -> None:
+        state = self.state
+        self.bus.publish(GameState(board=state.board, robot_starts=state.robot_starts))

@@ -61,11 +61,34 @@ class SpeechHypotheses(Message):
 
 @dataclass(frozen=True)
 class Frame(Message):
-    """An image of the game sheet (camera frame or the web page's canvas)."""
+    """An image of the game sheet (camera frame or the web page's canvas).
+
+    `raw` is uint8 pixels row by row, `shape` (H, W, 3) RGB or (H, W) gray; `png` and `jpeg`
+    carry their own size."""
 
     topic: ClassVar[str] = "vision/frame"
     image: bytes
     format: Literal["png", "jpeg", "raw"] = "png"
+    shape: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class PersonFrame(Message):
+    """A webcam image of the person, for head tracking (the fields are Frame's)."""
+
+    topic: ClassVar[str] = "vision/person_frame"
+    image: bytes
+    format: Literal["png", "jpeg", "raw"] = "png"
+    shape: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
+class SourceEnded(Message):
+    """A component's camera failed or ran out of frames: what it saw must come another way."""
+
+    topic: ClassVar[str] = "vision/source_ended"
+    component: str
+    reason: str
 
 
 @dataclass(frozen=True)
@@ -192,8 +215,19 @@ class Decision(Message):
     topic: ClassVar[str] = "dialogue/decision"
     offered: tuple[str, ...]
     q_values: tuple[float, ...]
-    """Q(s, a) for all 18 acts in `oxbot.dialogue.domain.SYSTEM_ACTS` order."""
+    """Q(s, a) for every act, in `oxbot.dialogue.domain.SYSTEM_ACTS` order."""
     chosen: str
+
+
+@dataclass(frozen=True)
+class GameState(Message):
+    """The game as the interaction manager knows it: when a game starts (the empty board, so
+    every turn published after it belongs to that game) and after every move."""
+
+    topic: ClassVar[str] = "game/state"
+    board: tuple[int, ...]
+    """One int per cell, row-major from the upper left: 0 empty, 1 the robot's, 2 the person's."""
+    robot_starts: bool
 
 
 @dataclass(frozen=True)

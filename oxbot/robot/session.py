@@ -1,93 +1,82 @@
 """The whole robot: every component on one bus, and the ways a person reaches it.
 
-    from oxbot.robot.session import Robot, RobotOptions
-    with Robot(RobotOptions(robot_starts=True)) as robot:   # starts; the robot greets
-        events = robot.bus.subscribe()                      # every message, in order
-        robot.say("yes let's play")                         # typed words
-        robot.hear(wav_bytes)                               # a push-to-talk recording
-        robot.show(frame)                                   # the sheet, as a camera sees it
-        robot.draw("middle")                                # a typed move (no camera)
+    from oxbot.robot.session import Robot
+    with Robot() as robot:                   # starts; the robot greets
+        events = robot.bus.subscribe()       # every message, in order
+        robot.say("yes let's play")          # typed words
+        robot.hear(wav_bytes)                # a push-to-talk recording
+        robot.show(frame)                    # the sheet, as a camera sees it
+        robot.draw("middle")                 # a typed move (no camera)
 
-The terminal (`oxbot play --terminal`), the web page (`oxbot play`) and the tests build the
-same Robot; each browser tab has its own. Components that load models (the classifier, the
-recogniser, the policy) share one copy per process.
+`Robot(config)` takes its settings from an `OxbotConfig` (`[game]` who starts, `[robot]` the
+waits, speed, arm and head, `[speech]` the recogniser and voice, `[tracker]` the camera's
+rate). The terminal (`oxbot play --terminal`), the web page (`oxbot play`) and the tests build
+the same Robot; each browser tab has its own. The Robot talks to its components only through
+messages on its bus, and learns the board and the dialogue from them too. Components that load
+models (the classifier, the recogniser, the policy) share one copy per process.
 """
 
 from __future__ import annotations
 
 import functools
 import logging
-from dataclasses import dataclass
+import threading
 
 import numpy as np
 
+from oxbot.config import OxbotConfig
+from oxbot.dialogue.agent import DQNPolicy
 from oxbot.dialogue.domain import words_of
-from oxbot.errors import ConfigError, InvalidInputError
-from oxbot.game.board import CELL_NAMES, USER, Board, cell_index, symbol_of
+from oxbot.dialogue.state import Turn
+from oxbot.errors import InvalidInputError, SpeechUnavailable
+from oxbot.game.board import CELL_NAMES, EMPTY_BOARD, N_CELLS, USER, Board, cell_index, symbol_of
 from oxbot.perception.sources import FrameSource
-from oxbot.robot.arm import ArmComponent, ArmConfig
-from oxbot.robot.bus import Bus, Component, start_all, stop_all
+from oxbot.robot.arm import ArmComponent
+from oxbot.robot.bus import Bus, Component, LocalBus, start_all, stop_all
+from oxbot.robot.frames import frame_message
 from oxbot.robot.game_moves import GameMoveComponent
 from oxbot.robot.head_movement import HeadMovementComponent
-from oxbot.robot.head_tracking import HeadTrackingComponent
-from oxbot.robot.manager import InteractionManagerComponent, ManagerTiming
+from oxbot.robot.head_tracking import HeadTracker, HeadTrackingComponent
+from oxbot.robot.manager import InteractionManagerComponent
 from oxbot.robot.messages import (
+    DialogueAct,
     DialogueEnded,
     GameMove,
+    GameState,
     NewGame,
+    PersonFrame,
+    SourceEnded,
     SpeechAudio,
     SpeechHypotheses,
 )
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
 from oxbot.speech.audio import read_wav
+from oxbot.speech.recognition import Recognizer, load_recognizer
 from oxbot.speech.synthesis import Voice
 
 log = logging.getLogger(__name__)
 
 
-@dataclass(frozen=True)
-class RobotOptions:
-    """How one robot is put together."""
-
-    robot_starts: bool = True
-    """Who draws first (with circles); the paper's robot always started."""
-    speed_factor: float = 1.0
-    """How many times faster than real time speech, the arm and the waits run (tests)."""
-    answer_timeout: float = 4.0
-    """Seconds the robot waits for an optional answer (to a greeting) before taking silence."""
-    question_timeout: float = 30.0
-    """Seconds the robot waits for the answer to a question before taking silence."""
-    move_timeout: float = 30.0
-    """Seconds the robot waits for the person's drawing after "Your turn"."""
-    voice: str = "en-us"
-    """The espeak-ng voice of the robot."""
-    seed: int | None = None
-    """Seeds the robot's choice among templates and the arm's hand; None: fresh each time."""
-
-    def __post_init__(self) -> None:
-        if self.speed_factor <= 0:
-            raise ConfigError(f"speed_factor must be positive; got {self.speed_factor}")
-
-
 @functools.cache
-def _shared_policy():
+def shared_policy() -> DQNPolicy:
+    """The shipped policy, loaded once per process."""
     from oxbot.dialogue.agent import load_policy
 
     return load_policy()
 
 
 @functools.cache
-def warm_up() -> None:
+def warm_up(config: OxbotConfig | None = None) -> None:
     """Load the shared models once (policy, classifier, recogniser: a few seconds), so that
-    the first game does not wait for them mid-sentence."""
-    from oxbot.errors import SpeechUnavailable
+    the first game does not wait for them mid-sentence. A recogniser the config names but that
+    cannot be built is a ConfigError here; one that is not installed only a warning."""
     from oxbot.perception.board import default_reader
-    from oxbot.speech.recognition import default_recognizer
 
-    _shared_policy()
+    config = config if config is not None else OxbotConfig()
+    shared_policy()
     default_reader()
     try:
-        default_recognizer()
+        load_recognizer(config.speech)
     except SpeechUnavailable as exc:
         log.warning("speech recognition is off, type your answers instead: %s", exc)
 
@@ -96,50 +85,60 @@ class Robot:
     """One robot: its components running on their own bus (see the module docstring).
 
     `sheet_camera` / `head_camera` are frame sources the robot reads itself; without them it
-    sees only what `show` / `look` hand over.
+    sees only what `show` / `look` hand over. `recognizer` and `policy` replace the ones the
+    config names (the shipped ones); `seed` fixes the choice among templates and the arm's hand.
     """
 
     def __init__(
         self,
-        options: RobotOptions = RobotOptions(),
+        config: OxbotConfig | None = None,
+        *,
         sheet_camera: FrameSource | None = None,
         head_camera: FrameSource | None = None,
+        recognizer: Recognizer | None = None,
+        policy: DQNPolicy | None = None,
+        seed: int | None = None,
     ) -> None:
-        self.options = options
-        self.bus = Bus()
-        rng = np.random.default_rng(options.seed)
-        seeds = rng.integers(2**32, size=2)
-        self.manager = InteractionManagerComponent(
-            self.bus,
-            policy=_shared_policy(),
-            timing=ManagerTiming(
-                answer_timeout=options.answer_timeout,
-                question_timeout=options.question_timeout,
-                move_timeout=options.move_timeout,
-                speed_factor=options.speed_factor,
-            ),
-            rng=np.random.default_rng(seeds[0]),
-        )
-        self.vision = GameMoveComponent(self.bus, options.robot_starts, source=sheet_camera)
-        self.head_tracking = HeadTrackingComponent(self.bus, source=head_camera)
-        self.voice = SpeechSynthesisComponent(
-            self.bus, Voice(options.voice), speed_factor=options.speed_factor
-        )
+        self.config = config if config is not None else OxbotConfig()
+        self.bus: Bus = LocalBus()
+        body = self.config.robot
+        manager_seed, arm_seed = np.random.default_rng(seed).integers(2**32, size=2)
+        self._watching_sheet = sheet_camera is not None
         self.components: list[Component] = [
-            self.manager,
-            self.vision,
-            SpeechRecognitionComponent(self.bus),
-            self.voice,
+            InteractionManagerComponent(
+                self.bus,
+                policy=policy if policy is not None else shared_policy(),
+                config=self.config,
+                rng=np.random.default_rng(manager_seed),
+            ),
+            vision := GameMoveComponent(
+                self.bus,
+                self.config.game.robot_starts,
+                source=sheet_camera,
+                config=self.config.tracker,
+            ),
+            SpeechRecognitionComponent(self.bus, recognizer, self.config.speech),
+            SpeechSynthesisComponent(
+                self.bus, Voice(self.config.speech.voice), speed_factor=body.speed_factor
+            ),
             ArmComponent(
                 self.bus,
-                ArmConfig(speed_factor=options.speed_factor),
-                rng=np.random.default_rng(seeds[1]),
+                body.arm,
+                rng=np.random.default_rng(arm_seed),
+                speed_factor=body.speed_factor,
             ),
-            self.head_tracking,
+            HeadTrackingComponent(self.bus, HeadTracker(body.head), source=head_camera),
             HeadMovementComponent(self.bus),
         ]
+        self._vision = vision.name
+        self._events = self.bus.subscribe(
+            NewGame, GameState, DialogueAct, DialogueEnded, SourceEnded
+        )
+        self._lock = threading.Lock()
+        self._board: Board = EMPTY_BOARD
+        self._robot_starts = self.config.game.robot_starts
+        self._transcript: list[Turn] = []
         self._ended = False
-        self._watch = self.bus.subscribe(DialogueEnded, NewGame)
         self._started = False
 
     # --- lifecycle ---
@@ -147,7 +146,7 @@ class Robot:
     def start(self) -> Robot:
         """Start every component and the first game: the robot begins to talk."""
         if not self._started:
-            warm_up()
+            warm_up(self.config)
             start_all(self.components)
             self._started = True
             self.new_game()
@@ -156,7 +155,7 @@ class Robot:
     def stop(self) -> None:
         """Stop every component (a sentence or a drawing under way is cut off)."""
         stop_all(self.components)
-        self._watch.close()
+        self._events.close()
         self._started = False
 
     def __enter__(self) -> Robot:
@@ -166,9 +165,8 @@ class Robot:
         self.stop()
 
     def new_game(self, robot_starts: bool | None = None) -> None:
-        """A clean sheet and a new dialogue."""
-        starts = self.options.robot_starts if robot_starts is None else robot_starts
-        self._ended = False
+        """A clean sheet and a new dialogue; who starts is the config's unless given."""
+        starts = self.config.game.robot_starts if robot_starts is None else robot_starts
         self.bus.publish(NewGame(robot_starts=starts))
 
     # --- the person ---
@@ -189,33 +187,66 @@ class Robot:
 
     def show(self, frame: np.ndarray) -> None:
         """The sheet as a camera sees it now (uint8 RGB or gray); read at 10 Hz."""
-        self.vision.push(frame)
+        self.bus.publish(frame_message(frame))
 
     def look(self, frame: np.ndarray) -> None:
         """A webcam frame of the person, for head tracking."""
-        self.head_tracking.push(frame)
+        self.bus.publish(frame_message(frame, PersonFrame))
 
     def draw(self, where: str | int) -> None:
         """A move typed instead of drawn (no camera): the person's symbol in `where`."""
         cell = cell_index(where) if isinstance(where, str) else where
-        if not isinstance(cell, int) or not 0 <= cell < 9:
+        if not isinstance(cell, int) or not 0 <= cell < N_CELLS:
             raise InvalidInputError(f"{where!r} is not a cell; cells are {', '.join(CELL_NAMES)}")
-        symbol = symbol_of(USER, self.manager.robot_starts)
+        symbol = symbol_of(USER, self.robot_starts)
         self.bus.publish(GameMove(who="usr", what="draw", where=CELL_NAMES[cell], symbol=symbol))
 
-    # --- state ---
+    # --- what the bus has said so far ---
 
     @property
     def board(self) -> Board:
-        return self.manager.board
+        """The board as the interaction manager last announced it."""
+        self._catch_up()
+        return self._board
 
     @property
-    def transcript(self) -> list[dict[str, str]]:
-        return self.manager.transcript
+    def robot_starts(self) -> bool:
+        """Who started the current game."""
+        self._catch_up()
+        return self._robot_starts
+
+    @property
+    def transcript(self) -> list[Turn]:
+        """The current game's dialogue so far, `{"speaker", "act", "text"}` per turn."""
+        self._catch_up()
+        return list(self._transcript)
+
+    @property
+    def watching_sheet(self) -> bool:
+        """True while a camera watches the sheet (until it fails or ends): moves are drawn,
+        not typed."""
+        self._catch_up()
+        return self._watching_sheet
 
     @property
     def finished(self) -> bool:
         """True once the robot has said goodbye in the current game."""
-        for message in self._watch.drain():  # in order: a NewGame after a goodbye clears it
-            self._ended = isinstance(message, DialogueEnded)
+        self._catch_up()
         return self._ended
+
+    def _catch_up(self) -> None:
+        with self._lock:  # the web server asks from several threads
+            for message in self._events.drain():  # in publish order
+                if isinstance(message, NewGame):  # asked for: goodbyes before it are old
+                    self._robot_starts, self._ended = message.robot_starts, False
+                elif isinstance(message, GameState):
+                    if message.board == EMPTY_BOARD:  # the manager's new game: turns after it
+                        self._transcript = []
+                    self._board = message.board
+                elif isinstance(message, DialogueAct):
+                    turn = {"speaker": message.speaker, "act": message.act, "text": message.text}
+                    self._transcript.append(turn)
+                elif isinstance(message, DialogueEnded):
+                    self._ended = True
+                elif isinstance(message, SourceEnded) and message.component == self._vision:
+                    self._watching_sheet = False

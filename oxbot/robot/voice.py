@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import logging
 
-from oxbot.errors import SpeechUnavailable
+from oxbot.config import SpeechConfig
+from oxbot.errors import ConfigError, SpeechUnavailable
 from oxbot.robot.bus import Bus, Component
 from oxbot.robot.messages import (
     Message,
@@ -26,7 +27,7 @@ from oxbot.robot.messages import (
     Utterance,
 )
 from oxbot.speech.audio import read_wav
-from oxbot.speech.recognition import Recognizer, default_recognizer
+from oxbot.speech.recognition import Recognizer, load_recognizer
 from oxbot.speech.synthesis import Voice, espeak_available, synthesize
 
 log = logging.getLogger(__name__)
@@ -95,20 +96,26 @@ class SpeechSynthesisComponent(Component):
 
 
 class SpeechRecognitionComponent(Component):
-    """On SpeechAudio: SpeechHypotheses with the recogniser's N-best list (empty: nothing heard).
+    """On SpeechAudio: SpeechHypotheses with the recogniser's N-best list (empty: nothing heard)
+    and the best hypothesis's words with their own confidences.
 
-    The recogniser is built at the first recording unless one is given (building the shipped
-    domain's takes a few seconds). Without pocketsphinx, recordings are dropped after one
-    warning and the person types instead.
+    The recogniser is the one given, or the one `config.recognizer` names, built at the first
+    recording (building the shipped domain's takes a few seconds). When it cannot be built,
+    recordings are dropped after one warning and the person types instead.
     """
 
     listens_to = (SpeechAudio,)
 
     def __init__(
-        self, bus: Bus, recognizer: Recognizer | None = None, name: str | None = None
+        self,
+        bus: Bus,
+        recognizer: Recognizer | None = None,
+        config: SpeechConfig | None = None,
+        name: str | None = None,
     ) -> None:
         super().__init__(bus, name)
         self.recognizer = recognizer
+        self.config = config if config is not None else SpeechConfig()
         self._unavailable = False
 
     def handle(self, message: Message) -> None:
@@ -117,11 +124,12 @@ class SpeechRecognitionComponent(Component):
             return
         if self.recognizer is None:
             try:
-                self.recognizer = default_recognizer()
-            except SpeechUnavailable as exc:
+                self.recognizer = load_recognizer(self.config)
+            except (SpeechUnavailable, ConfigError) as exc:
                 self._unavailable = True
                 log.warning("speech recognition is off, type your answers instead: %s", exc)
                 return
         hypotheses = self.recognizer.recognize(message.audio)
         nbest = tuple((h.text, h.confidence) for h in hypotheses)
-        self.bus.publish(SpeechHypotheses(nbest=nbest, source="microphone"))
+        words = hypotheses[0].words if hypotheses else ()
+        self.bus.publish(SpeechHypotheses(nbest=nbest, source="microphone", words=words))

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from oxbot.dialogue.domain import Domain
+from oxbot.dialogue.domain import INVITATION, SILENCE, Domain
 from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.speech.audio import RATE, add_noise, pcm16
 from oxbot.speech.recognition import Recognizer, default_recognizer
@@ -73,7 +73,7 @@ class Trial:
 
 def accept_decline_phrases(domain: Domain) -> dict[str, str]:
     """The person's answers to the invitation (`Request(playGame)`), phrase -> act."""
-    return {" ".join(u.words): u.act for u in domain.responses_to("Request(playGame)") if u.words}
+    return {" ".join(u.words): u.act for u in domain.responses_to(INVITATION) if u.words}
 
 
 def listening_test(
@@ -98,7 +98,7 @@ def listening_test(
                 started = time.perf_counter()
                 nbest = recognizer.decode(samples)
                 decode_seconds = time.perf_counter() - started
-                top = classifier.classify(nbest[0].text).act if nbest else "Silence"
+                top = classifier.classify(nbest[0].text).act if nbest else SILENCE
                 trials.append(
                     Trial(
                         voice,

@@ -23,20 +23,22 @@ phrases rank before fragments; the list is ordered and every value lies in [0, 1
 from __future__ import annotations
 
 import functools
+import importlib
 import itertools
 import logging
 import os
 import re
 import tempfile
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from oxbot.errors import InvalidInputError, SpeechUnavailable
+from oxbot.config import SpeechConfig
+from oxbot.errors import ConfigError, InvalidInputError, SpeechUnavailable
 from oxbot.speech.audio import RATE, pcm16
 
 if TYPE_CHECKING:
@@ -69,7 +71,19 @@ def normalise(text: str) -> str:
     return " ".join(re.sub(r"[^a-z0-9' ]+", " ", text.lower()).split())
 
 
-class Recognizer:
+class Recognizer(Protocol):
+    """What the robot needs of a speech recogniser: a recording in, an N-best list out.
+
+    Another recogniser plugs in by having this method, passed to the robot as an object or
+    named in the config as `speech.recognizer = "module:factory"`, where `factory(phrases,
+    nbest)` builds it (`load_recognizer`)."""
+
+    def recognize(self, wav: str | os.PathLike[str] | bytes) -> list[Hypothesis]:
+        """N-best hypotheses for a WAV (path or bytes), best first; empty if nothing was heard."""
+        ...
+
+
+class PocketsphinxRecognizer:
     """pocketsphinx decoding restricted to `phrases` (what the person is expected to say)."""
 
     def __init__(self, phrases: Sequence[str], nbest: int = 5) -> None:
@@ -194,17 +208,49 @@ def with_noise_floor(samples: np.ndarray, level: float = NOISE_FLOOR) -> np.ndar
 
 def user_phrases(domain: Domain) -> list[str]:
     """Everything the person says in a domain: user response alternatives and seed dialogues."""
-    spoken = [u for alternatives in domain.responses.values() for u in alternatives]
-    spoken += [u for dialogue in domain.dialogues for u in dialogue if u.speaker == "USR"]
-    return sorted({" ".join(u.words) for u in spoken if u.words})
+    return sorted({" ".join(u.words) for u in domain.user_utterances() if u.words})
+
+
+RECOGNIZERS: dict[str, Callable[..., Recognizer]] = {"pocketsphinx": PocketsphinxRecognizer}
+"""The recognisers `speech.recognizer` can name without a module path."""
+
+
+def load_recognizer(config: SpeechConfig | None = None, domain: Domain | None = None) -> Recognizer:
+    """The recogniser `config` names, built for the phrases of `domain` (default: shipped).
+
+    The shipped domain's recogniser is built once per process and shared (building one takes a
+    few seconds; a recogniser serves one recording at a time, under its own lock)."""
+    config = config if config is not None else SpeechConfig()
+    if domain is None:
+        return _shipped_recognizer(config.recognizer, config.nbest)
+    return _build(config.recognizer, user_phrases(domain), config.nbest)
 
 
 @functools.cache
-def default_recognizer() -> Recognizer:
-    """The recogniser for the shipped domain: every phrase a person says in its files."""
+def _shipped_recognizer(name: str, nbest: int) -> Recognizer:
     from oxbot.dialogue.domain import load_domain
 
-    return Recognizer(user_phrases(load_domain()))
+    return _build(name, user_phrases(load_domain()), nbest)
+
+
+def _build(name: str, phrases: list[str], nbest: int) -> Recognizer:
+    factory = RECOGNIZERS.get(name)
+    if factory is None:
+        module_name, _, attribute = name.partition(":")
+        if not attribute:
+            raise ConfigError(
+                f"speech.recognizer is {name!r}; use {', '.join(RECOGNIZERS)} or module:factory"
+            )
+        try:
+            factory = getattr(importlib.import_module(module_name), attribute)
+        except (ImportError, AttributeError) as exc:
+            raise ConfigError(f"speech.recognizer {name!r} cannot be imported: {exc}") from None
+    return factory(phrases, nbest=nbest)
+
+
+def default_recognizer() -> Recognizer:
+    """The recogniser for the shipped domain with the default config, shared by every caller."""
+    return load_recognizer()
 
 
 def recognize(wav: str | os.PathLike[str] | bytes) -> list[tuple[str, float]]:

@@ -14,9 +14,10 @@ client → server (JSON text messages)::
     {"type": "new_game", "image": "data:..."}                  a fresh sheet and game
 
 server → client: {"type": "Hello", "data": {...}} first (the session's symbols, the cell
-names and the 18 acts), then every bus message, and {"type": "Error", "data": {"message",
-"about"}} for anything the server refused. A bad message never closes the socket and never
-reaches another session.
+names and the system acts), then every bus message, and {"type": "Error", "data": {"message",
+"about", "code"}} for anything the server refused (`code` is "game_over" for game messages
+after the robot's goodbye, else empty). A bad message never closes the socket and never
+reaches another session. The limits are `[web]` in the config (`oxbot config`).
 """
 
 from __future__ import annotations
@@ -32,43 +33,20 @@ import logging
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from importlib import resources
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from fastapi import FastAPI, WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 from PIL import Image, UnidentifiedImageError
 
-from oxbot.errors import InvalidInputError, OxbotError
+from oxbot.config import OxbotConfig, WebConfig
+from oxbot.errors import ConfigError, InvalidInputError, OxbotError
 from oxbot.robot.messages import to_json
 from oxbot.speech.audio import Audio, to_wav_bytes
 
-if TYPE_CHECKING:
-    from oxbot.robot.session import RobotOptions
-
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class WebLimits:
-    """What one session may send; anything beyond gets an error message, not a crash."""
-
-    max_message_bytes: int = 4_000_000
-    """Largest text message accepted (a 1280x720 PNG as a data URL is about 1-2 MB)."""
-    max_image_side: int = 2048
-    """Largest width or height of a sheet or webcam image, in pixels."""
-    min_image_side: int = 64
-    """Smallest width or height: a smaller image cannot show a readable grid."""
-    audio_rate: int = 16_000
-    """The recogniser's sample rate (pocketsphinx en-us): the page resamples to it."""
-    max_audio_seconds: float = 30.0
-    """Longest push-to-talk recording."""
-    max_text_chars: int = 500
-    """Longest typed answer."""
-    max_sessions: int = 32
-    """Sessions (tabs) served at once; more are refused with a message."""
 
 
 class RobotLike(Protocol):
@@ -86,13 +64,13 @@ class RobotLike(Protocol):
     def new_game(self) -> Any: ...
 
 
-def default_robot_factory(options: RobotOptions) -> Callable[[], RobotLike]:
-    """A factory of real robots with these options, one per session."""
+def default_robot_factory(config: OxbotConfig) -> Callable[[], RobotLike]:
+    """A factory of real robots with this config, one per session."""
 
     def make() -> RobotLike:
         from oxbot.robot.session import Robot
 
-        return Robot(options)
+        return Robot(config)
 
     return make
 
@@ -100,7 +78,7 @@ def default_robot_factory(options: RobotOptions) -> Callable[[], RobotLike]:
 # --- checking what a tab sends ---
 
 
-def decode_image(payload: object, limits: WebLimits) -> np.ndarray:
+def decode_image(payload: object, limits: WebConfig) -> np.ndarray:
     """A data URL or base64 string of a PNG/JPEG/WebP as uint8 RGB (H, W, 3).
 
     Raises InvalidInputError naming what is wrong (not a string, not base64, not an image,
@@ -138,7 +116,7 @@ def decode_image(payload: object, limits: WebLimits) -> np.ndarray:
         raise InvalidInputError(f"'image' is not a readable PNG or JPEG image ({exc})") from None
 
 
-def pcm_to_wav(payload: object, rate: object, limits: WebLimits) -> bytes:
+def pcm_to_wav(payload: object, rate: object, limits: WebConfig) -> bytes:
     """Base64 little-endian int16 mono PCM at `limits.audio_rate` as WAV bytes."""
     if rate != limits.audio_rate:
         raise InvalidInputError(
@@ -174,7 +152,7 @@ class Session:
 
     ids = itertools.count(1)
 
-    def __init__(self, robot: RobotLike, limits: WebLimits) -> None:
+    def __init__(self, robot: RobotLike, limits: WebConfig) -> None:
         self.id = next(self.ids)
         self.robot = robot
         self.limits = limits
@@ -213,9 +191,9 @@ class Session:
                 continue
             self._loop.call_soon_threadsafe(self.outbox.put_nowait, text)
 
-    def error(self, message: str, about: str = "") -> None:
+    def error(self, message: str, about: str = "", code: str = "") -> None:
         self.errors += 1
-        self.outbox.put_nowait(_error_text(message, about))
+        self.outbox.put_nowait(_error_text(message, about, code))
 
     def handle(self, text: str) -> None:
         """Act on one message from the tab; an InvalidInputError says what was wrong."""
@@ -236,7 +214,7 @@ class Session:
                 f"unknown message type {kind!r}; known: {', '.join(CLIENT_TYPES)}"
             )
         if kind in GAME_TYPES and self.robot.finished:
-            raise InvalidInputError(
+            raise GameOver(
                 f"the game is over (the robot said goodbye), so {kind!r} is refused; "
                 'send {"type": "new_game"} to play again'
             )
@@ -271,6 +249,12 @@ class Session:
             self.robot.show(frame)
 
 
+class GameOver(InvalidInputError):
+    """A game message after the robot's goodbye."""
+
+    code = "game_over"
+
+
 CLIENT_TYPES = ("frame", "look", "say", "talk", "new_game")
 """The message types a tab may send."""
 GAME_TYPES = ("frame", "say", "talk")
@@ -292,27 +276,19 @@ STATIC_TYPES = {
 
 
 def create_app(
-    speed_factor: float = 1.0,
-    robot_starts: bool = True,
-    limits: WebLimits | None = None,
-    robot_options: RobotOptions | None = None,
+    config: OxbotConfig | None = None,
+    robot_factory: Callable[[], RobotLike] | None = None,
 ) -> FastAPI:
     """The FastAPI app: `/` the page, `/static/*` its files, `/ws` a game session per socket,
     `/health` how many sessions run.
 
-    `speed_factor` makes the robots' arm, speech and waits that many times faster than real
-    time (tests); `robot_options`, when given, is every session's RobotOptions as is (and
-    overrides `speed_factor` and `robot_starts`).
+    Every session's robot is built with `config` (`[game]` who starts, `[robot]` its speed and
+    waits, `[web]` what a tab may send), or by `robot_factory` when given.
     """
-    from oxbot.robot.session import RobotOptions
-
-    if robot_options is None:
-        if speed_factor <= 0:
-            raise InvalidInputError(f"speed_factor must be positive; got {speed_factor}")
-        robot_options = RobotOptions(robot_starts=robot_starts, speed_factor=speed_factor)
-    speed_factor, robot_starts = robot_options.speed_factor, robot_options.robot_starts
-    limits = limits or WebLimits()
-    make_robot = default_robot_factory(robot_options)
+    config = config if config is not None else OxbotConfig()
+    limits = config.web
+    speed_factor, robot_starts = config.robot.speed_factor, config.game.robot_starts
+    make_robot = robot_factory if robot_factory is not None else default_robot_factory(config)
     ready = threading.Event()
 
     @contextlib.asynccontextmanager
@@ -320,7 +296,7 @@ def create_app(
         # the shared models (policy, classifier, recogniser) take seconds to load: load them
         # once, while the person opens the page, not in the first tab's greeting
         threading.Thread(
-            target=_warm_up, args=(ready,), name="oxbot-web-warm-up", daemon=True
+            target=_warm_up, args=(ready, config), name="oxbot-web-warm-up", daemon=True
         ).start()
         yield
 
@@ -384,14 +360,15 @@ def create_app(
 
     app.state.speed_factor = speed_factor
     app.state.robot_starts = robot_starts
+    app.state.stable_readings = config.tracker.stable_readings
     return app
 
 
-def _warm_up(ready: threading.Event) -> None:
+def _warm_up(ready: threading.Event, config: OxbotConfig) -> None:
     try:
         from oxbot.robot.session import warm_up
 
-        warm_up()
+        warm_up(config)
     except Exception:  # the sessions will meet the same problem and report it
         log.exception("loading the robot's models failed")
     finally:
@@ -399,9 +376,8 @@ def _warm_up(ready: threading.Event) -> None:
 
 
 def _hello(session: Session, app: FastAPI) -> dict:
-    from oxbot.dialogue.domain import SYSTEM_ACTS
-    from oxbot.game.board import CELL_NAMES, ROBOT, USER, symbol_of
-    from oxbot.web import sheet
+    from oxbot.dialogue.domain import GAME_MOVES, MOVE_REQUEST, PROBLEM, SYSTEM_ACTS
+    from oxbot.game.board import CELL_NAMES, ROBOT, SIZE, USER, symbol_of
 
     starts = app.state.robot_starts
     return {
@@ -409,16 +385,19 @@ def _hello(session: Session, app: FastAPI) -> dict:
         "robot_starts": starts,
         "user_symbol": symbol_of(USER, starts),
         "robot_symbol": symbol_of(ROBOT, starts),
+        "size": SIZE,
         "cells": list(CELL_NAMES),
         "acts": list(SYSTEM_ACTS),
+        "game_moves": list(GAME_MOVES),
+        "act_names": {"move_request": MOVE_REQUEST, "problem": PROBLEM},
+        "stable_readings": app.state.stable_readings,
         "speed_factor": app.state.speed_factor,
-        "sheet": {"side": sheet.SIDE, "margin": sheet.MARGIN, "pen": sheet.PEN_WIDTH},
         "audio_rate": session.limits.audio_rate,
     }
 
 
-def _error_text(message: str, about: str = "") -> str:
-    return json.dumps({"type": "Error", "data": {"message": message, "about": about}})
+def _error_text(message: str, about: str = "", code: str = "") -> str:
+    return json.dumps({"type": "Error", "data": {"message": message, "about": about, "code": code}})
 
 
 async def _send_all(websocket: WebSocket, session: Session) -> None:
@@ -454,7 +433,7 @@ async def _receive_all(websocket: WebSocket, session: Session) -> None:
             else:
                 session.handle(text)
         except OxbotError as exc:
-            session.error(str(exc), about=_kind(text))
+            session.error(str(exc), about=_kind(text), code=getattr(exc, "code", ""))
         except Exception as exc:  # a robot bug must not end the tab's game or another's
             log.exception("session %d: message failed", session.id)
             session.error(f"the server failed on this message: {type(exc).__name__}: {exc}")
@@ -505,20 +484,45 @@ def serving_in_background(app: FastAPI, host: str = "127.0.0.1", port: int = 0):
         thread.join(15)
 
 
-def serve(
-    host: str = "127.0.0.1", port: int = 8000, speed_factor: float = 1.0, robot_starts: bool = True
-) -> None:
-    """Run the page's server until interrupted (`oxbot play`); binds to localhost by default."""
+def serve(config: OxbotConfig | None = None) -> None:
+    """Run the page's server until interrupted (`oxbot play`), on `[web]` host and port
+    (localhost by default)."""
     import uvicorn
 
-    app = create_app(speed_factor=speed_factor, robot_starts=robot_starts)
+    config = config if config is not None else OxbotConfig()
+    host, port = config.web.host, config.web.port
+    check_port_free(host, port)
+    app = create_app(config)
     log.info("oxbot: open http://%s:%d in a browser to play", host, port)
     uvicorn.run(app, host=host, port=port, log_level="info", ws_max_size=16 * 1024 * 1024)
 
 
+def check_port_free(host: str, port: int) -> None:
+    """ConfigError, saying what to do, if `host:port` cannot be listened on."""
+    import errno
+    import socket
+
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except socket.gaierror as exc:
+        raise ConfigError(f"--host {host!r} is not an address of this machine ({exc})") from None
+    family, kind, proto, _, address = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(address)
+        except OSError as exc:
+            if exc.errno == errno.EADDRINUSE:
+                raise ConfigError(
+                    f"port {port} on {host} is already in use (is another `oxbot play` "
+                    f"running?); stop it, or pick another port: oxbot play --port {port + 1}"
+                ) from None
+            raise ConfigError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+
+
 __all__ = [
     "Session",
-    "WebLimits",
+    "check_port_free",
     "create_app",
     "decode_image",
     "pcm_to_wav",

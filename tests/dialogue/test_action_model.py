@@ -3,12 +3,13 @@ import pytest
 
 from oxbot.dialogue.action_model import ActionModel, act_class, action_mask, seed_examples
 from oxbot.dialogue.domain import SYSTEM_ACTS
-from oxbot.dialogue.env import shipped_components
+from oxbot.dialogue.model import shipped_dialogue_model
 from oxbot.game.board import EMPTY_BOARD, play
 
 
 def test_probabilities_are_scikit_learns_naive_bayes():
-    domain, layout, model = shipped_components()
+    m = shipped_dialogue_model()
+    domain, layout, model = m.domain, m.layout, m.action_model
     states, _ = seed_examples(domain, layout)
     ours = model.class_proba(states)
     sklearn = model.classifier_.predict_proba(states[:, model.columns])
@@ -16,7 +17,8 @@ def test_probabilities_are_scikit_learns_naive_bayes():
 
 
 def test_the_model_reproduces_the_seed_dialogues():
-    domain, layout, model = shipped_components()
+    m = shipped_dialogue_model()
+    domain, layout, model = m.domain, m.layout, m.action_model
     states, labels = seed_examples(domain, layout)
     predicted = model.classifier_.classes_[model.class_proba(states).argmax(axis=1)]
     assert predicted.tolist() == labels
@@ -25,7 +27,8 @@ def test_the_model_reproduces_the_seed_dialogues():
 
 
 def test_a_game_move_on_an_occupied_cell_has_probability_zero():
-    _, layout, model = shipped_components()
+    m = shipped_dialogue_model()
+    layout, model = m.layout, m.action_model
     board = play(play(EMPTY_BOARD, 4, 1), 0, 2)
     said = ["Salutation(greeting)", "Provide(name)", "Request(playGame)"]
     state = layout.encode(["your", "turn"], [("i", 1.0), ("pick", 1.0)], board, True, said)
@@ -56,7 +59,8 @@ def test_mask_is_never_empty():
 
 
 def test_threshold_follows_the_paper():
-    _, layout, model = shipped_components()
+    m = shipped_dialogue_model()
+    layout, model = m.layout, m.action_model
     state = layout.encode([], [], EMPTY_BOARD, True)
     probs = model.predict_proba(state)[0]
     mask = action_mask(probs, EMPTY_BOARD, True, 0.001)
@@ -69,7 +73,8 @@ def test_the_memoised_mask_is_the_same_as_computing_it():
     from oxbot.dialogue.env import InteractiveGameEnv
 
     env = InteractiveGameEnv(opponent="blocker")
-    _, layout, model = shipped_components()
+    m = shipped_dialogue_model()
+    layout, model = m.layout, m.action_model
     obs, info = env.reset(seed=4)
     rng = np.random.default_rng(0)
     for _ in range(300):

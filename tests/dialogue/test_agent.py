@@ -3,10 +3,10 @@ import pytest
 import torch
 
 from oxbot.dialogue.agent import DQNPolicy, QNetwork, load_policy, masked_argmax
-from oxbot.dialogue.env import shipped_components
+from oxbot.dialogue.model import shipped_dialogue_model
 from oxbot.errors import ModelFileError
 
-LAYOUT = shipped_components()[1]
+LAYOUT = shipped_dialogue_model().layout
 
 
 def test_the_network_is_the_papers_by_default():

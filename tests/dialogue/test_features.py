@@ -1,14 +1,14 @@
 import numpy as np
 import pytest
 
-from oxbot.dialogue.env import shipped_components
 from oxbot.dialogue.features import FeatureLayout, board_symmetries
+from oxbot.dialogue.model import shipped_dialogue_model
 from oxbot.errors import DataError
 from oxbot.game.board import EMPTY_BOARD, play
 
 
 def test_layout_is_words_then_cells_then_flags():
-    _, layout, _ = shipped_components()
+    layout = shipped_dialogue_model().layout
     assert layout.n_features == 61 == len(layout.names)
     assert layout.names[:35] == tuple(f"word:{w}" for w in layout.vocabulary)
     assert layout.names[35] == "robot:upperleft" and layout.names[44] == "person:upperleft"
@@ -48,7 +48,7 @@ def test_game_features_keep_the_board_and_its_result():
 
 
 def test_symmetries_move_cells_and_game_moves_together():
-    _, layout, _ = shipped_components()
+    layout = shipped_dialogue_model().layout
     features, actions = layout.symmetry_permutations()
     assert len({tuple(p) for p in board_symmetries()}) == 8
     board = play(EMPTY_BOARD, 0, 1)  # robot in the upper left corner

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from oxbot.dialogue.domain import load_domain
-from oxbot.dialogue.simulator import SILENCE, UserSimulator
+from oxbot.dialogue.domain import SILENCE, load_domain
+from oxbot.dialogue.simulator import UserSimulator
 from oxbot.errors import OpponentError
 from oxbot.game.board import EMPTY_BOARD, play
 

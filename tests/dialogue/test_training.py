@@ -73,10 +73,11 @@ def test_epsilon_falls_linearly_to_its_minimum():
 def test_misheard_words_are_absent_words_below_the_action_models_threshold():
     import numpy as np
 
-    from oxbot.dialogue.env import shipped_components
+    from oxbot.dialogue.model import shipped_dialogue_model
     from oxbot.dialogue.training import add_misheard_words
 
-    _, layout, model = shipped_components()
+    m = shipped_dialogue_model()
+    layout, model = m.layout, m.action_model
     rng = np.random.default_rng(0)
     states = np.zeros((1000, layout.n_features), dtype=np.float32)
     states[:, 0] = 1.0  # a word the robot said

@@ -3,12 +3,14 @@ import time
 import numpy as np
 import pytest
 
-from oxbot.robot.arm import ArmComponent, ArmConfig, cell_strokes, drawing_seconds
-from oxbot.robot.bus import Bus
+from oxbot.config import ArmConfig
+from oxbot.robot.arm import ArmComponent, cell_strokes, drawing_seconds
+from oxbot.robot.bus import LocalBus
 from oxbot.robot.messages import ArmCommand, ArmDone, ArmStroke, ComponentFailed
 from tests.robot.helpers import collect
 
-FAST = ArmConfig(speed_factor=50.0)
+FAST = 50.0
+"""Times faster than real time."""
 
 
 @pytest.mark.parametrize("symbol", ["circle", "cross"])
@@ -26,9 +28,9 @@ def test_strokes_stay_inside_the_cell_with_a_margin():
 
 
 def test_the_arm_draws_stroke_by_stroke_then_says_done():
-    bus = Bus()
+    bus = LocalBus()
     inbox = bus.subscribe(ArmStroke, ArmDone)
-    arm = ArmComponent(bus, FAST, np.random.default_rng(0))
+    arm = ArmComponent(bus, rng=np.random.default_rng(0), speed_factor=FAST)
     with arm:
         bus.publish(ArmCommand(where="upper left", symbol="cross"))
         first = inbox.get(timeout=5.0)
@@ -44,11 +46,11 @@ def test_the_arm_draws_stroke_by_stroke_then_says_done():
 
 
 def test_drawing_takes_the_time_a_pen_needs():
-    config = ArmConfig(speed_factor=4.0)
+    config = ArmConfig()
     expected = drawing_seconds(cell_strokes("circle", np.random.default_rng(7)), config) / 4.0
-    bus = Bus()
+    bus = LocalBus()
     done = bus.subscribe(ArmDone)
-    with ArmComponent(bus, config, np.random.default_rng(7)):
+    with ArmComponent(bus, config, np.random.default_rng(7), speed_factor=4.0):
         start = time.monotonic()
         bus.publish(ArmCommand(where="middle", symbol="circle"))
         assert done.get(timeout=5.0) is not None
@@ -57,9 +59,9 @@ def test_drawing_takes_the_time_a_pen_needs():
 
 
 def test_commands_queue_and_a_bad_cell_is_reported_without_stopping_the_arm():
-    bus = Bus()
+    bus = LocalBus()
     inbox = bus.subscribe(ArmStroke, ArmDone, ComponentFailed)
-    with ArmComponent(bus, FAST, np.random.default_rng(1)) as arm:
+    with ArmComponent(bus, rng=np.random.default_rng(1), speed_factor=FAST) as arm:
         bus.publish(ArmCommand(where="middle", symbol="circle"))
         bus.publish(ArmCommand(where="nowhere", symbol="circle"))
         bus.publish(ArmCommand(where="9", symbol="cross"))

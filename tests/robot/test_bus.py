@@ -1,7 +1,7 @@
 import threading
 import time
 
-from oxbot.robot.bus import Bus, Component
+from oxbot.robot.bus import Component, LocalBus
 from oxbot.robot.messages import ArmDone, ComponentFailed, DialogueAct, Utterance
 
 
@@ -15,7 +15,7 @@ def wait_for(predicate, seconds=3.0):
 
 
 def test_subscribers_get_only_their_types_in_order():
-    bus = Bus()
+    bus = LocalBus()
     says = bus.subscribe(Utterance)
     everything = bus.subscribe()
     for i in range(500):
@@ -27,7 +27,7 @@ def test_subscribers_get_only_their_types_in_order():
 
 
 def test_a_burst_from_many_threads_keeps_each_publishers_order():
-    bus = Bus()
+    bus = LocalBus()
     inbox = bus.subscribe(DialogueAct)
 
     def publisher(name):
@@ -63,7 +63,7 @@ class Echo(Component):
 
 
 def test_a_failing_component_is_reported_restarted_and_carries_on():
-    bus = Bus()
+    bus = LocalBus()
     acts, failures = bus.subscribe(DialogueAct), bus.subscribe(ComponentFailed)
     with Echo(bus) as echo:
         for text in ("hello", "boom", "bye"):
@@ -89,7 +89,7 @@ class Ticker(Component):
 
 
 def test_periodic_components_tick_and_stop():
-    with Ticker(Bus()) as ticker:
+    with Ticker(LocalBus()) as ticker:
         assert wait_for(lambda: ticker.ticks >= 5)
     after = ticker.ticks
     time.sleep(0.1)

@@ -10,8 +10,9 @@ from oxbot.config import TrackerConfig
 from oxbot.errors import InvalidInputError
 from oxbot.perception.render import TUNING_STYLE, random_scene
 from oxbot.perception.sources import ImageFolderSource
-from oxbot.robot.bus import Bus
-from oxbot.robot.game_moves import GameMoveComponent, decode_frame
+from oxbot.robot.bus import LocalBus
+from oxbot.robot.frames import frame_message, frame_pixels
+from oxbot.robot.game_moves import GameMoveComponent
 from oxbot.robot.messages import (
     ArmCommand,
     BoardProblem,
@@ -32,7 +33,7 @@ def scene():
 
 def test_a_pushed_sheet_becomes_one_move_after_three_readings(scene):
     sheet, rng = scene
-    bus = Bus()
+    bus = LocalBus()
     events = bus.subscribe(GameMove, BoardSeen, BoardProblem)
     with GameMoveComponent(bus, robot_starts=True) as vision:
         bus.publish(ArmCommand(where="middle", symbol="circle"))  # the robot's circle first
@@ -59,7 +60,7 @@ def test_a_pushed_sheet_becomes_one_move_after_three_readings(scene):
 
 def test_a_frame_message_is_read_like_a_pushed_frame_and_problems_are_reported(scene):
     sheet, rng = scene
-    bus = Bus()
+    bus = LocalBus()
     events = bus.subscribe(GameMove, BoardProblem)
     sheet = sheet.with_symbol(2, "cross", rng).with_symbol(6, "cross", rng)
     png = cv2.imencode(".png", sheet.photo(rng)[..., ::-1])[1].tobytes()
@@ -72,7 +73,7 @@ def test_a_frame_message_is_read_like_a_pushed_frame_and_problems_are_reported(s
 
 def test_a_new_game_forgets_the_sheet(scene):
     sheet, rng = scene
-    bus = Bus()
+    bus = LocalBus()
     events = bus.subscribe(GameMove)
     sheet = sheet.with_symbol(4, "circle", rng)
     with GameMoveComponent(bus, robot_starts=False, config=TrackerConfig(period_s=0.05)) as vision:
@@ -89,7 +90,7 @@ def test_a_camera_source_is_read_at_every_tick(scene, tmp_path):
     sheet = sheet.with_symbol(8, "circle", rng)
     for i in range(5):
         cv2.imwrite(str(tmp_path / f"{i}.png"), sheet.photo(rng)[..., ::-1])
-    bus = Bus()
+    bus = LocalBus()
     events = bus.subscribe(GameMove)
     source = ImageFolderSource(tmp_path)
     with GameMoveComponent(bus, robot_starts=False, source=source):
@@ -98,16 +99,20 @@ def test_a_camera_source_is_read_at_every_tick(scene, tmp_path):
 
 def test_bad_frames_are_refused_clearly():
     with pytest.raises(InvalidInputError, match="not a PNG image"):
-        decode_frame(Frame(image=b"\x89PNG nonsense", format="png"))
-    with pytest.raises(InvalidInputError, match="PNG or JPEG"):
-        decode_frame(Frame(image=b"", format="raw"))
-    bus = Bus()
+        frame_pixels(Frame(image=b"\x89PNG nonsense", format="png"))
+    with pytest.raises(InvalidInputError, match="does not have the shape"):
+        frame_pixels(Frame(image=b"", format="raw"))
+    with pytest.raises(InvalidInputError, match="does not have the shape"):
+        frame_pixels(Frame(image=b"abc", format="raw", shape=(2, 2)))
+    bus = LocalBus()
     failures = bus.subscribe(ComponentFailed)
     with GameMoveComponent(bus) as vision:
         with pytest.raises(InvalidInputError, match="uint8"):
             vision.push(np.zeros((4, 4), np.float64))
         with pytest.raises(InvalidInputError, match="shape"):
             vision.push(np.zeros((4, 4, 4), np.uint8))
+        with pytest.raises(InvalidInputError, match="shape"):
+            frame_message(np.zeros((4, 4, 4), np.uint8))
         bus.publish(Frame(image=b"junk", format="jpeg"))
         failure = collect(failures, lambda m: True)[-1]
         assert "not a JPEG image" in failure.error

@@ -1,6 +1,6 @@
 import pytest
 
-from oxbot.robot.bus import Bus
+from oxbot.robot.bus import LocalBus
 from oxbot.robot.head_movement import HeadMovementComponent, mirror
 from oxbot.robot.messages import HeadDirection, HeadMove
 
@@ -14,7 +14,7 @@ def test_the_robot_mirrors_the_person(person, robot):
 
 
 def test_the_component_turns_the_head_once_per_change():
-    bus = Bus()
+    bus = LocalBus()
     moves = bus.subscribe(HeadMove)
     people = ["centre", "left", "left", "up", "right", "centre"]
     with HeadMovementComponent(bus):

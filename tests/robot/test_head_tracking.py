@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 from skimage import data
 
+from oxbot.config import HeadConfig
 from oxbot.errors import InvalidInputError
 from oxbot.perception.sources import ImageFolderSource
-from oxbot.robot.bus import Bus
-from oxbot.robot.head_tracking import HeadTracker, HeadTrackingComponent, HeadTrackingConfig
+from oxbot.robot.bus import LocalBus
+from oxbot.robot.head_tracking import HeadTracker, HeadTrackingComponent
 from oxbot.robot.messages import HeadDirection
 
 H, W = 768, 1024
@@ -47,7 +48,7 @@ def test_moving_the_face_gives_the_persons_direction(astronaut):
 
 
 def test_a_mirroring_camera_swaps_left_and_right(astronaut):
-    tracker = HeadTracker(HeadTrackingConfig(mirrored=True))
+    tracker = HeadTracker(HeadConfig(mirrored=True))
     tracker.calibrate(scene(astronaut))
     assert tracker.direction(scene(astronaut, dx=150)) == "right"
     assert tracker.direction(scene(astronaut, dx=-150)) == "left"
@@ -71,7 +72,7 @@ def test_a_blank_frame_has_no_direction_and_cannot_calibrate(astronaut):
 
 
 def test_the_first_detections_calibrate_the_centre(astronaut):
-    tracker = HeadTracker(HeadTrackingConfig(calibration_detections=2))
+    tracker = HeadTracker(HeadConfig(calibration_detections=2))
     right = scene(astronaut, dx=150)
     assert tracker.direction(right) == "centre"  # calibrating: the person looks ahead
     assert not tracker.calibrated
@@ -81,7 +82,7 @@ def test_the_first_detections_calibrate_the_centre(astronaut):
 
 
 def test_the_component_publishes_only_changes(astronaut):
-    bus = Bus()
+    bus = LocalBus()
     heads = bus.subscribe(HeadDirection)
     component = HeadTrackingComponent(bus, calibrated(astronaut))
     frames = [scene(astronaut), scene(astronaut), scene(astronaut, dx=150)]
@@ -107,9 +108,9 @@ def test_the_component_reads_a_frame_source_until_it_ends(astronaut, tmp_path, c
             str(tmp_path / f"{i:02d}.png"),
             cv2.cvtColor(scene(astronaut, dx, dy), cv2.COLOR_RGB2BGR),
         )
-    bus = Bus()
+    bus = LocalBus()
     heads = bus.subscribe(HeadDirection)
-    tracker = HeadTracker(HeadTrackingConfig(calibration_detections=1))
+    tracker = HeadTracker(HeadConfig(calibration_detections=1))
     with (
         caplog.at_level(logging.INFO),
         HeadTrackingComponent(bus, tracker, ImageFolderSource(tmp_path)),
@@ -121,7 +122,7 @@ def test_the_component_reads_a_frame_source_until_it_ends(astronaut, tmp_path, c
 
 
 def test_a_missing_source_turns_head_tracking_off_with_one_warning(tmp_path, caplog):
-    bus = Bus()
+    bus = LocalBus()
     inbox = bus.subscribe()
     with (
         caplog.at_level(logging.WARNING),

@@ -12,6 +12,7 @@ import time
 import numpy as np
 import pytest
 
+from oxbot.config import load_config
 from oxbot.game.board import CELL_NAMES, EMPTY, outcome
 from oxbot.perception.render import TUNING_STYLE, random_scene
 from oxbot.robot.messages import (
@@ -24,7 +25,7 @@ from oxbot.robot.messages import (
     SpeakingFinished,
     SpeakingStarted,
 )
-from oxbot.robot.session import Robot, RobotOptions
+from oxbot.robot.session import Robot
 from oxbot.speech.synthesis import Voice, synthesize
 
 pytestmark = pytest.mark.slow
@@ -77,12 +78,14 @@ class Camera(threading.Thread):
 
 
 def test_a_spoken_and_drawn_game_runs_to_the_goodbye():
-    options = RobotOptions(speed_factor=8.0, answer_timeout=4.0, move_timeout=60.0, seed=5)
+    config = load_config(
+        None, ["robot.speed_factor=8", "robot.answer_timeout=4", "robot.move_timeout=60"]
+    )
     voice = Voice("en-us+m3")
     recordings = {act: synthesize(text, voice) for act, text in ANSWERS.items()}
     prefer = (4, 0, 2, 6, 8, 1, 3, 5, 7)
     log: list = []
-    with Robot(options) as robot:
+    with Robot(config, seed=5) as robot:
         events = robot.bus.subscribe()
         camera = Camera(robot, seed=11)
         camera.start()

@@ -5,6 +5,7 @@ import time
 import numpy as np
 import pytest
 
+from oxbot.config import load_config
 from oxbot.errors import IllegalMoveError, InvalidInputError
 from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, outcome
 from oxbot.robot.messages import (
@@ -21,9 +22,11 @@ from oxbot.robot.messages import (
     SpeakingStarted,
     SpeechHypotheses,
 )
-from oxbot.robot.session import Robot, RobotOptions
+from oxbot.robot.session import Robot
 
-FAST = RobotOptions(speed_factor=25.0, answer_timeout=2.0, move_timeout=10.0, seed=3)
+FAST = load_config(
+    None, ["robot.speed_factor=25", "robot.answer_timeout=2", "robot.move_timeout=10"]
+)
 
 
 class TypingPerson:
@@ -72,7 +75,7 @@ def intervals(log: list[Message], start: type, end: type) -> list[tuple[int, int
 
 @pytest.fixture
 def robot():
-    with Robot(FAST) as r:
+    with Robot(FAST, seed=3) as r:
         yield r
 
 
@@ -164,7 +167,7 @@ def test_a_failing_component_is_reported_and_restarted_without_ending_the_game(r
     assert [f.component for f in failures] == ["GameMoveComponent"]
     assert "not a PNG image" in failures[0].error
     assert ended.outcome in ("win", "draw", "loss")
-    assert robot.vision.running
+    assert all(component.running for component in robot.components)
 
 
 def test_a_new_game_starts_again_from_a_clean_sheet(robot):

@@ -4,7 +4,7 @@ import time
 import numpy as np
 import pytest
 
-from oxbot.robot.bus import Bus
+from oxbot.robot.bus import LocalBus
 from oxbot.robot.messages import (
     SpeakingFinished,
     SpeakingStarted,
@@ -13,7 +13,7 @@ from oxbot.robot.messages import (
     Utterance,
 )
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
-from oxbot.speech import RATE, Audio, Recognizer, read_wav, synthesize, to_wav_bytes
+from oxbot.speech import RATE, Audio, PocketsphinxRecognizer, read_wav, synthesize, to_wav_bytes
 
 
 def take(inbox, n, seconds=10.0):
@@ -30,7 +30,7 @@ def say(text):
 
 
 def test_speech_is_bracketed_by_started_and_finished_after_the_audio():
-    bus = Bus()
+    bus = LocalBus()
     inbox = bus.subscribe(SpeakingStarted, SpeakingFinished)
     with SpeechSynthesisComponent(bus, speed_factor=4.0):
         bus.publish(say("hello, shall we play a game?"))
@@ -44,7 +44,7 @@ def test_speech_is_bracketed_by_started_and_finished_after_the_audio():
 
 
 def test_utterances_queue_and_never_overlap():
-    bus = Bus()
+    bus = LocalBus()
     inbox = bus.subscribe(SpeakingStarted, SpeakingFinished)
     texts = ["one", "two", "three"]
     with SpeechSynthesisComponent(bus, speed_factor=8.0):
@@ -58,7 +58,7 @@ def test_utterances_queue_and_never_overlap():
 
 def test_without_espeak_the_robot_speaks_text_after_one_warning(monkeypatch, tmp_path, caplog):
     monkeypatch.setenv("PATH", str(tmp_path))  # a system where espeak-ng is not installed
-    bus = Bus()
+    bus = LocalBus()
     inbox = bus.subscribe(SpeakingStarted, SpeakingFinished)
     with caplog.at_level(logging.WARNING), SpeechSynthesisComponent(bus):
         for text in ("hello", "your turn", "good bye"):
@@ -75,8 +75,8 @@ def test_without_espeak_the_robot_speaks_text_after_one_warning(monkeypatch, tmp
 
 
 def test_recordings_become_nbest_hypotheses():
-    recognizer = Recognizer(["yes please", "no thanks", "maybe later"])
-    bus = Bus()
+    recognizer = PocketsphinxRecognizer(["yes please", "no thanks", "maybe later"])
+    bus = LocalBus()
     heard = bus.subscribe(SpeechHypotheses)
     click = to_wav_bytes(Audio(np.zeros(RATE // 20, np.int16), RATE))
     with SpeechRecognitionComponent(bus, recognizer):
@@ -86,4 +86,7 @@ def test_recordings_become_nbest_hypotheses():
     assert answer.source == "microphone"
     assert answer.nbest[0][0] == "no thanks"
     assert all(0.0 <= confidence <= 1.0 for _, confidence in answer.nbest)
-    assert nothing.nbest == ()
+    # each word of the best hypothesis with its own confidence, for the manager's state
+    assert [word for word, _ in answer.words] == ["no", "thanks"]
+    assert all(0.0 <= confidence <= 1.0 for _, confidence in answer.words)
+    assert nothing.nbest == () and nothing.words == ()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from oxbot.errors import InvalidInputError
-from oxbot.speech import RATE, Recognizer, Voice, pcm16, synthesize
+from oxbot.speech import RATE, PocketsphinxRecognizer, Voice, pcm16, synthesize
 from oxbot.speech.recognition import default_recognizer, with_noise_floor
 
 PHRASES = [
@@ -25,7 +25,7 @@ PHRASES = [
 
 @pytest.fixture(scope="module")
 def recognizer():
-    return Recognizer(PHRASES)
+    return PocketsphinxRecognizer(PHRASES)
 
 
 @pytest.mark.parametrize("voice", ["en-us", "en-us+m3", "en-us+f2"])
@@ -66,7 +66,7 @@ def test_bad_input_is_refused_clearly(recognizer):
     with pytest.raises(InvalidInputError, match="not a PCM WAV"):
         recognizer.recognize(b"garbage")
     with pytest.raises(InvalidInputError, match="at least one"):
-        Recognizer(["", "  "])
+        PocketsphinxRecognizer(["", "  "])
 
 
 def test_spec_recognize_uses_the_shipped_domain():
@@ -104,7 +104,7 @@ def test_grammar_fragments_are_not_offered_as_hypotheses():
 
 
 def test_one_recogniser_can_serve_several_threads():
-    recognizer = Recognizer(PHRASES)
+    recognizer = PocketsphinxRecognizer(PHRASES)
     said = ["yes please", "no thanks", "good bye", "i pick this one"] * 3
     recordings = {text: pcm16(synthesize(text)) for text in set(said)}
     alone = {text: recognizer.decode(samples) for text, samples in recordings.items()}
@@ -116,7 +116,7 @@ def test_one_recogniser_can_serve_several_threads():
 def test_only_the_domain_words_are_loaded_so_building_is_quick(caplog):
     started = time.perf_counter()
     with caplog.at_level(logging.WARNING):
-        recognizer = Recognizer(["hello there", "zzyzxq"])
+        recognizer = PocketsphinxRecognizer(["hello there", "zzyzxq"])
     assert time.perf_counter() - started < 3.0  # 8 s with the whole dictionary
     assert recognizer.vocabulary == {"hello", "there"}
     assert "zzyzxq" in caplog.text

@@ -7,10 +7,12 @@ from contextlib import contextmanager
 
 import pytest
 
-from oxbot.robot.session import RobotOptions
+from oxbot.config import load_config
 from oxbot.web.server import create_app, serving_in_background
 
-FAST = RobotOptions(speed_factor=8.0, answer_timeout=16.0, move_timeout=240.0)
+FAST = load_config(
+    None, ["robot.speed_factor=8", "robot.answer_timeout=16", "robot.move_timeout=240"]
+)
 """Speech, arm and waits 8x faster than real time; the robot waits 2 s for an answer and 30 s
 for a drawing, so a slow test machine never loses its turn."""
 
@@ -24,7 +26,7 @@ def running_server(**app_options) -> Iterator[str]:
 
 @pytest.fixture(scope="module")
 def server_url() -> Iterator[str]:
-    with running_server(robot_options=FAST) as url:
+    with running_server(config=FAST) as url:
         yield url
 
 

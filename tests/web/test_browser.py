@@ -17,8 +17,8 @@ import pytest
 from playwright.sync_api import Page, sync_playwright
 from skimage import data
 
-from oxbot.web.browser import CHROMIUM, draw
-from oxbot.web.browser import FLAGS as BROWSER_FLAGS
+from oxbot.testing.browser import CHROMIUM, draw
+from oxbot.testing.browser import FLAGS as BROWSER_FLAGS
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 FLAGS = [*BROWSER_FLAGS, "--use-fake-ui-for-media-stream", "--use-fake-device-for-media-stream"]
@@ -193,12 +193,14 @@ def play_a_whole_game_then_answer_by_voice(page: Page) -> None:
     assert len(labels) == 9 and labels.count(user) == len(latencies)
     assert page.locator("[data-testid=decision] tr.chosen").count() == 1
 
-    # after the goodbye, typing is refused with a clear message
-    page.get_by_test_id("say").fill("again")
-    page.get_by_test_id("say").press("Enter")
-    page.wait_for_function(
-        "document.querySelector('[data-testid=problem]').textContent.includes('game is over')"
-    )
+    # after the goodbye the page takes no more answers or drawings until a new game, and never
+    # shows the protocol's words to the person
+    assert page.get_by_test_id("say").is_disabled() and page.get_by_test_id("talk").is_disabled()
+    sent = page.evaluate("window.oxbot.stats.framesSent")
+    draw(page, "middle", user, rng)
+    page.wait_for_timeout(300)
+    assert page.evaluate("window.oxbot.stats.framesSent") == sent
+    assert "type" not in page.get_by_test_id("problem").text_content()
 
     # a new game, answered by voice: push-to-talk through Chromium's fake microphone
     before = len(log_items(page))

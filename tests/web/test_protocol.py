@@ -4,21 +4,24 @@ from __future__ import annotations
 
 import asyncio
 import base64
-import inspect
 import io
 import json
+import socket
 import threading
 import time
 
 import httpx
 import numpy as np
+import pytest
 import websockets
 from PIL import Image
 
+from oxbot.config import OxbotConfig, load_config
+from oxbot.errors import ConfigError
 from oxbot.game.board import outcome
-from oxbot.web.player import GameRecord, data_url, play_game
+from oxbot.testing.player import GameRecord, data_url, play_game
+from oxbot.testing.sheet import Sheet
 from oxbot.web.server import serve
-from oxbot.web.sheet import Sheet
 
 
 def png(image: np.ndarray) -> bytes:
@@ -46,7 +49,17 @@ def test_page_has_the_spec_hooks_and_its_files(server_url):
 
 
 def test_server_binds_to_localhost_unless_told_otherwise():
-    assert inspect.signature(serve).parameters["host"].default == "127.0.0.1"
+    assert OxbotConfig().web.host == "127.0.0.1"
+
+
+def test_a_taken_port_is_a_clear_error_not_uvicorns():
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        config = load_config(None, [f"web.port={port}"])
+        with pytest.raises(ConfigError, match=f"port {port} on 127.0.0.1 is already in use"):
+            serve(config)
 
 
 def test_each_tab_is_its_own_session_and_ends_cleanly(server_url, ws_url):
@@ -162,13 +175,14 @@ def test_messages_after_the_goodbye_are_refused_until_a_new_game(ws_url):
                 {"type": "talk", "rate": 16000, "pcm": base64.b64encode(bytes(6400)).decode()},
             ):
                 await ws.send(json.dumps(late))
-                refused.append((await next_of(ws, {"Error"}))["data"]["message"])
+                refused.append((await next_of(ws, {"Error"}))["data"])
             await ws.send(json.dumps({"type": "new_game", "image": data_url(Sheet(6).png())}))
             greeting = await next_of(ws, {"DialogueAct", "Error"})
         return refused, greeting
 
     refused, greeting = asyncio.run(after_the_end())
-    assert len(refused) == 3 and all("game is over" in m for m in refused)
+    assert len(refused) == 3 and all("game is over" in e["message"] for e in refused)
+    assert all(e["code"] == "game_over" for e in refused)  # the page words it for a person
     assert greeting["type"] == "DialogueAct"
     assert greeting["data"]["act"] == "Salutation(greeting)"
 

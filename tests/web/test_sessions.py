@@ -11,11 +11,11 @@ SESSIONS = 20
 
 
 def test_twenty_concurrent_games_finish_without_cross_talk():
-    with running_server(robot_options=FAST) as url:
+    with running_server(config=FAST) as url:
         ws_url = url.replace("http://", "ws://") + "/ws"
 
         async def all_games():
-            from oxbot.web.player import play_game
+            from oxbot.testing.player import play_game
 
             return await asyncio.gather(
                 *(play_game(ws_url, seed=100 + i, timeout=150) for i in range(SESSIONS))

@@ -8,7 +8,7 @@ import numpy as np
 from PIL import Image
 
 from oxbot.perception import read_board
-from oxbot.web.sheet import SIDE, Sheet, cell_box
+from oxbot.testing.sheet import SIDE, Sheet, cell_box
 
 
 def test_page_sheet_reads_as_drawn():

@@ -4,7 +4,8 @@
 "use strict";
 
 const $ = (id) => document.getElementById(id);
-const SIDE = 360, MARGIN = 30;          // oxbot/web/sheet.py: SIDE, MARGIN
+const SIDE = 360, MARGIN = 30;          // oxbot/testing/sheet.py draws the same sheet
+let SIZE = 3;                           // cells a side until the server's Hello says (game.SIZE)
 const INK = "#1e223c", ROBOT_INK = "#8b1e3f";
 const GRID_WIDTH = 4, PEN_WIDTH = 5;
 const FRAME_PERIOD_MS = 100;            // paper §2.1: the board is read every 100 ms
@@ -30,8 +31,8 @@ const board = $("board"), bctx = board.getContext("2d");
 const overlay = $("robot-ink"), octx = overlay.getContext("2d");
 
 function gridLines() {
-  const step = (SIDE - 2 * MARGIN) / 3;
-  return [0, 1, 2, 3].map((i) => MARGIN + i * step);
+  const step = (SIDE - 2 * MARGIN) / SIZE;
+  return Array.from({ length: SIZE + 1 }, (_, i) => MARGIN + i * step);
 }
 
 function wobbly(x0, y0, x1, y1) {
@@ -50,9 +51,9 @@ function wobbly(x0, y0, x1, y1) {
 
 function newGrid() {
   const L = gridLines(), r = (a, b) => a + Math.random() * (b - a), strokes = [];
-  for (const i of [1, 2]) {
+  for (let i = 1; i < SIZE; i++) {
     for (const vertical of [true, false]) {
-      const pos = L[i] + r(-3, 3), a = L[0] - r(-4, 10), b = L[3] + r(-4, 10), tilt = r(-4, 4);
+      const pos = L[i] + r(-3, 3), a = L[0] - r(-4, 10), b = L[SIZE] + r(-4, 10), tilt = r(-4, 4);
       strokes.push(vertical ? wobbly(pos, a, pos + tilt, b) : wobbly(a, pos, b, pos + tilt));
     }
   }
@@ -108,6 +109,7 @@ board.addEventListener("pointerup", endStroke);
 board.addEventListener("pointercancel", () => { state.stats.cancels++; endStroke(); });
 
 function sendFrame() {
+  if (state.ended) return;   // after the goodbye the robot no longer watches the sheet
   if (!send({ type: "frame", image: sheetImage() })) return;
   state.dirty = false; state.stats.framesSent++;
 }
@@ -122,7 +124,7 @@ $("undo").addEventListener("click", () => {
 function cellBox(where) {
   const i = state.hello ? state.hello.cells.indexOf(where) : -1, L = gridLines();
   if (i < 0) return null;
-  const row = Math.floor(i / 3), col = i % 3;
+  const row = Math.floor(i / SIZE), col = i % SIZE;
   return [L[col], L[row], L[col + 1], L[row + 1]];
 }
 
@@ -175,7 +177,7 @@ function resetSheet() {
   state.grid = newGrid(); state.committed = []; state.pending = []; state.drawing = null;
   state.drawingAccepted = false; state.robotCells = new Set(); state.lastSeen = null;
   state.ended = false; octx.clearRect(0, 0, SIDE, SIDE); redrawSheet();
-  showProblem(""); $("turn").textContent = "";
+  showProblem(""); $("turn").textContent = ""; enableAnswers(!!state.hello);
 }
 
 $("start").addEventListener("click", startOrNewGame);
@@ -185,6 +187,7 @@ $("start").addEventListener("click", startOrNewGame);
 const handlers = {
   Hello(d) {
     state.hello = d;
+    if (d.size !== SIZE) { SIZE = d.size; state.grid = newGrid(); redrawSheet(); }
     $("start").textContent = "New game";
     $("symbol-hint").textContent = `You draw ${d.user_symbol === "cross" ? "crosses (X)" : "circles (O)"}; `
       + `the robot draws ${d.robot_symbol === "cross" ? "crosses" : "circles"}.`;
@@ -193,11 +196,12 @@ const handlers = {
   },
   DialogueAct(d) {
     addLog(d.speaker, d.act, d.text);
-    if (d.speaker === "sys" && d.act === "Request(userGameMove)") {
-      $("turn").textContent = `Your turn: draw a ${state.hello ? state.hello.user_symbol : "symbol"}.`;
-    } else if (d.speaker === "sys" && d.act.startsWith("GameMove")) {
+    const acts = state.hello ? state.hello.act_names : {};
+    if (d.speaker === "sys" && d.act === acts.move_request) {
+      $("turn").textContent = `Your turn: draw a ${state.hello.user_symbol}.`;
+    } else if (d.speaker === "sys" && state.hello && state.hello.game_moves.includes(d.act)) {
       $("turn").textContent = "The robot is drawing…";
-    } else if (d.speaker === "sys" && d.act !== "Inform(problem)") {
+    } else if (d.speaker === "sys" && d.act !== acts.problem) {
       $("turn").textContent = "";
     }
   },
@@ -235,14 +239,18 @@ const handlers = {
   Decision(d) { showDecision(d); },
   HeadMove(d) { lookTowards(d.direction); },
   DialogueEnded(d) {
-    state.ended = true;
+    state.ended = true; enableAnswers(false);
     const text = { win: "The robot won.", loss: "You won!", draw: "A draw." }[d.outcome] || "The game ended.";
     $("turn").textContent = `${text} Press New game to play again.`;
     addNote(`Game over: ${d.outcome || "unfinished"}.`);
   },
   ComponentFailed(d) { addNote(`${d.component} failed: ${d.error}`); },
   Status(d) { setStatus(d.message); },
-  Error(d) { showProblem(d.message); addNote(`server: ${d.message}`); },
+  Error(d) {
+    // the server's words are for programs; a person is told what to do
+    const forPerson = { game_over: "The game is over. Press New game to play again." };
+    showProblem(forPerson[d.code] || d.message); addNote(`server: ${d.message}`);
+  },
 };
 
 function onMessage(m) {
@@ -448,17 +456,17 @@ function stopCamera() {
 function showSeen(d) {
   state.lastSeen = d;
   const crops = $("crops");
-  if (crops.children.length !== 9) {
+  const names = state.hello ? state.hello.cells : [];
+  if (crops.children.length !== names.length) {
     crops.innerHTML = "";
-    for (let i = 0; i < 9; i++) {
+    for (let i = 0; i < names.length; i++) {
       const div = document.createElement("div"); div.className = "crop";
       const img = document.createElement("img"); img.alt = "";
       const label = document.createElement("div");
       div.append(img, label); crops.append(div);
     }
   }
-  const names = state.hello ? state.hello.cells : [];
-  for (let i = 0; i < 9; i++) {
+  for (let i = 0; i < names.length; i++) {
     const div = crops.children[i], label = d.labels && d.labels.length ? d.labels[i] : "no grid";
     if (d.cells && d.cells[i]) div.querySelector("img").src = `data:image/png;base64,${d.cells[i]}`;
     const mark = state.hello && state.hello.robot_symbol === "cross" ? "X" : "O";
@@ -469,7 +477,8 @@ function showSeen(d) {
   }
   const n = d.agreeing || 0;
   $("agreeing").querySelectorAll("i").forEach((dot, i) => dot.classList.toggle("on", i < n));
-  $("agreeing").querySelector("b").textContent = `${Math.min(n, 3)}/3`;
+  const needed = state.hello ? state.hello.stable_readings : 3;
+  $("agreeing").querySelector("b").textContent = `${Math.min(n, needed)}/${needed}`;
   $("agreeing").dataset.count = String(n);
 }
 

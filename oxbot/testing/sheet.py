@@ -1,4 +1,5 @@
-"""The web page's game sheet, drawn in Python: the same paper, grid and pens as the page.
+"""The web page's game sheet, drawn in Python: the same paper, grid and pens as the page
+(oxbot/web/static/app.js, whose constants must match these).
 
 The page (static/app.js) draws a hand-drawn-looking 3x3 grid on a square canvas of
 `SIDE` pixels and the person draws on it with a dark pen; it sends the canvas to the server,
@@ -18,7 +19,7 @@ import numpy as np
 from PIL import Image
 
 from oxbot.errors import InvalidInputError
-from oxbot.game.board import CELL_NAMES, cell_index
+from oxbot.game.board import CELL_NAMES, SIZE, cell_index
 
 SIDE = 360
 """Width and height of the page's canvas in pixels (what the server receives)."""
@@ -34,17 +35,17 @@ PEN_WIDTH = 5
 """Thickness of the person's pen in pixels (the page uses the same)."""
 
 
-def grid_lines() -> tuple[float, float, float, float]:
-    """The four lines' positions (x or y, pixels) bounding the three columns and rows."""
-    step = (SIDE - 2 * MARGIN) / 3
-    return tuple(MARGIN + i * step for i in range(4))  # type: ignore[return-value]
+def grid_lines() -> tuple[float, ...]:
+    """The SIZE + 1 lines' positions (x or y, pixels) bounding the columns and rows."""
+    step = (SIDE - 2 * MARGIN) / SIZE
+    return tuple(MARGIN + i * step for i in range(SIZE + 1))
 
 
 def cell_box(cell: int | str) -> tuple[float, float, float, float]:
     """The cell's (left, top, right, bottom) in canvas pixels."""
     index = cell if isinstance(cell, int) else cell_index(cell)
     lines = grid_lines()
-    row, col = divmod(index, 3)
+    row, col = divmod(index, SIZE)
     return lines[col], lines[row], lines[col + 1], lines[row + 1]
 
 
@@ -71,14 +72,14 @@ def _wobbly(start: np.ndarray, end: np.ndarray, rng: np.random.Generator) -> np.
 
 
 def hand_grid(rng: np.random.Generator) -> list[np.ndarray]:
-    """The four grid strokes (polylines in canvas pixels), overshooting a little."""
+    """The inner grid strokes (polylines in canvas pixels), overshooting a little."""
     lines = grid_lines()
     strokes = []
-    for i in (1, 2):
+    for i in range(1, SIZE):
         for vertical in (True, False):
             pos = lines[i] + rng.uniform(-3, 3)
             a = lines[0] - rng.uniform(-4, 10)
-            b = lines[3] + rng.uniform(-4, 10)
+            b = lines[SIZE] + rng.uniform(-4, 10)
             if vertical:
                 start, end = np.array([pos, a]), np.array([pos + rng.uniform(-4, 4), b])
             else:
@@ -87,7 +88,7 @@ def hand_grid(rng: np.random.Generator) -> list[np.ndarray]:
     return strokes
 
 
-def symbol_strokes(symbol: str, rng: np.random.Generator) -> list[np.ndarray]:
+def person_strokes(symbol: str, rng: np.random.Generator) -> list[np.ndarray]:
     """A person's circle or cross in the unit square of a cell, as a hand draws it."""
     centre = 0.5 + rng.uniform(-0.06, 0.06, size=2)
     size = rng.uniform(0.26, 0.34)
@@ -129,7 +130,7 @@ class Sheet:
 
     def draw(self, cell: int | str, symbol: str, strokes: int | None = None) -> Sheet:
         """Draw a person's `symbol` in `cell` (only its first `strokes` strokes, if given)."""
-        drawn = symbol_strokes(symbol, self.rng)
+        drawn = person_strokes(symbol, self.rng)
         return self.draw_strokes(cell, drawn[: strokes if strokes is not None else len(drawn)])
 
     def draw_strokes(self, cell: int | str, strokes: list[np.ndarray]) -> Sheet:

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from oxbot.web.sheet import SIDE, symbol_strokes, unit_to_canvas
+from oxbot.testing.sheet import SIDE, person_strokes, unit_to_canvas
 
 CHROMIUM = "/usr/bin/chromium"
 FLAGS = (
@@ -38,7 +38,7 @@ def draw(
     box = page.get_by_test_id("board").bounding_box()
     scale = box["width"] / SIDE
     touch = page.context.new_cdp_session(page) if finger else None
-    for stroke in symbol_strokes(symbol, rng):
+    for stroke in person_strokes(symbol, rng):
         points = unit_to_canvas(where, stroke) * scale + (box["x"], box["y"])
         path = [points[0]]
         for a, b in itertools.pairwise(points):

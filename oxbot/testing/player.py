@@ -1,6 +1,6 @@
 """A scripted person over the page's WebSocket: plays one whole game without a browser.
 
-It does what the page does, with the page's own sheet (`oxbot.web.sheet.Sheet`): it sends the
+It does what the page does, with the page's own sheet (`oxbot.testing.sheet.Sheet`): it sends the
 sheet as a PNG, answers the robot's invitation by typing, and when asked for a move draws its
 symbol in an empty cell — first stroke, then the whole symbol — sending a frame every 100 ms
 while it draws, as the page does. Load tests (`tests/web/test_sessions.py`) and the latency
@@ -20,10 +20,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, cell_index, play
-from oxbot.web.sheet import Sheet, symbol_strokes
+from oxbot.dialogue.domain import INVITATION, MOVE_REQUEST, game_move_cell
+from oxbot.game.board import CELL_NAMES, EMPTY_BOARD, ROBOT, USER, Board, play
+from oxbot.testing.sheet import Sheet, person_strokes
 
-MOVE_ACT = "GameMove(gridloc="
 ANSWER = "yes let's play"
 """What the scripted person answers to the robot's invitation."""
 
@@ -55,8 +55,8 @@ class GameRecord:
         """The board the conversation describes: the robot's and the person's GameMove acts."""
         board = EMPTY_BOARD
         for speaker, act, _ in self.transcript:
-            if act.startswith(MOVE_ACT):
-                cell = cell_index(act[len(MOVE_ACT) : -1])
+            cell = game_move_cell(act)
+            if cell is not None:
                 board = play(board, cell, ROBOT if speaker == "sys" else USER)
         return board
 
@@ -93,7 +93,7 @@ async def play_game(
                 return
             where = free[int(rng.integers(len(free)))]
             record.drawn.append(where)
-            strokes = symbol_strokes(record.user_symbol, sheet.rng)
+            strokes = person_strokes(record.user_symbol, sheet.rng)
             # the page sends the sheet every 100 ms while it changes: stroke by stroke here
             for k in range(1, len(strokes)):
                 partial = sheet.copy().draw_strokes(where, strokes[:k])
@@ -124,11 +124,11 @@ async def play_game(
                 act = data["act"]
                 if data["speaker"] != "sys":
                     continue
-                if act == "Request(playGame)":
+                if act == INVITATION:
                     await send({"type": "say", "text": answer})
-                elif act.startswith(MOVE_ACT):
-                    record.robot_cells.append(act[len(MOVE_ACT) : -1])
-                elif act == "Request(userGameMove)" and len(record.accepted) == len(record.drawn):
+                elif game_move_cell(act) is not None:
+                    record.robot_cells.append(CELL_NAMES[game_move_cell(act)])
+                elif act == MOVE_REQUEST and len(record.accepted) == len(record.drawn):
                     await draw_move()
             elif kind == "NewGame":
                 await send({"type": "frame", "image": data_url(sheet.png())})

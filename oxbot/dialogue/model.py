@@ -1,0 +1,66 @@
+"""The dialogue model: a domain and what is learned from it, built once per process.
+
+The domain's vocabulary gives the state's feature layout, its seed dialogues train the Naive
+Bayes action model. `new_state` starts a dialogue read with both, and `template` picks the words
+the robot says an act with. The environment and the interaction manager hold one each.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from oxbot.config import OxbotConfig
+from oxbot.dialogue.action_model import ActionModel
+from oxbot.dialogue.domain import SYSTEM_ACTS, Domain, load_domain
+from oxbot.dialogue.features import FeatureLayout
+from oxbot.dialogue.state import DialogueState
+
+
+class DialogueModel:
+    """A domain, its feature layout and its action model."""
+
+    def __init__(self, domain: Domain, layout: FeatureLayout, action_model: ActionModel) -> None:
+        self.domain = domain
+        self.layout = layout
+        self.action_model = action_model
+        self._templates = {act: domain.templates_for(act) for act in SYSTEM_ACTS}
+
+    def new_state(self, robot_starts: bool) -> DialogueState:
+        """A dialogue before its first act."""
+        return DialogueState(self.layout, robot_starts, self.action_model)
+
+    def template(self, act: str, rng: np.random.Generator) -> str:
+        """One of the act's template texts, picked at random (the cell filled for a GameMove)."""
+        texts = self._templates[act]
+        return texts[int(rng.integers(len(texts)))]
+
+
+def build_dialogue_model(config: OxbotConfig, domain: Domain | None = None) -> DialogueModel:
+    """The dialogue model of `domain` (the shipped one, built once, when None)."""
+    d, r = config.dialogue, config.reward
+    settings = (d.nb_alpha, d.nb_binarize, d.nb_flag_weight, r.mask_threshold)
+    if domain is None:
+        return _shipped(*settings)
+    return _build(domain, *settings)
+
+
+@functools.cache
+def _shipped(alpha: float, binarize: float, flag_weight: int, threshold: float) -> DialogueModel:
+    return _build(load_domain(), alpha, binarize, flag_weight, threshold)
+
+
+def _build(
+    domain: Domain, alpha: float, binarize: float, flag_weight: int, threshold: float
+) -> DialogueModel:
+    layout = FeatureLayout(domain.vocabulary)
+    action_model = ActionModel.from_domain(
+        domain, layout, alpha=alpha, binarize=binarize, flag_weight=flag_weight, threshold=threshold
+    )
+    return DialogueModel(domain, layout, action_model)
+
+
+def shipped_dialogue_model() -> DialogueModel:
+    """The shipped domain's model with the default settings."""
+    return build_dialogue_model(OxbotConfig())

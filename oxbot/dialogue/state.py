@@ -1,0 +1,173 @@
+"""The dialogue state: everything the interaction manager knows of one dialogue so far.
+
+The training environment, the robot's interaction manager, the action model's seed dialogues
+and the evaluations all drive the same `DialogueState` through the same three events — the
+robot says an act, the robot's act could not be done, the person says or draws something —
+and read it the same two ways: `encode()`, the feature vector the Q-network and the action
+model see (`oxbot.dialogue.features`), and `offered()`, Pr(a|s) and the action mask. They differ
+only in where the person's answers come from: a simulated person in the environment, the
+recogniser and the camera on the robot.
+
+    state = DialogueState(layout, robot_starts=True, action_model=model)
+    state.robot_says(GREETING, "Hello!")
+    state.person_says(GREETING, "Hi!", heard=(("hi", 0.9),))
+    obs = state.encode()
+    probs, mask = state.offered()
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from oxbot.dialogue.domain import game_move_cell, words_of
+from oxbot.errors import IllegalMoveError
+from oxbot.game.board import (
+    EMPTY,
+    EMPTY_BOARD,
+    ROBOT,
+    USER,
+    Board,
+    Outcome,
+    outcome,
+    play,
+    to_move,
+)
+
+if TYPE_CHECKING:
+    from oxbot.dialogue.action_model import ActionModel
+    from oxbot.dialogue.features import FeatureLayout
+
+Heard = tuple[tuple[str, float], ...]
+"""Words as the recogniser heard them, each with its confidence in [0, 1]."""
+Turn = dict[str, str]
+"""One transcript entry (SPEC §5): `{"speaker": "sys" | "usr", "act": ..., "text": ...}`."""
+
+
+class DialogueState:
+    """The board, who started, the acts said, the last words on both sides, the transcript.
+
+    `layout` turns the state into features; `action_model`, when given, says which acts are
+    offered in it (the seed dialogues that train the action model are replayed without one).
+    """
+
+    def __init__(
+        self,
+        layout: FeatureLayout,
+        robot_starts: bool = True,
+        action_model: ActionModel | None = None,
+    ) -> None:
+        self.layout = layout
+        self.action_model = action_model
+        self.robot_starts = bool(robot_starts)
+        self.board: Board = EMPTY_BOARD
+        self.said: set[str] = set()
+        """Every act the robot has said in this dialogue."""
+        self.last_act = ""
+        """The robot's last act ("" before its first)."""
+        self.system_words: Sequence[str] = ()
+        """The words of the robot's last act (none after a turn it could not take)."""
+        self.heard: Heard = ()
+        """The person's words since the robot's last act, as heard."""
+        self.transcript: list[Turn] = []
+        self._features: np.ndarray | None = None
+
+    # --- the game ---------------------------------------------------------------------------
+
+    @property
+    def outcome(self) -> Outcome | None:
+        """The game's result from the robot's side once it is over, else None."""
+        return outcome(self.board)
+
+    @property
+    def robot_to_move(self) -> bool:
+        """True while the game is on and it is the robot's turn to draw."""
+        return self.outcome is None and to_move(self.board, self.robot_starts) == ROBOT
+
+    @property
+    def person_to_move(self) -> bool:
+        """True while the game is on and it is the person's turn to draw."""
+        return self.outcome is None and to_move(self.board, self.robot_starts) == USER
+
+    def can_do(self, act: str) -> bool:
+        """Whether the robot can do `act` now: a GameMove needs its turn and an empty cell."""
+        cell = game_move_cell(act)
+        return cell is None or (self.board[cell] == EMPTY and self.robot_to_move)
+
+    # --- what happens -----------------------------------------------------------------------
+
+    def robot_says(self, act: str, text: str) -> None:
+        """The robot says `act` in the words `text` (and draws, for a GameMove)."""
+        cell = game_move_cell(act)
+        if cell is not None:
+            if not self.can_do(act):
+                raise IllegalMoveError(f"the robot cannot play {act} now")
+            self.board = play(self.board, cell, ROBOT)
+        self.said.add(act)
+        self.last_act = act
+        self.system_words = _words(text)
+        self.heard = ()
+        self.transcript.append({"speaker": "sys", "act": act, "text": text})
+        self._features = None
+
+    def robot_informs(self, act: str, text: str) -> None:
+        """The robot says something outside the policy's acts (about an impossible drawing):
+        in the transcript, not in what the policy sees."""
+        self.transcript.append({"speaker": "sys", "act": act, "text": text})
+
+    def robot_skips(self) -> None:
+        """The robot's act could not be done (a GameMove out of turn): nothing said or heard."""
+        self.system_words, self.heard = (), ()
+        self._features = None
+
+    def person_says(self, act: str, text: str, heard: Heard | None = None) -> None:
+        """The person's turn: `text` understood as `act`, heard as `heard` when they spoke
+        (None keeps what was heard before: a drawing makes no sound). A GameMove act on a
+        cell also puts the person's mark there."""
+        cell = game_move_cell(act)
+        if cell is not None:
+            self.board = play(self.board, cell, USER)
+        if heard is not None:
+            self.heard = tuple(heard)
+        self.transcript.append({"speaker": "usr", "act": act, "text": text})
+        self._features = None
+
+    # --- how the policy sees it -------------------------------------------------------------
+
+    def encode(self) -> np.ndarray:
+        """The state's feature vector (`FeatureLayout`); do not modify it in place."""
+        if self._features is None:
+            self._features = self.layout.encode(
+                self.system_words, self.heard, self.board, self.robot_starts, self.said
+            )
+        return self._features
+
+    def offered(self) -> tuple[np.ndarray, np.ndarray]:
+        """Pr(a|s) of every act and the action mask (paper §2.2), from the action model."""
+        if self.action_model is None:
+            raise TypeError("this DialogueState has no action model to offer acts with")
+        return self.action_model.offered(self.encode(), self.board, self.robot_to_move)
+
+    def at(self, board: Board) -> DialogueState:
+        """A copy of this state with the game at `board` (walking the game tree)."""
+        twin = self.copy()
+        twin.board = board
+        return twin
+
+    def copy(self) -> DialogueState:
+        """An independent copy (the layout and action model are shared)."""
+        twin = copy.copy(self)
+        twin.said = set(self.said)
+        twin.transcript = list(self.transcript)
+        twin._features = None
+        return twin
+
+
+@functools.lru_cache(maxsize=4096)
+def _words(text: str) -> tuple[str, ...]:
+    # the same few template texts come back every turn; the environment runs 30,000 a second
+    return tuple(words_of(text))
