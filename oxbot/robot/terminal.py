@@ -13,18 +13,28 @@ import logging
 import shutil
 import subprocess
 import threading
-from collections.abc import Callable
 
 from rich.console import Console
 from rich.markup import escape
 
-from oxbot.errors import IllegalMoveError, InvalidInputError, OxbotError
-from oxbot.game.board import cell_index, render
+from oxbot.errors import InvalidInputError, OxbotError
+from oxbot.game.board import EMPTY_BOARD
+from oxbot.game.terminal import (
+    CELL_HELP,
+    NEW_WORDS,
+    QUIT_WORDS,
+    ReadLine,
+    is_cell,
+    print_board,
+    print_game_over,
+    print_turn,
+)
 from oxbot.robot.messages import (
     BoardProblem,
     ComponentFailed,
     DialogueAct,
     DialogueEnded,
+    GameState,
     Message,
     SpeakingStarted,
 )
@@ -32,11 +42,9 @@ from oxbot.robot.session import Robot, warm_up
 
 log = logging.getLogger(__name__)
 
-ReadLine = Callable[[str], str]
-QUIT_WORDS = {"quit", "exit", "q"}
 HELP = (
-    "Answer by typing (Enter sends), 'talk' to speak into the microphone, a cell to draw in it "
-    "(1-9 or upperleft ... lowerright), 'new' for a new game, 'quit' to leave."
+    f"Answer by typing (Enter sends), 'talk' to speak into the microphone, {CELL_HELP} to draw "
+    "in it, 'new' for a new game, 'quit' to leave."
 )
 
 
@@ -123,7 +131,7 @@ class TerminalRobot:
         self.speakers = speakers if speakers is not None else Speakers()
         self.microphone = microphone if microphone is not None else Microphone()
         self._events = robot.bus.subscribe(
-            DialogueAct, BoardProblem, DialogueEnded, ComponentFailed, SpeakingStarted
+            DialogueAct, GameState, BoardProblem, DialogueEnded, ComponentFailed, SpeakingStarted
         )
         self._printer = threading.Thread(target=self._print_events, daemon=True)
         self._stopping = threading.Event()
@@ -133,7 +141,7 @@ class TerminalRobot:
         self.console.print(f"[dim]{escape(HELP)}[/]")
         self._printer.start()
         with self.console.status("Loading the robot's models..."):
-            warm_up()
+            warm_up(self.robot.config)
         self.robot.start()
         try:
             while True:
@@ -153,11 +161,11 @@ class TerminalRobot:
         if not line:
             return
         try:
-            if line.lower() == "new":
+            if line.lower() in NEW_WORDS:
                 self.robot.new_game()
             elif line.lower() == "talk":
                 self._talk()
-            elif self.typed_moves and _is_cell(line):
+            elif self.typed_moves and is_cell(line):
                 self.robot.draw(line)
             else:
                 self.robot.say(line)
@@ -167,7 +175,7 @@ class TerminalRobot:
     @property
     def typed_moves(self) -> bool:
         """Cells are typed unless a camera watches the sheet (and works)."""
-        return self.robot.vision.source is None or self.robot.vision.off
+        return not self.robot.watching_sheet
 
     def _talk(self) -> None:
         self.microphone.start()
@@ -183,10 +191,9 @@ class TerminalRobot:
     def _show(self, message: Message) -> None:
         c = self.console
         if isinstance(message, DialogueAct):
-            who = "[bold cyan]Rob:[/]" if message.speaker == "sys" else "[bold green]Usr:[/]"
-            c.print(f"{who} {escape(message.text)} [dim]{escape(f'[{message.act}]')}[/]")
-            if message.act.startswith("GameMove"):  # the manager's board already has it
-                c.print(escape(render(self.robot.board, self.robot.manager.robot_starts)))
+            print_turn(c, message.speaker, message.text, message.act)
+        elif isinstance(message, GameState) and message.board != EMPTY_BOARD:
+            print_board(c, message.board, message.robot_starts)
         elif isinstance(message, BoardProblem):
             c.print(f"[yellow]On the sheet: {escape(message.reason)}[/]")
         elif isinstance(message, SpeakingStarted):
@@ -196,13 +203,4 @@ class TerminalRobot:
                 f"[red]{escape(message.component)} failed ({escape(message.error)}); restarted[/]"
             )
         elif isinstance(message, DialogueEnded):
-            result = {"win": "I won", "loss": "you won", "draw": "a draw", None: "unfinished"}
-            c.print(f"[bold]Game over: {result[message.outcome]}.[/] Type 'new' or 'quit'.")
-
-
-def _is_cell(text: str) -> bool:
-    try:
-        cell_index(text)
-    except IllegalMoveError:
-        return False
-    return True
+            print_game_over(c, message.outcome)

@@ -88,9 +88,14 @@ def test_the_person_can_start_with_circles():
     assert " X | X | O" in out.getvalue()
 
 
-def test_play_again_asks_and_counts_games():
-    game, _ = make_game(["5", "3", "7", "y", "5", "3", "7", "n"], FirstFreeCell())
+def test_new_starts_another_game_and_quit_leaves_as_in_play_terminal():
+    lines = ["5", "3", "7", "again?", "new", "5", "3", "7", "quit"]
+    game, out = make_game(lines, FirstFreeCell())
     assert game.play_session() == ["loss", "loss"]
+    text = out.getvalue()
+    assert text.count("Game over: you won. Type 'new' or 'quit'.") == 2
+    assert "Type 'new' for a new game or 'quit' to leave." in text  # "again?" is neither
+    assert "Rob: Your turn." in text and "Usr: [who=usr what=draw where=middle]" in text
 
 
 def test_play_again_stops_at_end_of_input():

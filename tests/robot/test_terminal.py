@@ -5,12 +5,15 @@ import time
 
 from rich.console import Console
 
+from oxbot.config import load_config
 from oxbot.game.board import EMPTY
 from oxbot.perception.sources import CameraSource
-from oxbot.robot.session import Robot, RobotOptions
+from oxbot.robot.session import Robot
 from oxbot.robot.terminal import Microphone, Speakers, TerminalRobot
 
-FAST = RobotOptions(speed_factor=25.0, answer_timeout=2.0, move_timeout=10.0, seed=4)
+FAST = load_config(
+    None, ["robot.speed_factor=25", "robot.answer_timeout=2", "robot.move_timeout=10"]
+)
 
 
 def typist(robot: Robot, answers: dict[str, str], timeout: float = 30.0):
@@ -52,7 +55,7 @@ def run(robot: Robot, answers: dict[str, str]) -> str:
 
 
 def test_a_typed_game_in_the_terminal_prints_the_dialogue_like_figure_1():
-    robot = Robot(FAST)
+    robot = Robot(FAST, seed=4)
     out = run(robot, {"Request(playGame)": "yes let's play"})
     assert "Rob: Hello!" in out or "Rob: Hi!" in out
     assert "[Salutation(greeting)]" in out
@@ -60,12 +63,12 @@ def test_a_typed_game_in_the_terminal_prints_the_dialogue_like_figure_1():
     assert "[who=usr what=draw where=middle]" in out  # the first typed cell, 5
     assert "Game over:" in out
     assert "[Salutation(closing)]" in out
-    assert not robot.manager.running  # stopped when the person quit
+    assert not any(c.running for c in robot.components)  # stopped when the person quit
 
 
 def test_a_camera_that_cannot_be_opened_falls_back_to_typed_moves(caplog):
     caplog.set_level(logging.WARNING)
-    robot = Robot(FAST, sheet_camera=CameraSource(97))
+    robot = Robot(FAST, sheet_camera=CameraSource(97), seed=4)
     out = run(robot, {"Request(playGame)": "okay"})
     warnings = [r for r in caplog.records if "game-move recognition is off" in r.message]
     assert len(warnings) == 1
