@@ -1,8 +1,9 @@
 """Reading the board: a photo of the game sheet in, the 9 cells' labels out (SPEC §5).
 
 Paper §3.1 "Game Move Recognition": RGB → grayscale → remove the grid → split into 9 images →
-classify each as circle, cross or nothing. Here the grid is found first (`grid.py`), and the 9
-cells go to the classifier in one batch:
+classify each as circle, cross or nothing. Here the grid is found first (`grid.py`), the sheet
+seen from above (`rectify.py`), the grid lines painted over and the 9 cells cut (`cells.py`),
+and the cells go to the classifier in one batch:
 
     from oxbot.perception import read_board
     read_board(frame)   # uint8 (H, W, 3) RGB or (H, W) gray -> ["nothing", "cross", ...]
@@ -19,15 +20,9 @@ import cv2
 import numpy as np
 
 from oxbot.game.board import CELL_NAMES
-from oxbot.perception.grid import (
-    SHEET_CELL,
-    Grid,
-    as_gray,
-    cut_cells_around_ink,
-    find_grid,
-    rectify,
-    remove_grid_lines,
-)
+from oxbot.perception.cells import SHEET_CELL, cut_cells_around_ink, remove_grid_lines
+from oxbot.perception.grid import Grid, as_gray, find_grid
+from oxbot.perception.rectify import rectify
 from oxbot.perception.seeds import write_png
 
 SINGLE_STROKE = 15.0

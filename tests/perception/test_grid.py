@@ -6,15 +6,9 @@ import numpy as np
 import pytest
 
 from oxbot.errors import InvalidInputError, NoGridFound
-from oxbot.perception.grid import (
-    CELL_SIZE,
-    SHEET_CELL,
-    as_gray,
-    cut_cells,
-    find_grid,
-    rectify,
-    remove_grid_lines,
-)
+from oxbot.perception.cells import CELL_SIZE, SHEET_CELL, cut_cells, remove_grid_lines
+from oxbot.perception.grid import as_gray, find_grid
+from oxbot.perception.rectify import rectify
 from oxbot.perception.render import (
     TUNING_STYLE,
     TUNING_VARIANTS,
