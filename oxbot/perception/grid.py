@@ -81,12 +81,6 @@ class Grid:
     support: float
     """How closely ink follows the four lines, 0-1: how sure the finder is."""
 
-    def cell_quad(self, index: int) -> np.ndarray:
-        """(4, 2) frame pixels of cell `index`'s corners, clockwise from its upper left."""
-        r, c = divmod(index, 3)
-        q = self.lattice
-        return np.array([q[r, c], q[r, c + 1], q[r + 1, c + 1], q[r + 1, c]])
-
     def corners(self) -> np.ndarray:
         """(4, 2) frame pixels of the grid's outer corners, clockwise from the upper left."""
         q = self.lattice
