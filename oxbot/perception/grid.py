@@ -134,7 +134,7 @@ def as_gray(frame: object) -> np.ndarray:
     return gray
 
 
-def ink_mask(gray: np.ndarray, kernel: int = 7) -> np.ndarray:
+def _ink_mask(gray: np.ndarray, kernel: int = 7) -> np.ndarray:
     """uint8 mask (0/255) of thin dark strokes: pixels well below the paper's closing."""
     smooth = cv2.GaussianBlur(gray, (3, 3), 0)
     paper = cv2.morphologyEx(smooth, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
@@ -144,7 +144,7 @@ def ink_mask(gray: np.ndarray, kernel: int = 7) -> np.ndarray:
     ) * 255
 
 
-def shrink_keeping_strokes(gray: np.ndarray, scale: float) -> np.ndarray:
+def _shrink_keeping_strokes(gray: np.ndarray, scale: float) -> np.ndarray:
     """`gray` resized by `scale` < 1 so that a pen line one pixel wide stays dark: each pixel
     first takes the darkest value around it (as wide as the pixels that merge), then areas are
     averaged."""
@@ -157,8 +157,8 @@ def find_grid(gray: np.ndarray) -> Grid:
     """The hand-drawn 3x3 grid in a grayscale frame; NoGridFound when there is none to see."""
     h, w = gray.shape
     scale = min(1.0, WORK_SIDE / max(h, w))
-    small = gray if scale == 1.0 else shrink_keeping_strokes(gray, scale)
-    ink = ink_mask(small)
+    small = gray if scale == 1.0 else _shrink_keeping_strokes(gray, scale)
+    ink = _ink_mask(small)
     # The paper's closing brightens the frame's edge, where the desk then looks like ink.
     ink[:2, :] = ink[-2:, :] = ink[:, :2] = ink[:, -2:] = 0
     short = min(small.shape)
