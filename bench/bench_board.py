@@ -26,7 +26,9 @@ import numpy as np
 import torch
 
 from oxbot.errors import NoGridFound
+from oxbot.game.board import N_CELLS
 from oxbot.perception.board import BoardReader, cut_board
+from oxbot.perception.cells import CELL_SIZE
 from oxbot.perception.classifier import load_classifier
 from oxbot.perception.grid import as_gray, find_grid
 from oxbot.perception.render import STYLES, TUNING_VARIANTS, render_photo
@@ -64,7 +66,7 @@ def main() -> None:
     frames = [p.image for p in photos]
     reader = BoardReader(load_classifier(args.model))
     right = no_grid = 0
-    cells = np.full((9, 40, 40), 245, np.uint8)
+    cells = np.full((N_CELLS, CELL_SIZE, CELL_SIZE), 245, np.uint8)
     for photo in photos:
         try:
             reading = reader.read(photo.image)

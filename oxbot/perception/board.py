@@ -19,7 +19,7 @@ from typing import Protocol
 import cv2
 import numpy as np
 
-from oxbot.game.board import CELL_NAMES
+from oxbot.game.board import CELL_NAMES, SIZE
 from oxbot.perception.cells import SHEET_CELL, cut_cells_around_ink, remove_grid_lines
 from oxbot.perception.grid import Grid, as_gray, find_grid
 from oxbot.perception.rectify import rectify
@@ -178,8 +178,8 @@ def save_debug(
     overlay = frame.copy() if frame.ndim == 3 else cv2.cvtColor(frame, cv2.COLOR_GRAY2RGB)
     lattice = reading.grid.lattice
     thickness = max(1, round(reading.grid.cell_size() / 40))
-    for k in range(4):  # the lattice's rows and columns; the inner ones are the drawn lines
-        color = (255, 0, 0) if k in (1, 2) else (0, 200, 0)
+    for k in range(SIZE + 1):  # the lattice's rows and columns; the inner ones are the drawn lines
+        color = (255, 0, 0) if 0 < k < SIZE else (0, 200, 0)
         for line in (lattice[k, :], lattice[:, k]):
             pts = np.round(line * 16).astype(np.int32).reshape(-1, 1, 2)
             cv2.polylines(overlay, [pts], False, color, thickness, cv2.LINE_AA, shift=4)

@@ -15,6 +15,8 @@ import math
 import cv2
 import numpy as np
 
+from oxbot.game.board import N_CELLS, SIZE
+
 CELL_SIZE = 40
 """Paper §2.1: cells are 40x40 grayscale images."""
 CELL_MARGIN = 0.05
@@ -24,15 +26,20 @@ SHEET_CELL = round(CELL_SIZE / (1 - 2 * CELL_MARGIN))
 
 
 def remove_grid_lines(sheet: np.ndarray, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
-    """The rectified sheet with the four grid lines traced and painted over with paper."""
+    """The rectified sheet with the grid lines traced and painted over with paper."""
     out = sheet.copy()
     band = max(3, round(0.18 * cell))
     dark = 255 - sheet.astype(np.int16)
-    for at in (border + cell, border + 2 * cell):
+    for at in _inner_lines(cell, border):
         lo, hi = at - band, at + band + 1
         _erase_line(out, dark[:, lo:hi], lo, vertical=True)
         _erase_line(out, dark[lo:hi, :].T, lo, vertical=False)
     return out
+
+
+def _inner_lines(cell: int, border: int) -> range:
+    """Where the drawn grid lines run on the sheet, in pixels (the same across and down)."""
+    return range(border + cell, border + SIZE * cell, cell)
 
 
 def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool) -> None:
@@ -113,9 +120,9 @@ def _drawn_rows(good: np.ndarray, min_run: int, max_gap: int, grow: int = 2) -> 
 def cut_cells(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
     """The nine cells of a rectified sheet, row-major, as uint8 (9, 40, 40)."""
     margin = (cell - CELL_SIZE) / 2
-    cells = np.empty((9, CELL_SIZE, CELL_SIZE), np.uint8)
-    for i in range(9):
-        row, col = divmod(i, 3)
+    cells = np.empty((N_CELLS, CELL_SIZE, CELL_SIZE), np.uint8)
+    for i in range(N_CELLS):
+        row, col = divmod(i, SIZE)
         top, left = round(row * cell + margin), round(col * cell + margin)
         crop = sheet[top : top + CELL_SIZE, left : left + CELL_SIZE]
         if crop.shape != (CELL_SIZE, CELL_SIZE):
@@ -148,15 +155,16 @@ def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int 
     alone even when it sticks out of its cell (the outer cells, which no line bounds outside,
     are guessed from the middle one). Pieces of grid line that line removal left (long, thin,
     along a cell's side) are nobody's. A cell without ink is cut at its place, as `cut_cells`.
-    `sheet`: uint8 (3*cell + 2*border,) * 2, from `rectify` and `remove_grid_lines`.
+    `sheet`: uint8 (SIZE*cell + 2*border,) * 2, from `rectify` and `remove_grid_lines`.
     """
-    cells = cut_cells(sheet[border : border + 3 * cell, border : border + 3 * cell], cell)
+    inside = slice(border, border + SIZE * cell)  # the grid, without the ring around it
+    cells = cut_cells(sheet[inside, inside], cell)
     ink = (sheet < INK_LEVEL).astype(np.uint8)
     joined = cv2.dilate(ink, np.ones((3, 3), np.uint8))
     count, labels, stats, centres = cv2.connectedComponentsWithStats(joined, connectivity=8)
     near_lines = np.zeros(sheet.shape, bool)
     reach = round(LINE_REACH * cell)
-    for at in (border + cell, border + 2 * cell):
+    for at in _inner_lines(cell, border):
         near_lines[:, at - reach : at + reach + 1] = True
         near_lines[at - reach : at + reach + 1, :] = True
     owner: dict[int, list[int]] = {}
@@ -178,13 +186,13 @@ def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int 
             continue  # the desk, a shadow, the paper's edge or what is beyond the ring
         col = math.floor((centre[0] - border) / cell)
         row = math.floor((centre[1] - border) / cell)
-        if not (0 <= row < 3 and 0 <= col < 3):
+        if not (0 <= row < SIZE and 0 <= col < SIZE):
             # The ring around the grid belongs to the outer cells next to it: a symbol
             # drawn out there, but no specks or bits of line.
             if max(w, h) < 0.3 * cell:
                 continue
-            col, row = min(max(col, 0), 2), min(max(row, 0), 2)
-        owner.setdefault(row * 3 + col, []).append(k)
+            col, row = min(max(col, 0), SIZE - 1), min(max(row, 0), SIZE - 1)
+        owner.setdefault(row * SIZE + col, []).append(k)
     for i, pieces in owner.items():
         box = stats[pieces]
         x0, y0 = box[:, 0].min(), box[:, 1].min()

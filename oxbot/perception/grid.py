@@ -35,6 +35,12 @@ import cv2
 import numpy as np
 
 from oxbot.errors import InvalidInputError, NoGridFound
+from oxbot.game.board import SIZE
+
+# The finder looks for exactly two pairs of lines, so it finds a 3x3 grid and no other: the
+# lattice code below (`_lattice`, `_extend`, `_line_frames`, `_crossings_near`, `_bend_outer`)
+# indexes the 4x4 corners of two lines each way directly. A bigger board needs a new finder.
+assert SIZE == 3, "grid.py finds a 3x3 grid only (two pairs of lines)"
 
 WORK_SIDE = 320
 """Longest side, in pixels, of the copy of the frame the grid is searched in."""
@@ -84,7 +90,7 @@ class Grid:
     def corners(self) -> np.ndarray:
         """(4, 2) frame pixels of the grid's outer corners, clockwise from the upper left."""
         q = self.lattice
-        return np.array([q[0, 0], q[0, 3], q[3, 3], q[3, 0]])
+        return np.array([q[0, 0], q[0, SIZE], q[SIZE, SIZE], q[SIZE, 0]])
 
     def cell_size(self) -> float:
         """The mean side of a cell in frame pixels."""
@@ -162,9 +168,9 @@ def find_grid(gray: np.ndarray) -> Grid:
     # The paper's closing brightens the frame's edge, where the desk then looks like ink.
     ink[:2, :] = ink[-2:, :] = ink[:, :2] = ink[:, -2:] = 0
     short = min(small.shape)
-    min_spacing = MIN_GRID_SHARE * short / 3
+    min_spacing = MIN_GRID_SHARE * short / SIZE
     strokes = _Strokes.of(small, ink)
-    lines = _hough_lines(strokes, votes=max(12, int(0.6 * 3 * min_spacing)))
+    lines = _hough_lines(strokes, votes=max(12, int(0.6 * SIZE * min_spacing)))
     if len(lines) < 4:
         raise NoGridFound(
             "no grid in view: found no long pen lines (a blank sheet or an empty desk?); "

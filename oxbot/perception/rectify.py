@@ -13,12 +13,13 @@ import math
 import cv2
 import numpy as np
 
+from oxbot.game.board import SIZE
 from oxbot.perception.cells import SHEET_CELL
 from oxbot.perception.grid import Grid
 
 
 def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
-    """The grid seen from straight above: uint8 (3*cell + 2*border,) * 2, paper evened out.
+    """The grid seen from straight above: uint8 (SIZE*cell + 2*border,) * 2, paper evened out.
 
     Each cell's quadrilateral is warped to a `cell` x `cell` square on its own; neighbouring
     cells share their edges, so the sheet is continuous across the grid lines. `border` > 0
@@ -32,10 +33,10 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 
     if shrink:
         f = 1.25 * cell / frame_cell
         lattice = lattice * f
-    edges = [0, cell, 2 * cell, 3 * cell]
+    edges = [k * cell for k in range(SIZE + 1)]
     if border > 0:
         lattice = _ring(lattice, border / cell)
-        edges = [0] + [border + e for e in edges] + [3 * cell + 2 * border]
+        edges = [0] + [border + e for e in edges] + [SIZE * cell + 2 * border]
     if shrink:
         gray = _shrink_up_to(gray, f, lattice.reshape(-1, 2).max(axis=0))
     side = edges[-1]
@@ -77,13 +78,14 @@ def _shrink_up_to(gray: np.ndarray, f: float, reach: np.ndarray) -> np.ndarray:
 
 
 def _ring(q: np.ndarray, share: float) -> np.ndarray:
-    """A (4, 4, 2) lattice grown to (6, 6, 2): a ring `share` of a cell further out."""
-    out = np.empty((6, 6, 2))
-    out[1:5, 1:5] = q
-    out[0, 1:5] = q[0] + share * (q[0] - q[1])
-    out[5, 1:5] = q[3] + share * (q[3] - q[2])
+    """An (n, n, 2) lattice grown to (n + 2, n + 2, 2): a ring `share` of a cell further out."""
+    n = len(q)
+    out = np.empty((n + 2, n + 2, 2))
+    out[1:-1, 1:-1] = q
+    out[0, 1:-1] = q[0] + share * (q[0] - q[1])
+    out[-1, 1:-1] = q[-1] + share * (q[-1] - q[-2])
     out[:, 0] = out[:, 1] + share * (out[:, 1] - out[:, 2])
-    out[:, 5] = out[:, 4] + share * (out[:, 4] - out[:, 3])
+    out[:, -1] = out[:, -2] + share * (out[:, -2] - out[:, -3])
     return out
 
 
