@@ -3,7 +3,7 @@ import numpy as np
 from oxbot.perception.cells import CELL_SIZE, SHEET_CELL, cut_cells, remove_grid_lines
 from oxbot.perception.grid import as_gray, find_grid
 from oxbot.perception.rectify import rectify
-from oxbot.perception.render import TUNING_STYLE, render_photo
+from oxbot.testing.render import TUNING_STYLE, render_photo
 
 
 def test_cells_hold_their_own_symbol_and_no_grid_ink():

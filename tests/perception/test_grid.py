@@ -7,7 +7,7 @@ import pytest
 
 from oxbot.errors import InvalidInputError, NoGridFound
 from oxbot.perception.grid import as_gray, find_grid
-from oxbot.perception.render import (
+from oxbot.testing.render import (
     TUNING_STYLE,
     TUNING_VARIANTS,
     SheetScene,

@@ -8,7 +8,6 @@ import pytest
 
 from oxbot.config import TrackerConfig
 from oxbot.errors import InvalidInputError
-from oxbot.perception.render import TUNING_STYLE, random_scene
 from oxbot.perception.sources import ImageFolderSource
 from oxbot.robot.bus import Bus
 from oxbot.robot.game_moves import GameMoveComponent, decode_frame
@@ -21,6 +20,7 @@ from oxbot.robot.messages import (
     GameMove,
     NewGame,
 )
+from oxbot.testing.render import TUNING_STYLE, random_scene
 from tests.robot.helpers import collect
 
 

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from oxbot.game.board import CELL_NAMES, EMPTY, outcome
-from oxbot.perception.render import TUNING_STYLE, random_scene
 from oxbot.robot.messages import (
     ArmCommand,
     ArmDone,
@@ -26,6 +25,7 @@ from oxbot.robot.messages import (
 )
 from oxbot.robot.session import Robot, RobotOptions
 from oxbot.speech.synthesis import Voice, synthesize
+from oxbot.testing.render import TUNING_STYLE, random_scene
 
 pytestmark = pytest.mark.slow
 
