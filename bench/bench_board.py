@@ -5,7 +5,7 @@
     .venv/bin/python bench/bench_board.py --style tuning-camera --seed 7000   # harder tuning
     .venv/bin/python bench/bench_board.py --model runs/perceiver.pt
 
-Renders photos of game sheets (`oxbot.perception.render`, the held-out style by default: the
+Renders photos of game sheets (`oxbot.testing.render`, the held-out style by default: the
 one the board reader was not tuned on), then times `BoardReader.read` — grayscale, grid
 finding, rectification, grid-line removal, 9 cells, one classifier batch — on one core
 (torch and OpenCV limited to one thread), and prints the median time per frame over repeats,
@@ -26,10 +26,12 @@ import numpy as np
 import torch
 
 from oxbot.errors import NoGridFound
+from oxbot.game.board import N_CELLS
 from oxbot.perception.board import BoardReader, cut_board
+from oxbot.perception.cells import CELL_SIZE
 from oxbot.perception.classifier import load_classifier
 from oxbot.perception.grid import as_gray, find_grid
-from oxbot.perception.render import STYLES, TUNING_VARIANTS, render_photo
+from oxbot.testing.render import STYLES, TUNING_VARIANTS, render_photo
 
 
 def per_frame_ms(function, frames: list[np.ndarray], repeats: int) -> tuple[float, float]:
@@ -64,7 +66,7 @@ def main() -> None:
     frames = [p.image for p in photos]
     reader = BoardReader(load_classifier(args.model))
     right = no_grid = 0
-    cells = np.full((9, 40, 40), 245, np.uint8)
+    cells = np.full((N_CELLS, CELL_SIZE, CELL_SIZE), 245, np.uint8)
     for photo in photos:
         try:
             reading = reader.read(photo.image)

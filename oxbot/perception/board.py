@@ -1,8 +1,9 @@
 """Reading the board: a photo of the game sheet in, the 9 cells' labels out (SPEC §5).
 
 Paper §3.1 "Game Move Recognition": RGB → grayscale → remove the grid → split into 9 images →
-classify each as circle, cross or nothing. Here the grid is found first (`grid.py`), and the 9
-cells go to the classifier in one batch:
+classify each as circle, cross or nothing. Here the grid is found first (`grid.py`), the sheet
+seen from above (`rectify.py`), the grid lines painted over and the 9 cells cut (`cells.py`),
+and the cells go to the classifier in one batch:
 
     from oxbot.perception import read_board
     read_board(frame)   # uint8 (H, W, 3) RGB or (H, W) gray -> ["nothing", "cross", ...]
@@ -18,16 +19,10 @@ from typing import Protocol
 import cv2
 import numpy as np
 
-from oxbot.game.board import CELL_NAMES
-from oxbot.perception.grid import (
-    SHEET_CELL,
-    Grid,
-    as_gray,
-    cut_cells_around_ink,
-    find_grid,
-    rectify,
-    remove_grid_lines,
-)
+from oxbot.game.board import CELL_NAMES, SIZE
+from oxbot.perception.cells import SHEET_CELL, cut_cells_around_ink, remove_grid_lines
+from oxbot.perception.grid import Grid, as_gray, find_grid
+from oxbot.perception.rectify import rectify
 from oxbot.perception.seeds import write_png
 
 SINGLE_STROKE = 15.0
@@ -183,8 +178,8 @@ def save_debug(
     overlay = frame.copy() if frame.ndim == 3 else cv2.cvtColor(frame, cv2.COLOR_GRAY2RGB)
     lattice = reading.grid.lattice
     thickness = max(1, round(reading.grid.cell_size() / 40))
-    for k in range(4):  # the lattice's rows and columns; the inner ones are the drawn lines
-        color = (255, 0, 0) if k in (1, 2) else (0, 200, 0)
+    for k in range(SIZE + 1):  # the lattice's rows and columns; the inner ones are the drawn lines
+        color = (255, 0, 0) if 0 < k < SIZE else (0, 200, 0)
         for line in (lattice[k, :], lattice[:, k]):
             pts = np.round(line * 16).astype(np.int32).reshape(-1, 1, 2)
             cv2.polylines(overlay, [pts], False, color, thickness, cv2.LINE_AA, shift=4)

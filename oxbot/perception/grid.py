@@ -1,4 +1,4 @@
-"""Finding the hand-drawn 3x3 grid in a photo, and cutting it into nine 40x40 cells.
+"""Finding the hand-drawn 3x3 grid in a photo: where its 4x4 lattice of cell corners lies.
 
 Paper §3.1 "Game Move Recognition": grayscale → remove the grid → split into 9 images. The
 paper's arm camera saw a fixed grid from a fixed pose; here the grid may be anywhere in view,
@@ -18,14 +18,12 @@ rotated up to ±15° and under mild perspective (SPEC §2), so it is found first
    through the last crossings (a hand-drawn line bends). The four crossings and one more
    cell along each line give a 4x4 lattice of cell corners (`Grid`), in *cell units* (inner
    lines at 1 and 2, cells filling [0, 3]²).
-4. *Cells*: each cell (and a ring of half a cell around the grid) is warped to a square, the
-   paper's uneven light divided out, the four lines traced and painted over where they are
-   drawn, and each cell cut at 40x40 as a square around its own ink (the connected pieces
-   whose centres lie in it), so that a symbol is whole and neighbouring ink stays out; a cell
-   without ink is cut at its place.
 
-`NoGridFound` is raised rather than a guess when no such four lines exist (a blank sheet, an
-empty desk) or when the grid runs off the frame.
+This module owns the frame's check (`as_gray`), the search (`find_grid`) and its result
+(`Grid`). `NoGridFound` is raised rather than a guess when no such four lines exist (a blank
+sheet, an empty desk) or when the grid runs off the frame. What follows the search is
+`rectify.py` (the grid seen from straight above) and `cells.py` (the grid lines painted over,
+nine 40x40 cells cut).
 """
 
 from __future__ import annotations
@@ -37,17 +35,17 @@ import cv2
 import numpy as np
 
 from oxbot.errors import InvalidInputError, NoGridFound
+from oxbot.game.board import SIZE
+
+# The finder looks for exactly two pairs of lines, so it finds a 3x3 grid and no other: the
+# lattice code below (`_lattice`, `_extend`, `_line_frames`, `_crossings_near`, `_bend_outer`)
+# indexes the 4x4 corners of two lines each way directly. A bigger board needs a new finder.
+assert SIZE == 3, "grid.py finds a 3x3 grid only (two pairs of lines)"
 
 WORK_SIDE = 320
 """Longest side, in pixels, of the copy of the frame the grid is searched in."""
 MIN_SIDE = 64
 """Frames smaller than this on either side cannot show a readable grid."""
-CELL_SIZE = 40
-"""Paper §2.1: cells are 40x40 grayscale images."""
-CELL_MARGIN = 0.05
-"""Share of a cell's side cropped away along each grid line, to keep its ink out."""
-SHEET_CELL = round(CELL_SIZE / (1 - 2 * CELL_MARGIN))
-"""Side of one cell, in pixels, on the rectified sheet (a 40x40 crop plus the margins)."""
 MIN_GRID_SHARE = 0.18
 """The grid's side must be at least this share of the frame's shorter side."""
 
@@ -89,16 +87,10 @@ class Grid:
     support: float
     """How closely ink follows the four lines, 0-1: how sure the finder is."""
 
-    def cell_quad(self, index: int) -> np.ndarray:
-        """(4, 2) frame pixels of cell `index`'s corners, clockwise from its upper left."""
-        r, c = divmod(index, 3)
-        q = self.lattice
-        return np.array([q[r, c], q[r, c + 1], q[r + 1, c + 1], q[r + 1, c]])
-
     def corners(self) -> np.ndarray:
         """(4, 2) frame pixels of the grid's outer corners, clockwise from the upper left."""
         q = self.lattice
-        return np.array([q[0, 0], q[0, 3], q[3, 3], q[3, 0]])
+        return np.array([q[0, 0], q[0, SIZE], q[SIZE, SIZE], q[SIZE, 0]])
 
     def cell_size(self) -> float:
         """The mean side of a cell in frame pixels."""
@@ -148,7 +140,7 @@ def as_gray(frame: object) -> np.ndarray:
     return gray
 
 
-def ink_mask(gray: np.ndarray, kernel: int = 7) -> np.ndarray:
+def _ink_mask(gray: np.ndarray, kernel: int = 7) -> np.ndarray:
     """uint8 mask (0/255) of thin dark strokes: pixels well below the paper's closing."""
     smooth = cv2.GaussianBlur(gray, (3, 3), 0)
     paper = cv2.morphologyEx(smooth, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
@@ -158,7 +150,7 @@ def ink_mask(gray: np.ndarray, kernel: int = 7) -> np.ndarray:
     ) * 255
 
 
-def shrink_keeping_strokes(gray: np.ndarray, scale: float) -> np.ndarray:
+def _shrink_keeping_strokes(gray: np.ndarray, scale: float) -> np.ndarray:
     """`gray` resized by `scale` < 1 so that a pen line one pixel wide stays dark: each pixel
     first takes the darkest value around it (as wide as the pixels that merge), then areas are
     averaged."""
@@ -171,14 +163,14 @@ def find_grid(gray: np.ndarray) -> Grid:
     """The hand-drawn 3x3 grid in a grayscale frame; NoGridFound when there is none to see."""
     h, w = gray.shape
     scale = min(1.0, WORK_SIDE / max(h, w))
-    small = gray if scale == 1.0 else shrink_keeping_strokes(gray, scale)
-    ink = ink_mask(small)
+    small = gray if scale == 1.0 else _shrink_keeping_strokes(gray, scale)
+    ink = _ink_mask(small)
     # The paper's closing brightens the frame's edge, where the desk then looks like ink.
     ink[:2, :] = ink[-2:, :] = ink[:, :2] = ink[:, -2:] = 0
     short = min(small.shape)
-    min_spacing = MIN_GRID_SHARE * short / 3
+    min_spacing = MIN_GRID_SHARE * short / SIZE
     strokes = _Strokes.of(small, ink)
-    lines = _hough_lines(strokes, votes=max(12, int(0.6 * 3 * min_spacing)))
+    lines = _hough_lines(strokes, votes=max(12, int(0.6 * SIZE * min_spacing)))
     if len(lines) < 4:
         raise NoGridFound(
             "no grid in view: found no long pen lines (a blank sheet or an empty desk?); "
@@ -730,292 +722,3 @@ def _check_in_view(grid: Grid, width: int, height: int) -> None:
             "the grid runs off the edge of the picture; move the camera or the sheet so that "
             "all nine cells are in view"
         )
-
-
-# --- from a found grid to nine cells ---
-
-
-def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
-    """The grid seen from straight above: uint8 (3*cell + 2*border,) * 2, paper evened out.
-
-    Each cell's quadrilateral is warped to a `cell` x `cell` square on its own; neighbouring
-    cells share their edges, so the sheet is continuous across the grid lines. `border` > 0
-    adds a ring that wide around the outer cells, continuing the lattice outwards (by
-    `border / cell` of the outer cells' sides), so that a symbol that sticks out of an outer
-    cell is on the sheet whole.
-    """
-    lattice = grid.lattice
-    frame_cell = grid.cell_size()
-    shrink = frame_cell > 1.6 * cell  # shrink first: a perspective warp does not average pixels
-    if shrink:
-        f = 1.25 * cell / frame_cell
-        lattice = lattice * f
-    edges = [0, cell, 2 * cell, 3 * cell]
-    if border > 0:
-        lattice = _ring(lattice, border / cell)
-        edges = [0] + [border + e for e in edges] + [3 * cell + 2 * border]
-    if shrink:
-        gray = _shrink_up_to(gray, f, lattice.reshape(-1, 2).max(axis=0))
-    side = edges[-1]
-    sheet = np.empty((side, side), np.uint8)
-    n = len(edges) - 1
-    corners = lattice.astype(np.float32)
-    # Each cell's corners clockwise from its upper left, (n, n, 4, 2).
-    quads = np.stack([corners[:-1, :-1], corners[:-1, 1:], corners[1:, 1:], corners[1:, :-1]], 2)
-    for r in range(n):
-        for c in range(n):
-            x0, x1, y0, y1 = edges[c], edges[c + 1], edges[r], edges[r + 1]
-            w, h = x1 - x0, y1 - y0
-            rect = np.array([[0, 0], [w, 0], [w, h], [0, h]], np.float32)
-            to_frame = cv2.getPerspectiveTransform(rect, quads[r, c])
-            sheet[y0:y1, x0:x1] = cv2.warpPerspective(
-                gray,
-                to_frame,
-                (w, h),
-                flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                borderMode=cv2.BORDER_REPLICATE,
-            )
-    return even_out_light(sheet)
-
-
-def _shrink_up_to(gray: np.ndarray, f: float, reach: np.ndarray) -> np.ndarray:
-    """`gray` shrunk by `f` with INTER_AREA as far right and down as the point `reach` (x, y
-    in the shrunk image) needs: the same pixels there as shrinking the whole frame, sooner.
-
-    An INTER_AREA pixel averages the frame's pixels under it, found counting from the frame's
-    top left; cutting the frame off to the right and below changes only the shrunk pixels
-    whose areas the cut shortens, two pixels past those a warp up to `reach` reads (it reads
-    one pixel past its last point). Shrinking is one of the reader's costliest steps, and
-    the sheet often leaves a good part of the frame to its right or below it.
-    """
-    h, w = gray.shape
-    right = min(w, math.ceil((float(reach[0]) + 4) / f) + 2)
-    bottom = min(h, math.ceil((float(reach[1]) + 4) / f) + 2)
-    return cv2.resize(gray[:bottom, :right], None, fx=f, fy=f, interpolation=cv2.INTER_AREA)
-
-
-def _ring(q: np.ndarray, share: float) -> np.ndarray:
-    """A (4, 4, 2) lattice grown to (6, 6, 2): a ring `share` of a cell further out."""
-    out = np.empty((6, 6, 2))
-    out[1:5, 1:5] = q
-    out[0, 1:5] = q[0] + share * (q[0] - q[1])
-    out[5, 1:5] = q[3] + share * (q[3] - q[2])
-    out[:, 0] = out[:, 1] + share * (out[:, 1] - out[:, 2])
-    out[:, 5] = out[:, 4] + share * (out[:, 4] - out[:, 3])
-    return out
-
-
-def even_out_light(sheet: np.ndarray) -> np.ndarray:
-    """Divide out the paper's uneven light: paper near 245, ink keeps its contrast."""
-    kernel = max(5, (sheet.shape[0] // 12) | 1)
-    paper = cv2.morphologyEx(sheet, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
-    for _ in range(3):  # three box blurs: a Gaussian of sigma kernel/2, at a twentieth the time
-        paper = cv2.blur(paper, (kernel, kernel))
-    out = sheet.astype(np.float32) * (245.0 / np.maximum(paper.astype(np.float32), 8.0))
-    return np.clip(out, 0, 255).astype(np.uint8)
-
-
-def remove_grid_lines(sheet: np.ndarray, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
-    """The rectified sheet with the four grid lines traced and painted over with paper."""
-    out = sheet.copy()
-    band = max(3, round(0.18 * cell))
-    dark = 255 - sheet.astype(np.int16)
-    for at in (border + cell, border + 2 * cell):
-        lo, hi = at - band, at + band + 1
-        _erase_line(out, dark[:, lo:hi], lo, vertical=True)
-        _erase_line(out, dark[lo:hi, :].T, lo, vertical=False)
-    return out
-
-
-def _erase_line(out: np.ndarray, strip: np.ndarray, offset: int, vertical: bool) -> None:
-    """Trace a near-vertical line through `strip` (rows along the line) and paint it over.
-
-    The line is followed as a smooth curve fitted to the rows where it is dark, dropping rows
-    whose darkness lies off the curve: beyond the ends of a line that stops short, a symbol
-    near the cell's edge must not be taken for the line and painted over.
-    """
-    weight = np.clip(strip - 40, 0, None).astype(np.float32)
-    total = weight.sum(axis=1)
-    known = total > 0
-    if known.sum() < strip.shape[0] // 3:
-        return
-    pos = np.arange(strip.shape[1], dtype=np.float32)
-    rows = np.arange(strip.shape[0], dtype=np.float32)
-    center = (weight * pos).sum(axis=1) / np.maximum(total, 1e-6)
-    keep = known.copy()
-    for _ in range(3):  # a smooth curve through the rows that agree with it
-        if keep.sum() < 6:
-            return
-        curve = _parabola(rows[keep], center[keep], rows)
-        keep = known & (np.abs(center - curve) < 2.5)
-    # The line's half-width: its typical inked extent, plus a pixel of anti-aliasing.
-    inked = strip > 60
-    widths = inked[keep].sum(axis=1)
-    if len(widths) == 0:
-        return  # no row lies on the curve: nothing to paint over
-    half = float(np.median(widths)) / 2 + 1.5
-    # Paint over only where the line is drawn: runs of rows whose ink is one narrow stroke on
-    # the curve (a symbol beside or across the line interrupts a run only briefly). Beyond a
-    # line that stops short, a symbol in its way stays whole.
-    first = np.argmax(inked, axis=1)
-    last = strip.shape[1] - 1 - np.argmax(inked[:, ::-1], axis=1)
-    good = keep & inked.any(axis=1) & (last - first + 1 <= 2 * half + 2)
-    drawn = _drawn_rows(good, min_run=8, max_gap=6)
-    cover = (np.abs(pos[None, :] - curve[:, None]) <= half) & (strip > 25) & drawn[:, None]
-    region = (
-        out[:, offset : offset + strip.shape[1]]
-        if vertical
-        else out[offset : offset + strip.shape[1], :].T
-    )
-    region[cover] = np.maximum(region[cover], 245)
-
-
-def _parabola(x: np.ndarray, y: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """The least-squares parabola through points (x, y), evaluated at `at` (as np.polyfit with
-    np.polyval, at half the time: this runs for every line of every frame)."""
-    x = x.astype(np.float64)
-    a = np.empty((len(x), 3))
-    a[:, 0], a[:, 1], a[:, 2] = x * x, x, 1.0
-    c = np.linalg.solve(a.T @ a, a.T @ y)
-    return (c[0] * at + c[1]) * at + c[2]
-
-
-def _drawn_rows(good: np.ndarray, min_run: int, max_gap: int, grow: int = 2) -> np.ndarray:
-    """The rows between the line's ends: from the first to the last run of at least `min_run`
-    good rows, taking in shorter runs of 3 or more beyond them while less than `max_gap`
-    rows apart, grown by `grow` rows at both ends."""
-    padded = np.concatenate([[False], good, [False]]).astype(np.int8)
-    change = padded[1:] - padded[:-1]
-    # Plain ints from here on: a handful of runs, walked in Python.
-    starts, ends = np.flatnonzero(change == 1).tolist(), np.flatnonzero(change == -1).tolist()
-    runs = [(a, b) for a, b in zip(starts, ends, strict=True) if b - a >= 3]
-    long = [k for k, (a, b) in enumerate(runs) if b - a >= min_run]
-    out = np.zeros(good.shape, bool)
-    if not long:
-        return out
-    lo, hi = long[0], long[-1]
-    while lo > 0 and runs[lo][0] - runs[lo - 1][1] < max_gap:
-        lo -= 1
-    while hi < len(runs) - 1 and runs[hi + 1][0] - runs[hi][1] < max_gap:
-        hi += 1
-    out[max(runs[lo][0] - grow, 0) : runs[hi][1] + grow] = True
-    return out
-
-
-def cut_cells(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
-    """The nine cells of a rectified sheet, row-major, as uint8 (9, 40, 40)."""
-    margin = (cell - CELL_SIZE) / 2
-    cells = np.empty((9, CELL_SIZE, CELL_SIZE), np.uint8)
-    for i in range(9):
-        row, col = divmod(i, 3)
-        top, left = round(row * cell + margin), round(col * cell + margin)
-        crop = sheet[top : top + CELL_SIZE, left : left + CELL_SIZE]
-        if crop.shape != (CELL_SIZE, CELL_SIZE):
-            crop = cv2.resize(crop, (CELL_SIZE, CELL_SIZE), interpolation=cv2.INTER_AREA)
-        cells[i] = crop
-    return cells
-
-
-INK_LEVEL = 170
-"""oxbot: on the evened-out sheet (paper near 245), pixels darker than this are ink."""
-SYMBOL_SHARE = 0.72
-"""oxbot: a cell cut around its ink is this much wider than the ink (the classifier was trained
-on symbols 35-90% as wide as the cell, placed anywhere in it, but whole)."""
-
-MIN_SYMBOL = 0.35
-"""oxbot: ink narrower than this share of a cell is no symbol (people draw them at least 0.4
-of the cell wide); such a cell is cut at its place."""
-LINE_REACH = 0.12
-"""oxbot: ink within this share of a cell of where a grid line runs may be left of the line."""
-LINE_PIECE_SHARE = 0.7
-"""oxbot: a piece of ink this much of which lies that near the grid lines is left of them."""
-
-
-def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
-    """The nine cells of a grid-free sheet, each cut as a square around its own ink.
-
-    A cell of the game holds at most one symbol, so the ink is split into connected pieces,
-    each piece belongs to the cell its centre lies in, and a cell with ink is cut as a square
-    around all of its pieces, with the other cells' ink painted over: the symbol is whole and
-    alone even when it sticks out of its cell (the outer cells, which no line bounds outside,
-    are guessed from the middle one). Pieces of grid line that line removal left (long, thin,
-    along a cell's side) are nobody's. A cell without ink is cut at its place, as `cut_cells`.
-    `sheet`: uint8 (3*cell + 2*border,) * 2, from `rectify` and `remove_grid_lines`.
-    """
-    cells = cut_cells(sheet[border : border + 3 * cell, border : border + 3 * cell], cell)
-    ink = (sheet < INK_LEVEL).astype(np.uint8)
-    joined = cv2.dilate(ink, np.ones((3, 3), np.uint8))
-    count, labels, stats, centres = cv2.connectedComponentsWithStats(joined, connectivity=8)
-    near_lines = np.zeros(sheet.shape, bool)
-    reach = round(LINE_REACH * cell)
-    for at in (border + cell, border + 2 * cell):
-        near_lines[:, at - reach : at + reach + 1] = True
-        near_lines[at - reach : at + reach + 1, :] = True
-    owner: dict[int, list[int]] = {}
-    side_max = sheet.shape[0]
-    # Plain ints and floats: most pieces are specks, dismissed faster than numpy scalars allow.
-    for k, ((x, y, w, h, area), centre) in enumerate(
-        zip(stats.tolist(), centres.tolist(), strict=True)
-    ):
-        if k == 0:
-            continue  # the background
-        if area < 12 or max(w, h) > 1.15 * cell or _is_line_piece(labels, k, stats[k], cell):
-            continue
-        on_lines = np.count_nonzero(
-            near_lines[y : y + h, x : x + w] & (labels[y : y + h, x : x + w] == k)
-        )
-        if on_lines > LINE_PIECE_SHARE * area:
-            continue  # what is left of a grid line
-        if x == 0 or y == 0 or x + w == side_max or y + h == side_max:
-            continue  # the desk, a shadow, the paper's edge or what is beyond the ring
-        col = math.floor((centre[0] - border) / cell)
-        row = math.floor((centre[1] - border) / cell)
-        if not (0 <= row < 3 and 0 <= col < 3):
-            # The ring around the grid belongs to the outer cells next to it: a symbol
-            # drawn out there, but no specks or bits of line.
-            if max(w, h) < 0.3 * cell:
-                continue
-            col, row = min(max(col, 0), 2), min(max(row, 0), 2)
-        owner.setdefault(row * 3 + col, []).append(k)
-    for i, pieces in owner.items():
-        box = stats[pieces]
-        x0, y0 = box[:, 0].min(), box[:, 1].min()
-        x1 = (box[:, 0] + box[:, 2]).max()
-        y1 = (box[:, 1] + box[:, 3]).max()
-        extent = max(x1 - x0, y1 - y0)
-        if extent < MIN_SYMBOL * cell:
-            continue  # a speck or a bit of line: cut the cell at its place
-        side = round(min(max(extent / SYMBOL_SHARE, 0.6 * cell), 1.6 * cell))
-        left = round((x0 + x1 - side) / 2)
-        top = round((y0 + y1 - side) / 2)
-        crop = np.full((side, side), 245, np.uint8)
-        sx0, sy0 = max(left, 0), max(top, 0)
-        sx1, sy1 = min(left + side, side_max), min(top + side, side_max)
-        if sx1 <= sx0 or sy1 <= sy0:
-            continue
-        part = sheet[sy0:sy1, sx0:sx1].copy()
-        lab = labels[sy0:sy1, sx0:sx1]
-        ours = np.zeros(count, bool)  # by label: a lookup, several times faster than np.isin
-        ours[pieces] = True
-        others = (lab > 0) & ~ours[lab]
-        part[others] = 245
-        crop[sy0 - top : sy1 - top, sx0 - left : sx1 - left] = part
-        cells[i] = cv2.resize(crop, (CELL_SIZE, CELL_SIZE), interpolation=cv2.INTER_AREA)
-    return cells
-
-
-def _is_line_piece(labels: np.ndarray, k: int, stat: np.ndarray, cell: int) -> bool:
-    """Whether connected piece `k` is a remnant of a grid line: long, thin and running within
-    25 degrees of a cell's side (a symbol's single stroke runs aslant)."""
-    x, y, w, h, _ = stat
-    if max(w, h) < 0.25 * cell:
-        return False
-    m = cv2.moments((labels[y : y + h, x : x + w] == k).astype(np.uint8), binaryImage=True)
-    mu20, mu02, mu11 = m["mu20"], m["mu02"], m["mu11"]
-    half, det = (mu20 + mu02) / 2, mu20 * mu02 - mu11 * mu11
-    root = math.sqrt(max(half * half - det, 0.0))
-    major, minor = half + root, max(half - root, 1e-6)
-    if major / minor < 12:
-        return False
-    angle = abs(math.degrees(0.5 * math.atan2(2 * mu11, mu20 - mu02)))  # 0 along x
-    return min(angle, abs(90 - angle)) < 25

@@ -34,6 +34,7 @@ from oxbot.game.board import (
     CELL_NAMES,
     EMPTY,
     LABELS,
+    N_CELLS,
     ROBOT,
     USER,
     cell_index,
@@ -115,7 +116,7 @@ class MoveTracker:
 
     def reset(self) -> None:
         """Start again from an empty sheet."""
-        self._board: list[str] = ["nothing"] * 9
+        self._board: list[str] = ["nothing"] * N_CELLS
         self._robot_cells: set[int] = set()
         self._candidate: tuple[tuple[int, str], ...] = ()
         self._count = 0
@@ -138,8 +139,8 @@ class MoveTracker:
         half-drawn symbol is never taken for the person's move.
         """
         index = cell if isinstance(cell, int) else cell_index(cell)
-        if not 0 <= index < 9:
-            raise InvalidInputError(f"cell {cell!r} does not exist; cells are 0-8")
+        if not 0 <= index < N_CELLS:
+            raise InvalidInputError(f"cell {cell!r} does not exist; cells are 0-{N_CELLS - 1}")
         if self._board[index] != "nothing" and index not in self._robot_cells:
             raise InvalidInputError(
                 f"the robot cannot draw in {CELL_NAMES[index]}: the person's "
@@ -168,9 +169,10 @@ class MoveTracker:
 
     def _changes(self, labels: Sequence[str]) -> tuple[tuple[int, str], ...]:
         """The (cell, label) pairs where the reading adds to the accepted board."""
-        if len(labels) != 9 or any(label not in LABELS for label in labels):
+        if len(labels) != N_CELLS or any(label not in LABELS for label in labels):
             raise InvalidInputError(
-                f"a board reading is 9 labels from {', '.join(LABELS)}; got {list(labels)!r}"
+                f"a board reading is {N_CELLS} labels from {', '.join(LABELS)}; "
+                f"got {list(labels)!r}"
             )
         changes = []
         for cell, (seen, known) in enumerate(zip(labels, self._board, strict=True)):

@@ -83,32 +83,7 @@ def train_perceiver(
     test_x, test_y = generated_test_set(seeds, config.test_images, config.seed, config.image_size)
 
     sizes = [s for s in CURVE_SIZES if s < n] if curve else []
-    total = config.epochs * (sum(sizes) + n)
-    points: list[dict[str, float]] = []
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        TextColumn("{task.percentage:>3.0f}%"),
-        TimeElapsedColumn(),
-        disable=not show_progress,
-        transient=True,
-    ) as progress:
-        task = progress.add_task("training the perceiver", total=total)
-        offset = 0
-        for size in [*sizes, n]:
-            progress.update(task, description=f"training on {size:,} images")
-            base = offset
-            tick = time.perf_counter()
-            clf = SymbolClassifier(config).fit(
-                x[:size],
-                y[:size],
-                progress=lambda done, b=base: progress.update(task, completed=b + done),
-            )
-            seconds = time.perf_counter() - tick
-            offset += config.epochs * size
-            accuracy = evaluate(clf, test_x, test_y).accuracy
-            points.append({"images": size, "accuracy": accuracy, "fit_seconds": seconds})
-            log.info("%d images: accuracy %.4f in %.1f s", size, accuracy, seconds)
+    clf, points = _fit_along_the_curve(config, (x, y), (test_x, test_y), [*sizes, n], show_progress)
 
     test = evaluate(clf, test_x, test_y, "generated")
     try:
@@ -140,6 +115,44 @@ def train_perceiver(
         write_text_atomic(metrics_path, json.dumps(metrics, indent=2) + "\n")
         plot_learning_curve(points, curve_path)
     return TrainingResult(clf, metrics, model_path, metrics_path, curve_path)
+
+
+def _fit_along_the_curve(
+    config: PerceptionConfig,
+    train: tuple[np.ndarray, np.ndarray],
+    test: tuple[np.ndarray, np.ndarray],
+    sizes: list[int],
+    show_progress: bool,
+) -> tuple[SymbolClassifier, list[dict[str, float]]]:
+    """A classifier fitted afresh on the first `size` training images for each of `sizes`,
+    each measured on the test images: the last classifier, and the learning curve's points."""
+    (x, y), (test_x, test_y) = train, test
+    points: list[dict[str, float]] = []
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.percentage:>3.0f}%"),
+        TimeElapsedColumn(),
+        disable=not show_progress,
+        transient=True,
+    ) as progress:
+        task = progress.add_task("training the perceiver", total=config.epochs * sum(sizes))
+        offset = 0
+        for size in sizes:
+            progress.update(task, description=f"training on {size:,} images")
+            base = offset
+            tick = time.perf_counter()
+            clf = SymbolClassifier(config).fit(
+                x[:size],
+                y[:size],
+                progress=lambda done, b=base: progress.update(task, completed=b + done),
+            )
+            seconds = time.perf_counter() - tick
+            offset += config.epochs * size
+            accuracy = evaluate(clf, test_x, test_y).accuracy
+            points.append({"images": size, "accuracy": accuracy, "fit_seconds": seconds})
+            log.info("%d images: accuracy %.4f in %.1f s", size, accuracy, seconds)
+    return clf, points
 
 
 def plot_learning_curve(points: list[dict[str, float]], path: str | Path) -> Path:

@@ -9,7 +9,7 @@ from oxbot.errors import InvalidInputError, NoGridFound
 from oxbot.game.board import CELL_NAMES
 from oxbot.perception.board import BoardReader, default_reader, ink_elongation, read_board
 from oxbot.perception.classifier import load_classifier
-from oxbot.perception.render import HELD_OUT_STYLE, TUNING_STYLE, random_scene, render_photo
+from oxbot.testing.render import HELD_OUT_STYLE, TUNING_STYLE, random_scene, render_photo
 
 
 def test_read_board_is_public_next_to_load_classifier():

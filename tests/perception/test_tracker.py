@@ -6,9 +6,9 @@ from oxbot.config import TrackerConfig
 from oxbot.errors import InvalidInputError, NoGridFound
 from oxbot.game.board import LABELS
 from oxbot.perception.board import read_board
-from oxbot.perception.render import TUNING_STYLE, random_scene
 from oxbot.perception.sources import PushedFrames, VideoFileSource
 from oxbot.perception.tracker import GameMove, ImpossibleEvent, MoveTracker, watch
+from oxbot.testing.render import TUNING_STYLE, random_scene
 
 EMPTY = ["nothing"] * 9
 

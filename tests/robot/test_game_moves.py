@@ -8,7 +8,6 @@ import pytest
 
 from oxbot.config import TrackerConfig
 from oxbot.errors import InvalidInputError
-from oxbot.perception.render import TUNING_STYLE, random_scene
 from oxbot.perception.sources import ImageFolderSource
 from oxbot.robot.bus import LocalBus
 from oxbot.robot.frames import frame_message, frame_pixels
@@ -22,6 +21,7 @@ from oxbot.robot.messages import (
     GameMove,
     NewGame,
 )
+from oxbot.testing.render import TUNING_STYLE, random_scene
 from tests.robot.helpers import collect
 
 

@@ -14,7 +14,6 @@ import pytest
 
 from oxbot.config import load_config
 from oxbot.game.board import CELL_NAMES, EMPTY, outcome
-from oxbot.perception.render import TUNING_STYLE, random_scene
 from oxbot.robot.messages import (
     ArmCommand,
     ArmDone,
@@ -27,6 +26,7 @@ from oxbot.robot.messages import (
 )
 from oxbot.robot.session import Robot
 from oxbot.speech.synthesis import Voice, synthesize
+from oxbot.testing.render import TUNING_STYLE, random_scene
 
 pytestmark = pytest.mark.slow
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from oxbot.perception.render import (
+from oxbot.testing.render import (
     HELD_OUT_STYLE,
     STYLES,
     TUNING_STYLE,

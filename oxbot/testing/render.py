@@ -3,7 +3,8 @@
 A scene is paper lying on a desk, seen by a camera: a hand-drawn 3x3 grid (four wobbly lines
 that overshoot or stop short), circles and crosses drawn stroke by stroke, rotation, mild
 perspective, uneven lighting, sensor noise, blur and JPEG compression. Geometry lives in *cell
-units*: the grid's inner lines are x = 1, x = 2, y = 1, y = 2 and the cells fill [0, 3]².
+units*: the grid's inner lines are x = 1, x = 2, y = 1, y = 2 and the cells fill [0, 3]². Like
+the grid finder, it draws a 3x3 grid only: two lines each way (`_grid_line`, `_cell_bounds`).
 
 Two styles are kept apart on purpose. `TUNING_STYLE` is the one the board reader was developed
 and tuned on; `HELD_OUT_STYLE` (other pens, desk, paper, hand, lighting and camera) is used only
@@ -21,7 +22,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from oxbot.game.board import LABELS
+from oxbot.game.board import LABELS, N_CELLS, SIZE
 
 Range = tuple[float, float]
 Color = tuple[int, int, int]
@@ -180,6 +181,9 @@ TUNING_VARIANTS = {
 """Harder variants of the tuning style, for developing the board reader (never held-out)."""
 
 
+_GRID_CORNERS = np.array([[0, 0], [SIZE, 0], [SIZE, SIZE], [0, SIZE]])
+"""The grid's outer corners in cell units, clockwise from the upper left."""
+
 Stroke = np.ndarray
 """A pen stroke: float (N, 2) points in cell units, in drawing order."""
 
@@ -227,13 +231,15 @@ class SheetScene:
     @property
     def labels(self) -> tuple[str, ...]:
         """The label of each cell, row-major from the upper left."""
-        return tuple(self.symbols[i].label if i in self.symbols else "nothing" for i in range(9))
+        return tuple(
+            self.symbols[i].label if i in self.symbols else "nothing" for i in range(N_CELLS)
+        )
 
     def cell_size_px(self) -> float:
         """The mean side of a cell in photo pixels."""
-        corners = _apply(self.homography, np.array([[0, 0], [3, 0], [3, 3], [0, 3]], float))
+        corners = _apply(self.homography, _GRID_CORNERS.astype(float))
         sides = np.linalg.norm(corners - np.roll(corners, 1, axis=0), axis=1)
-        return float(sides.mean() / 3)
+        return float(sides.mean() / SIZE)
 
     def with_symbol(self, cell: int, label: str, rng: np.random.Generator) -> SheetScene:
         """This scene with `label` ("circle" or "cross") drawn in `cell` by the scene's hand."""
@@ -305,7 +311,7 @@ class RenderedPhoto:
 
 def random_labels(rng: np.random.Generator) -> tuple[str, ...]:
     """Nine labels drawn independently, "nothing" as often as both symbols together."""
-    return tuple(rng.choice(LABELS, size=9, p=(0.25, 0.25, 0.5)).tolist())
+    return tuple(rng.choice(LABELS, size=N_CELLS, p=(0.25, 0.25, 0.5)).tolist())
 
 
 def render_photo(
@@ -315,8 +321,8 @@ def render_photo(
 ) -> RenderedPhoto:
     """A random photo of a sheet whose cells hold `labels` (random when None)."""
     labels = tuple(labels) if labels is not None else random_labels(rng)
-    if len(labels) != 9 or any(label not in LABELS for label in labels):
-        raise ValueError(f"labels must be 9 of {LABELS}; got {labels!r}")
+    if len(labels) != N_CELLS or any(label not in LABELS for label in labels):
+        raise ValueError(f"labels must be {N_CELLS} of {LABELS}; got {labels!r}")
     scene = random_scene(rng, style)
     for cell, label in enumerate(labels):
         if label != "nothing":
@@ -347,9 +353,9 @@ def random_scene(
     if rotation is None:
         rotation = rng.uniform(-style.max_rotation, style.max_rotation)
     angle = math.radians(rotation)
-    src = np.array([[0, 0], [3, 0], [3, 3], [0, 3]], np.float32)
+    src = _GRID_CORNERS.astype(np.float32)
     rot = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
-    square = (src - 1.5) / 3 * side
+    square = (src - SIZE / 2) / SIZE * side
     corners = square @ rot.T
     corners += rng.uniform(-1, 1, corners.shape) * style.perspective * side
     # Keep the whole grid and a margin for symbols that spill over in view (shrinking the grid
@@ -378,9 +384,9 @@ def random_scene(
         paper_corners = np.array(
             [
                 [-grow[0], -grow[1]],
-                [3 + grow[2], -grow[1]],
-                [3 + grow[2], 3 + grow[3]],
-                [-grow[0], 3 + grow[3]],
+                [SIZE + grow[2], -grow[1]],
+                [SIZE + grow[2], SIZE + grow[3]],
+                [-grow[0], SIZE + grow[3]],
             ]
         )
     else:
@@ -420,7 +426,7 @@ def _grid_line(
     """Grid line number k (1 or 2): a wobbly stroke across the grid, and where it crosses the
     grid's middle."""
     start = -float(rng.uniform(*hand.grid_overshoot))
-    end = 3 + float(rng.uniform(*hand.grid_overshoot))
+    end = SIZE + float(rng.uniform(*hand.grid_overshoot))
     if rng.uniform() < hand.grid_gap_chance:  # stops just short of an outer crossing line
         if rng.uniform() < 0.5:
             start = 1 + float(rng.uniform(0.02, 0.06))
@@ -430,7 +436,7 @@ def _grid_line(
     along = np.linspace(start, end, n)
     tilt = math.tan(math.radians(rng.uniform(-hand.grid_tilt, hand.grid_tilt)))
     offset = k + rng.uniform(-1, 1) * hand.grid_spacing_jitter
-    across = offset + (along - 1.5) * tilt + _tremor(n, hand.grid_wobble, rng)
+    across = offset + (along - SIZE / 2) * tilt + _tremor(n, hand.grid_wobble, rng)
     across += rng.normal(0, 0.15 * hand.grid_wobble, n)
     points = np.stack([across, along], axis=1) if vertical else np.stack([along, across], axis=1)
     stroke = points if rng.uniform() < 0.5 else points[::-1].copy()
@@ -443,7 +449,7 @@ def _cell_bounds(
     """Left, top, right, bottom of a cell as the person sees it, in cell units: where the
     drawn (tilted, wobbly) lines pass the cell's middle; the outer cells as wide as the middle
     one."""
-    row, col = divmod(cell, 3)
+    row, col = divmod(cell, SIZE)
     cx, cy = col + 0.5, row + 0.5
 
     def across(k: int, at: float) -> float:
