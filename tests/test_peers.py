@@ -53,7 +53,7 @@ def test_training_conditions_mix_opponents_and_starters_and_expose_the_mask():
         _, info = env.reset()
         assert np.array_equal(env.action_mask, info["action_mask"])
         seen_opponents.add(env.unwrapped._simulator.opponent)
-        seen_starts.add(env.unwrapped._episode_robot_starts)
+        seen_starts.add(env.unwrapped.state.robot_starts)
         _, _, _, _, info = env.step(int(np.flatnonzero(info["action_mask"])[0]))
         assert np.array_equal(env.action_mask, info["action_mask"])
     assert len(seen_opponents) == 2

@@ -153,7 +153,7 @@ def words_of(text: str) -> list[str]:
 
 
 @dataclass(frozen=True)
-class Utterance:
+class DomainLine:
     """One line of a domain file: who speaks, the dialogue act, the words (and a drawing)."""
 
     speaker: str
@@ -177,10 +177,10 @@ class Utterance:
 class Domain:
     """Everything the action model, the simulator and the environment learn from."""
 
-    dialogues: tuple[tuple[Utterance, ...], ...]
+    dialogues: tuple[tuple[DomainLine, ...], ...]
     templates: dict[str, tuple[str, ...]]
     """System act (`GameMove(gridloc=$loc)` for every cell) -> its template texts."""
-    responses: dict[str, tuple[Utterance, ...]]
+    responses: dict[str, tuple[DomainLine, ...]]
     """System act (`GameMove(gridloc=$loc)` for every cell) -> the person's alternatives."""
     vocabulary: tuple[str, ...]
     """The words of the templates and user responses, in order of first appearance."""
@@ -194,14 +194,14 @@ class Domain:
             t.replace("$loc", CELL_NAMES[cell]) for t in self.templates[GAME_MOVE_TEMPLATE]
         )
 
-    def user_utterances(self) -> list[Utterance]:
+    def user_utterances(self) -> list[DomainLine]:
         """Everything the person says in the domain: the response alternatives, then the
         seed dialogues' USR lines."""
         spoken = [u for alternatives in self.responses.values() for u in alternatives]
         spoken += [u for dialogue in self.dialogues for u in dialogue if u.speaker == "USR"]
         return spoken
 
-    def responses_to(self, act: str) -> tuple[Utterance, ...]:
+    def responses_to(self, act: str) -> tuple[DomainLine, ...]:
         """The person's alternatives to a system act (empty means silence)."""
         key = GAME_MOVE_TEMPLATE if game_move_cell(act) is not None else act
         return self.responses.get(key, ())
@@ -217,7 +217,7 @@ def _lines(path: Path) -> list[tuple[int, str]]:
     return [(n, line.strip()) for n, line in enumerate(text.splitlines(), start=1)]
 
 
-def parse_utterance(line: str, where: str, speaker: str | None = None) -> Utterance:
+def parse_utterance(line: str, where: str, speaker: str | None = None) -> DomainLine:
     """One `SPEAKER:[Act]"words"` line, checked; `where` is `file:line` for the error message."""
     match = _UTTERANCE.match(line)
     if match is None:
@@ -242,7 +242,7 @@ def parse_utterance(line: str, where: str, speaker: str | None = None) -> Uttera
             )
     elif tags or "[" in text:
         raise DataError(f"{where}: only a GameMove act may carry a [who=... what=draw ...] tag")
-    return Utterance(who, act, text, where)
+    return DomainLine(who, act, text, where)
 
 
 def parse_templates(path: Path) -> dict[str, tuple[str, ...]]:
@@ -264,9 +264,9 @@ def parse_templates(path: Path) -> dict[str, tuple[str, ...]]:
     return {act: tuple(texts) for act, texts in templates.items()}
 
 
-def parse_responses(path: Path) -> dict[str, tuple[Utterance, ...]]:
+def parse_responses(path: Path) -> dict[str, tuple[DomainLine, ...]]:
     """The user responses file: system act -> the person's alternative utterances."""
-    responses: dict[str, list[Utterance]] = {}
+    responses: dict[str, list[DomainLine]] = {}
     for n, line in _lines(path):
         if not line or line.startswith("#"):
             continue
@@ -289,9 +289,9 @@ def parse_responses(path: Path) -> dict[str, tuple[Utterance, ...]]:
     return {act: tuple(alternatives) for act, alternatives in responses.items()}
 
 
-def parse_dialogues(path: Path, vocabulary: tuple[str, ...]) -> tuple[tuple[Utterance, ...], ...]:
+def parse_dialogues(path: Path, vocabulary: tuple[str, ...]) -> tuple[tuple[DomainLine, ...], ...]:
     """The seed dialogues file, each dialogue replayed to check its moves and its feedback."""
-    dialogues: list[list[Utterance]] = [[]]
+    dialogues: list[list[DomainLine]] = [[]]
     known_words = set(vocabulary)
     for n, line in _lines(path):
         if line.startswith("#"):
@@ -321,7 +321,7 @@ def parse_dialogues(path: Path, vocabulary: tuple[str, ...]) -> tuple[tuple[Utte
     return found
 
 
-def _check_game(dialogue: tuple[Utterance, ...]) -> None:
+def _check_game(dialogue: tuple[DomainLine, ...]) -> None:
     board: Board = EMPTY_BOARD
     for utterance in dialogue:
         cell = utterance.cell
@@ -342,7 +342,7 @@ def _check_game(dialogue: tuple[Utterance, ...]) -> None:
 
 
 def derive_vocabulary(
-    templates: dict[str, tuple[str, ...]], responses: dict[str, tuple[Utterance, ...]]
+    templates: dict[str, tuple[str, ...]], responses: dict[str, tuple[DomainLine, ...]]
 ) -> tuple[str, ...]:
     """Every word of the templates and user responses, in order of first appearance."""
     words: dict[str, None] = {}

@@ -27,7 +27,7 @@ from oxbot.dialogue.domain import (
     is_game_move,
 )
 from oxbot.dialogue.env import InteractiveGameEnv, format_turn
-from oxbot.dialogue.model import build_dialogue_model
+from oxbot.dialogue.model import DialogueModel, build_dialogue_model
 from oxbot.dialogue.simulator import UserSimulator
 from oxbot.dialogue.state import Turn
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, legal_moves, play, winner
@@ -115,6 +115,56 @@ class EvaluationResult:
         return data
 
 
+@dataclass
+class _Tally:
+    """What `evaluate` counts as dialogues finish."""
+
+    keep_transcripts: int
+    finished: int = 0
+    outcomes: dict[str, int] = field(default_factory=lambda: {"win": 0, "draw": 0, "loss": 0})
+    truncated: int = 0
+    total_reward: float = 0.0
+    total_turns: int = 0
+    good: int = 0
+    problems: dict[str, int] = field(default_factory=dict)
+    kept: list[list[Turn]] = field(default_factory=list)
+
+    def add(self, info: dict[str, Any], terminated: bool, episode_return: float) -> None:
+        self.finished += 1
+        result = info["outcome"] if terminated else None
+        if result is not None:
+            self.outcomes[result] += 1
+        else:
+            self.truncated += 1
+        self.total_reward += episode_return
+        transcript = info["transcript"]
+        self.total_turns += len(transcript)
+        problem = check_dialogue(transcript, result) if terminated else "truncated"
+        if problem is None:
+            self.good += 1
+        else:
+            self.problems[problem] = self.problems.get(problem, 0) + 1
+        if len(self.kept) < self.keep_transcripts:
+            self.kept.append(transcript)
+
+    def result(self, opponent: str, robot_starts: bool) -> EvaluationResult:
+        n = self.finished
+        return EvaluationResult(
+            opponent=opponent,
+            robot_starts=robot_starts,
+            games=n,
+            win_rate=self.outcomes["win"] / n,
+            draw_rate=self.outcomes["draw"] / n,
+            loss_rate=self.outcomes["loss"] / n,
+            average_reward=self.total_reward / n,
+            average_turns=self.total_turns / n,
+            well_formed=self.good / n,
+            truncated=self.truncated,
+            problems=self.problems,
+            transcripts=self.kept,
+        )
+
+
 def evaluate(
     policy: Policy,
     opponent: str,
@@ -125,83 +175,83 @@ def evaluate(
     n_envs: int = 250,
     keep_transcripts: int = 0,
 ) -> EvaluationResult:
-    """Play `games` dialogues with `policy` (greedy batch policy) and measure them."""
+    """Play `games` dialogues with `policy` (greedy batch policy) and measure them.
+
+    `n_envs` environments run side by side, so that the policy acts on a batch of states."""
     config = config if config is not None else OxbotConfig()
     n_envs = max(1, min(n_envs, games))
     envs = [
         InteractiveGameEnv(opponent=opponent, robot_starts=robot_starts, config=config)
         for _ in range(n_envs)
     ]
-    states, masks = [], []
-    for i, env in enumerate(envs):
-        obs, info = env.reset(seed=seed * 100_003 + i)
-        states.append(obs)
-        masks.append(info["action_mask"])
-    states_arr = np.stack(states)
-    masks_arr = np.stack(masks)
+    first = [env.reset(seed=seed * 100_003 + i) for i, env in enumerate(envs)]
+    states = np.stack([obs for obs, _ in first])
+    masks = np.stack([info["action_mask"] for _, info in first])
     returns = np.zeros(n_envs)
     active = np.ones(n_envs, dtype=bool)
     started = n_envs
-    counts = {"win": 0, "draw": 0, "loss": 0}
-    total_reward = 0.0
-    total_turns = 0
-    finished = 0
-    good = 0
-    truncated_games = 0
-    problems: dict[str, int] = {}
-    kept: list[list[Turn]] = []
+    tally = _Tally(keep_transcripts)
     while active.any():
         idx = np.flatnonzero(active)
-        actions = policy(states_arr[idx], masks_arr[idx])
+        actions = policy(states[idx], masks[idx])
         for i, action in zip(idx, actions, strict=True):
-            env = envs[i]
-            obs, reward, terminated, truncated, info = env.step(int(action))
+            obs, reward, terminated, truncated, info = envs[i].step(int(action))
             returns[i] += reward
             if terminated or truncated:
-                finished += 1
-                result = info["outcome"] if terminated else None
-                if result is not None:
-                    counts[result] += 1
-                else:
-                    truncated_games += 1
-                total_reward += returns[i]
-                transcript = info["transcript"]
-                total_turns += len(transcript)
-                problem = check_dialogue(transcript, result) if terminated else "truncated"
-                if problem is None:
-                    good += 1
-                else:
-                    problems[problem] = problems.get(problem, 0) + 1
-                if len(kept) < keep_transcripts:
-                    kept.append(transcript)
+                tally.add(info, terminated, returns[i])
                 returns[i] = 0.0
-                if started < games:
-                    obs, info = env.reset()
-                    started += 1
-                else:
+                if started == games:
                     active[i] = False
                     continue
-            states_arr[i] = obs
-            masks_arr[i] = info["action_mask"]
-    return EvaluationResult(
-        opponent=opponent,
-        robot_starts=robot_starts,
-        games=finished,
-        win_rate=counts["win"] / finished,
-        draw_rate=counts["draw"] / finished,
-        loss_rate=counts["loss"] / finished,
-        average_reward=total_reward / finished,
-        average_turns=total_turns / finished,
-        well_formed=good / finished,
-        truncated=truncated_games,
-        problems=problems,
-        transcripts=kept,
-    )
+                obs, info = envs[i].reset()
+                started += 1
+            states[i] = obs
+            masks[i] = info["action_mask"]
+    return tally.result(opponent, robot_starts)
 
 
 def format_transcript(transcript: list[Turn]) -> str:
     """A dialogue as lines like the paper's Figure 1."""
     return "\n".join(format_turn(turn) for turn in transcript)
+
+
+class _DecisionStates:
+    """The states a dialogue reaches at the robot's turn on a given board, in the game-tree
+    check: after "Nice, let's play." on the empty board; else after "Your turn." and the
+    person's drawing, each of their utterances heard cleanly and `noisy_variants` times
+    through the noisy recogniser."""
+
+    def __init__(
+        self, model: DialogueModel, robot_starts: bool, hearing: UserSimulator, noisy_variants: int
+    ) -> None:
+        domain = model.domain
+        agreed = model.new_state(robot_starts)  # greeted, introduced, invited; the person agreed
+        for act in (GREETING, INTRODUCTION, INVITATION):
+            agreed.robot_says(act, domain.templates_for(act)[0])
+        self.openings = []
+        for text in domain.templates_for(LETS_PLAY):
+            opening = agreed.copy()
+            opening.robot_says(LETS_PLAY, text)
+            self.openings.append(opening)
+        self.your_turn = domain.templates_for(MOVE_REQUEST)
+        self.moves = domain.responses_to(MOVE_REQUEST)
+        self.hearing = hearing
+        self.noisy_variants = noisy_variants
+
+    def at(self, board: Board) -> np.ndarray:
+        if board == EMPTY_BOARD:
+            return np.stack([state.encode() for state in self.openings])
+        states = []
+        for your_turn in self.your_turn:
+            state = self.openings[0].at(board)
+            state.robot_says(MOVE_REQUEST, your_turn)
+            for move in self.moves:
+                clean = tuple((w, 1.0) for w in move.words)
+                noisy = [self.hearing.recognize(move.words) for _ in range(self.noisy_variants)]
+                for heard in [clean, *noisy]:  # each a new answer to the same "Your turn."
+                    state.person_says(move.act, move.text, heard)
+                    states.append(state.encode())
+        return np.stack(states)
 
 
 def losing_positions(
@@ -213,55 +263,30 @@ def losing_positions(
 ) -> int:
     """Boards, reachable against *any* person, where the greedy policy can be made to lose.
 
-    Walks the whole game tree: at every robot turn the policy sees the state a dialogue reaches
-    there (after "Your turn." and the person's drawing, each of its utterances heard cleanly and
-    `noisy_variants` times through the noisy recogniser), and every cell it picks in any of
-    these is followed; the person tries every empty cell. Returns how many of the robot's
-    decision boards lead to a position the person wins at once, or where the policy does not
-    draw at all. Zero means no person can beat it (up to the sampled noise).
+    Walks the whole game tree: at every robot turn the policy sees the states a dialogue
+    reaches there (`_DecisionStates`), and every cell it picks in any of these is followed;
+    the person tries every empty cell. Returns how many of the robot's decision boards lead to
+    a position the person wins at once, or where the policy does not draw at all. Zero means
+    no person can beat it (up to the sampled noise).
     """
     config = config if config is not None else OxbotConfig()
     model = build_dialogue_model(config)
-    domain, action_model = model.domain, model.action_model
+    action_model = model.action_model
     hearing = UserSimulator(
-        domain, rng=np.random.default_rng(seed), asr_noise=config.dialogue.asr_noise
+        model.domain, rng=np.random.default_rng(seed), asr_noise=config.dialogue.asr_noise
     )
-    agreed = model.new_state(robot_starts)  # greeted, introduced, invited; the person said yes
-    for act in (GREETING, INTRODUCTION, INVITATION):
-        agreed.robot_says(act, domain.templates_for(act)[0])
-    openings = []
-    for text in domain.templates_for(LETS_PLAY):
-        opening = agreed.copy()
-        opening.robot_says(LETS_PLAY, text)
-        openings.append(opening)
-    moves = domain.responses_to(MOVE_REQUEST)
+    decision_states = _DecisionStates(model, robot_starts, hearing, noisy_variants)
     bad: set[Board] = set()
     seen: dict[Board, set[int]] = {}
-
-    def decision_states(board: Board) -> list[np.ndarray]:
-        if board == EMPTY_BOARD:
-            return [state.encode() for state in openings]
-        states = []
-        for your_turn in domain.templates_for(MOVE_REQUEST):
-            state = openings[0].at(board)
-            state.robot_says(MOVE_REQUEST, your_turn)
-            for move in moves:
-                clean = tuple((w, 1.0) for w in move.words)
-                noisy = [hearing.recognise(move.words) for _ in range(noisy_variants)]
-                for heard in [clean, *noisy]:  # each a new answer to the same "Your turn."
-                    state.person_says(move.act, move.text, heard)
-                    states.append(state.encode())
-        return states
+    visited: set[Board] = set()
 
     def choices(board: Board) -> set[int]:
-        if board in seen:
-            return seen[board]
-        states = np.stack(decision_states(board))
-        probs = action_model.predict_proba(states)  # one batch: the same numbers as offered()
-        masks = np.stack([action_mask(p, board, True, action_model.threshold) for p in probs])
-        picked = {int(a) for a in policy(states, masks)}
-        seen[board] = picked
-        return picked
+        if board not in seen:
+            states = decision_states.at(board)
+            probs = action_model.predict_proba(states)  # one batch: the numbers of offered()
+            masks = np.stack([action_mask(p, board, True, action_model.threshold) for p in probs])
+            seen[board] = {int(a) for a in policy(states, masks)}
+        return seen[board]
 
     def robot_turn(board: Board) -> None:
         picked = choices(board)
@@ -281,7 +306,6 @@ def losing_positions(
                 visited.add(after)
                 robot_turn(after)
 
-    visited: set[Board] = set()
     if robot_starts:
         robot_turn(EMPTY_BOARD)
     else:

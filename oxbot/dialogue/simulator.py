@@ -35,7 +35,7 @@ from oxbot.dialogue.domain import (
     MOVE_REQUEST,
     SILENCE,
     Domain,
-    Utterance,
+    DomainLine,
 )
 from oxbot.game.board import CELL_NAMES, Board
 from oxbot.game.opponents import Opponent, checked_move, random_opponent
@@ -111,16 +111,16 @@ class UserSimulator:
             return UserTurn(SILENCE, "", ())
         return self._say(alternatives[rng.integers(len(alternatives))])
 
-    def _say(self, utterance: Utterance, cell: int | None = None) -> UserTurn:
+    def _say(self, utterance: DomainLine, cell: int | None = None) -> UserTurn:
         act, text = utterance.act, utterance.text
         if act == SILENCE:
             return UserTurn(SILENCE, "", ())
         if cell is not None:
             act = act.replace("$loc", CELL_NAMES[cell])
             text = text.replace("$loc", CELL_NAMES[cell])
-        return UserTurn(act, text, self.recognise(utterance.words), cell)
+        return UserTurn(act, text, self.recognize(utterance.words), cell)
 
-    def recognise(self, words: list[str]) -> tuple[tuple[str, float], ...]:
+    def recognize(self, words: list[str]) -> tuple[tuple[str, float], ...]:
         """The words as the noisy recogniser hears them: (word, confidence) pairs."""
         n = self.asr_noise
         if n <= 0.0:

@@ -241,6 +241,7 @@ def train_agent(
     log_every: int = 1_000,
 ) -> TrainingResult:
     """Train the interaction manager with `config` and write its files into `out_dir`."""
+    # Long on purpose: the paper's algorithm as one loop read top to bottom, as CleanRL's dqn.py.
     out_dir = Path(out_dir)
     cfg = config.agent
     torch.set_num_threads(1)  # a 60-unit MLP trains fastest on one thread

@@ -19,6 +19,7 @@ from oxbot.errors import ConfigError, OpponentError
 from oxbot.game.board import (
     CELL_NAMES,
     EMPTY,
+    N_CELLS,
     ROBOT,
     USER,
     Board,
@@ -115,10 +116,10 @@ def checked_move(opponent: Opponent, board: Board) -> int:
     cell = opponent(board)
     if isinstance(cell, np.integer):
         cell = int(cell)
-    if not isinstance(cell, int) or isinstance(cell, bool) or not 0 <= cell < 9:
+    if not isinstance(cell, int) or isinstance(cell, bool) or not 0 <= cell < N_CELLS:
         raise OpponentError(
             f"opponent {getattr(opponent, '__name__', opponent)!r} returned {cell!r}; "
-            "it must return the index 0-8 of an empty cell"
+            f"it must return the index 0-{N_CELLS - 1} of an empty cell"
         )
     if board[cell] != EMPTY:
         raise OpponentError(

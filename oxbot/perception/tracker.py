@@ -48,7 +48,7 @@ PLURAL = {"circle": "circles", "cross": "crosses"}
 
 
 @dataclass(frozen=True)
-class GameMove:
+class AcceptedDrawing:
     """A drawing accepted as a move: the paper's `[who=usr ∧ what=draw ∧ where=middle]`."""
 
     who: Literal["usr", "rob"]
@@ -89,7 +89,7 @@ class ImpossibleEvent:
         return self.message
 
 
-TrackerEvent = GameMove | ImpossibleEvent
+TrackerEvent = AcceptedDrawing | ImpossibleEvent
 
 
 class MoveTracker:
@@ -233,7 +233,7 @@ class MoveTracker:
             )
         self._board[cell] = symbol
         self._candidate, self._count = (), 0
-        return GameMove("usr", "draw", CELL_NAMES[cell], cell, symbol, self._readings)
+        return AcceptedDrawing("usr", "draw", CELL_NAMES[cell], cell, symbol, self._readings)
 
     def _impossible(
         self, kind: ImpossibleKind, cells: tuple[int, ...], symbols: tuple[str, ...], text: str

@@ -25,8 +25,7 @@ from oxbot.config import TrackerConfig
 from oxbot.errors import FrameSourceError, NoGridFound
 from oxbot.perception.board import BoardReader, default_reader
 from oxbot.perception.sources import FrameSource
-from oxbot.perception.tracker import GameMove as AcceptedDrawing
-from oxbot.perception.tracker import ImpossibleEvent, MoveTracker
+from oxbot.perception.tracker import AcceptedDrawing, ImpossibleEvent, MoveTracker
 from oxbot.robot.bus import Bus, Component
 from oxbot.robot.frames import check_frame, frame_pixels
 from oxbot.robot.messages import (

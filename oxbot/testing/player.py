@@ -73,6 +73,7 @@ async def play_game(
     answer: str = ANSWER,
 ) -> GameRecord:
     """Play one game against the robot at `url` (ws://host:port/ws) and return its record."""
+    # Long on purpose: one message loop, each branch the page's handler of that message.
     import websockets
 
     rng = np.random.default_rng(seed)

@@ -321,47 +321,56 @@ def create_app(
 
     @app.websocket("/ws")
     async def game(websocket: WebSocket) -> None:
-        await websocket.accept()
-        if len(sessions) >= limits.max_sessions:
-            await websocket.send_text(_error_text(f"the server is full ({len(sessions)} games)"))
-            await websocket.close(code=1013)
-            return
-        if not ready.is_set():
-            await websocket.send_text(
-                json.dumps({"type": "Status", "data": {"message": "The robot is waking up…"}})
-            )
-            await asyncio.to_thread(ready.wait)
-        try:
-            robot = await asyncio.to_thread(make_robot)
-        except Exception as exc:  # the robot cannot be built: say why, to this tab only
-            log.exception("cannot create a robot")
-            await websocket.send_text(_error_text(f"the robot cannot start: {exc}"))
-            await websocket.close(code=1011)
-            return
-        session = Session(robot, limits)
-        sessions[session.id] = session
-        log.info("session %d opened (%d running)", session.id, len(sessions))
-        sender = None
-        try:
-            # the robot starts first (its greeting waits in the outbox), so that a frame sent
-            # on Hello is never forgotten by the robot's first NewGame
-            await asyncio.to_thread(session.start)
-            await websocket.send_text(json.dumps({"type": "Hello", "data": _hello(session, app)}))
-            sender = asyncio.create_task(_send_all(websocket, session))
-            await _receive_all(websocket, session)
-        except WebSocketDisconnect:
-            pass
-        finally:
-            if sender is not None:
-                sender.cancel()
-            sessions.pop(session.id, None)
-            await asyncio.to_thread(session.close)
-            log.info("session %d closed (%d running)", session.id, len(sessions))
+        await _game_session(websocket, app, make_robot, ready)
 
     app.state.speed_factor = speed_factor
     app.state.robot_starts = robot_starts
     app.state.stable_readings = config.tracker.stable_readings
     return app
+
+
+async def _game_session(
+    websocket: WebSocket, app: FastAPI, make_robot: Callable[[], RobotLike], ready: threading.Event
+) -> None:
+    """One tab's game, from the socket's opening to its closing."""
+    sessions: dict[int, Session] = app.state.sessions
+    limits: WebConfig = app.state.limits
+    await websocket.accept()
+    if len(sessions) >= limits.max_sessions:
+        await websocket.send_text(_error_text(f"the server is full ({len(sessions)} games)"))
+        await websocket.close(code=1013)
+        return
+    if not ready.is_set():
+        await websocket.send_text(
+            json.dumps({"type": "Status", "data": {"message": "The robot is waking up…"}})
+        )
+        await asyncio.to_thread(ready.wait)
+    try:
+        robot = await asyncio.to_thread(make_robot)
+    except Exception as exc:  # the robot cannot be built: say why, to this tab only
+        log.exception("cannot create a robot")
+        await websocket.send_text(_error_text(f"the robot cannot start: {exc}"))
+        await websocket.close(code=1011)
+        return
+    session = Session(robot, limits)
+    sessions[session.id] = session
+    log.info("session %d opened (%d running)", session.id, len(sessions))
+    sender = None
+    try:
+        # the robot starts first (its greeting waits in the outbox), so that a frame sent
+        # on Hello is never forgotten by the robot's first NewGame
+        await asyncio.to_thread(session.start)
+        await websocket.send_text(json.dumps({"type": "Hello", "data": _hello(session, app)}))
+        sender = asyncio.create_task(_send_all(websocket, session))
+        await _receive_all(websocket, session)
+    except WebSocketDisconnect:
+        pass
+    finally:
+        if sender is not None:
+            sender.cancel()
+        sessions.pop(session.id, None)
+        await asyncio.to_thread(session.close)
+        log.info("session %d closed (%d running)", session.id, len(sessions))
 
 
 def _warm_up(ready: threading.Event, config: OxbotConfig) -> None:

@@ -14,14 +14,14 @@ def simulator(**kwargs) -> UserSimulator:
 
 
 def test_without_noise_every_word_is_heard_with_full_confidence():
-    heard = simulator(asr_noise=0.0).recognise(["yes", "let's", "go"])
+    heard = simulator(asr_noise=0.0).recognize(["yes", "let's", "go"])
     assert heard == (("yes", 1.0), ("let's", 1.0), ("go", 1.0))
 
 
 @pytest.mark.parametrize("noise", [0.2, 0.6])
 def test_noise_drops_substitutes_and_lowers_confidence_at_the_configured_level(noise):
     words = ["pick"] * 4000
-    heard = simulator(asr_noise=noise).recognise(words)
+    heard = simulator(asr_noise=noise).recognize(words)
     dropped = 1 - len(heard) / len(words)
     assert dropped == pytest.approx(noise / 4, abs=0.03)
     substituted = [c for w, c in heard if w != "pick"]

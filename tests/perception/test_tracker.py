@@ -7,7 +7,7 @@ from oxbot.errors import InvalidInputError, NoGridFound
 from oxbot.game.board import LABELS
 from oxbot.perception.board import read_board
 from oxbot.perception.sources import PushedFrames, VideoFileSource
-from oxbot.perception.tracker import GameMove, ImpossibleEvent, MoveTracker, watch
+from oxbot.perception.tracker import AcceptedDrawing, ImpossibleEvent, MoveTracker, watch
 from oxbot.testing.render import TUNING_STYLE, random_scene
 
 EMPTY = ["nothing"] * 9
@@ -32,7 +32,7 @@ def test_tracker_needs_three_identical_readings():
     seen = board(middle="cross")
     events = feed(tracker, seen, seen, seen, seen)
     assert events[:2] == [None, None]
-    assert isinstance(events[2], GameMove)
+    assert isinstance(events[2], AcceptedDrawing)
     assert events[3] is None  # accepted once, not again
     move = events[2]
     assert (move.who, move.what, move.where, move.symbol) == ("usr", "draw", "middle", "cross")
@@ -48,7 +48,7 @@ def test_tracker_period_and_count_come_from_the_paper():
     tracker = MoveTracker(config=TrackerConfig(stable_readings=5), check_turns=False)
     seen = board(lowerleft="cross")
     assert feed(tracker, *[seen] * 4) == [None] * 4
-    assert isinstance(tracker.update(seen), GameMove)
+    assert isinstance(tracker.update(seen), AcceptedDrawing)
 
 
 def test_tracker_ignores_flicker_and_missing_frames():
@@ -77,7 +77,7 @@ def test_tracker_ignores_the_robots_drawings():
     assert feed(tracker, *readings) == [None] * len(readings)
     # The person's cross next to it is a move; the robot's circle is not in it.
     events = feed(tracker, *[board(upperright="circle", middle="cross")] * 3)
-    assert [type(e) for e in events] == [type(None), type(None), GameMove]
+    assert [type(e) for e in events] == [type(None), type(None), AcceptedDrawing]
     assert events[2].where == "middle"
 
 
@@ -122,7 +122,7 @@ def test_tracker_refuses_drawings_out_of_turn_and_after_the_game():
     assert tracker.board == tuple(EMPTY)
     tracker.robot_draws("middle")
     events = feed(tracker, *[board(middle="circle", upperleft="cross")] * 3)
-    assert isinstance(events[2], GameMove) and events[2].where == "upperleft"
+    assert isinstance(events[2], AcceptedDrawing) and events[2].where == "upperleft"
     # A second cross before the robot has answered is out of turn.
     events = feed(tracker, *[board(middle="circle", upperleft="cross", lowerleft="cross")] * 3)
     assert isinstance(events[2], ImpossibleEvent) and events[2].kind == "out_of_turn"
@@ -148,7 +148,7 @@ def test_tracker_counts_agreeing_readings():
 def test_the_starter_draws_circles():
     tracker = MoveTracker(robot_starts=False, check_turns=False)  # the person starts, with circles
     events = feed(tracker, *[board(middle="circle")] * 3)
-    assert isinstance(events[2], GameMove) and events[2].symbol == "circle"
+    assert isinstance(events[2], AcceptedDrawing) and events[2].symbol == "circle"
     events = feed(tracker, *[board(middle="circle", upperleft="cross")] * 3)
     assert isinstance(events[2], ImpossibleEvent) and events[2].kind == "wrong_symbol"
 
@@ -180,7 +180,7 @@ def test_tracker_never_emits_a_move_it_has_not_seen_three_times():
                     reading[cell] = LABELS[int(rng.integers(3))]
             history.append(reading)
             event = tracker.update(reading)
-            if isinstance(event, GameMove):
+            if isinstance(event, AcceptedDrawing):
                 moves += 1
                 last_three = history[-3:]
                 assert len(last_three) == 3
@@ -233,7 +233,7 @@ def test_video_of_a_cross_drawn_stroke_by_stroke_yields_one_move(tmp_path):
     assert all(readings[i][0] == "nothing" for i in half_drawn[-6:]), "half-drawn read as symbol"
     assert len(events) == 1, events
     index, move = events[0]
-    assert isinstance(move, GameMove)
+    assert isinstance(move, AcceptedDrawing)
     assert (move.who, move.what, move.where) == ("usr", "draw", "upperleft")
     # Emitted on the third reading in a row that shows the cross, never earlier.
     assert index > half_drawn[-1]
