@@ -63,3 +63,30 @@ def test_config_prints_the_overridden_value():
     result = oxbot("--set", "agent.discount=0.9", "config")
     assert result.returncode == 0
     assert "discount = 0.9" in result.stdout
+
+
+def test_help_shows_flags_without_a_type_to_give():
+    result = runner.invoke(app, ["play", "--help"])
+    assert result.exit_code == 0
+    assert "--terminal" in result.output and "<bool>" not in result.output
+
+
+def test_play_serves_where_the_config_says_and_a_taken_port_is_one_clear_line():
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = oxbot("--set", f"web.port={port}", "play")
+    assert result.returncode == 2
+    assert f"port {port} on 127.0.0.1 is already in use" in result.stderr
+    assert "Traceback" not in result.stderr and "Errno" not in result.stderr
+
+
+def test_play_in_the_terminal_takes_the_config_too(tmp_path):
+    config = tmp_path / "robot.toml"
+    config.write_text('[speech]\nrecognizer = "no_such_module:make"\n')
+    result = oxbot("--config", str(config), "play", "--terminal", "--mute", stdin="quit\n")
+    assert result.returncode == 2
+    assert "speech.recognizer 'no_such_module:make' cannot be imported" in result.stderr

@@ -234,18 +234,23 @@ def _shipped_recognizer(name: str, nbest: int) -> Recognizer:
 
 
 def _build(name: str, phrases: list[str], nbest: int) -> Recognizer:
+    return recognizer_factory(name)(phrases, nbest=nbest)
+
+
+def recognizer_factory(name: str) -> Callable[..., Recognizer]:
+    """The factory `speech.recognizer` names: one of RECOGNIZERS, or `module:factory`."""
     factory = RECOGNIZERS.get(name)
-    if factory is None:
-        module_name, _, attribute = name.partition(":")
-        if not attribute:
-            raise ConfigError(
-                f"speech.recognizer is {name!r}; use {', '.join(RECOGNIZERS)} or module:factory"
-            )
-        try:
-            factory = getattr(importlib.import_module(module_name), attribute)
-        except (ImportError, AttributeError) as exc:
-            raise ConfigError(f"speech.recognizer {name!r} cannot be imported: {exc}") from None
-    return factory(phrases, nbest=nbest)
+    if factory is not None:
+        return factory
+    module_name, _, attribute = name.partition(":")
+    if not attribute:
+        raise ConfigError(
+            f"speech.recognizer is {name!r}; use {', '.join(RECOGNIZERS)} or module:factory"
+        )
+    try:
+        return getattr(importlib.import_module(module_name), attribute)
+    except (ImportError, AttributeError) as exc:
+        raise ConfigError(f"speech.recognizer {name!r} cannot be imported: {exc}") from None
 
 
 def default_recognizer() -> Recognizer:

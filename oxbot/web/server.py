@@ -498,8 +498,11 @@ def serve(config: OxbotConfig | None = None) -> None:
     (localhost by default)."""
     import uvicorn
 
+    from oxbot.speech.recognition import recognizer_factory
+
     config = config if config is not None else OxbotConfig()
     host, port = config.web.host, config.web.port
+    recognizer_factory(config.speech.recognizer)  # a misnamed one fails now, not in each tab
     check_port_free(host, port)
     app = create_app(config)
     log.info("oxbot: open http://%s:%d in a browser to play", host, port)

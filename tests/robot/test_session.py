@@ -198,3 +198,20 @@ def test_typed_words_become_word_features_without_their_punctuation(robot):
     message = heard.get(2.0)
     assert message.words == (("yes", 1.0), ("let's", 1.0), ("play", 1.0))
     assert message.nbest == (("Yes, let's play.", 1.0),)
+
+
+def test_the_recognisers_word_confidences_reach_the_managers_state():
+    from oxbot.robot.bus import LocalBus
+    from oxbot.robot.manager import InteractionManagerComponent, Phase
+    from oxbot.robot.messages import NewGame
+    from oxbot.robot.session import shared_policy
+
+    manager = InteractionManagerComponent(LocalBus(), policy=shared_policy())
+    manager.handle(NewGame(robot_starts=True))  # it greets, and is speaking: it only listens
+    assert manager.phase is Phase.SPEAKING
+    words = (("yes", 0.95), ("let's", 0.4), ("play", 0.7))
+    manager.handle(SpeechHypotheses(nbest=(("yes let's play", 0.8),), words=words))
+    layout = manager.model.layout
+    features = manager.state.encode()
+    # each word's own confidence (paper §2.2), not the utterance's 0.8 for all
+    assert [round(float(features[layout.word_index[w]]), 2) for w, _ in words] == [0.95, 0.4, 0.7]
