@@ -354,7 +354,7 @@ class WebConfig:
     """The web page's server (`oxbot play`) and what one tab may send it."""
 
     host: str = "127.0.0.1"
-    """oxbot: the address to listen on; 0.0.0.0 serves the LAN (see README, security)."""
+    """oxbot: the address to listen on; 0.0.0.0 lets anyone who can reach this machine play."""
     port: int = 8000
     """oxbot: the port to listen on."""
     max_message_bytes: int = 4_000_000

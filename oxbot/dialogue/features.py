@@ -24,7 +24,7 @@ kind (35 words, 18 cells, 4 game flags). The word features are reset every turn;
 the history instead (paper: "we kept the game move features as to describe the game state rather
 than resetting them at every turn"). oxbot adds the four dialogue flags for the same reason: the
 last turn's words cannot tell whether the robot has already introduced itself or given feedback,
-and without them no policy can be well formed every time (see README, Deviations).
+and without them no policy can be well formed every time (see docs/deviations.md).
 """
 
 from __future__ import annotations

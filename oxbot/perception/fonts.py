@@ -34,7 +34,7 @@ GLYPHS = {"circle": ("O", "o"), "cross": ("X", "x")}
 LEFT_OUT = frozenset({("femkeklaver.ttf", "X"), ("dkgIt.ttf", "X"), ("dkgBI.ttf", "X")})
 """Capital X glyphs that are not two crossing strokes: femkeklaver's is the outline of a hollow
 block letter, dkg's italic ones a calligraphic capital (a hairline through two parallel
-strokes). Nobody marks a game that way, so the set leaves them out (README, deviations)."""
+strokes). Nobody marks a game that way, so the set leaves them out (docs/deviations.md)."""
 
 
 @functools.cache
