@@ -36,6 +36,7 @@ from oxbot.dialogue.domain import (
     SILENCE,
     Domain,
     DomainLine,
+    game_move,
 )
 from oxbot.game.board import CELL_NAMES, Board
 from oxbot.game.opponents import Opponent, checked_move, random_opponent
@@ -115,9 +116,8 @@ class UserSimulator:
         act, text = utterance.act, utterance.text
         if act == SILENCE:
             return UserTurn(SILENCE, "", ())
-        if cell is not None:
-            act = act.replace("$loc", CELL_NAMES[cell])
-            text = text.replace("$loc", CELL_NAMES[cell])
+        if cell is not None:  # a drawing: the template's $loc is the cell drawn in
+            act, text = game_move(cell), text.replace("$loc", CELL_NAMES[cell])
         return UserTurn(act, text, self.recognize(utterance.words), cell)
 
     def recognize(self, words: list[str]) -> tuple[tuple[str, float], ...]:
