@@ -56,8 +56,8 @@ def seed_examples(domain: Domain, layout: FeatureLayout) -> tuple[np.ndarray, li
     states: list[np.ndarray] = []
     acts: list[str] = []
     for dialogue in domain.dialogues:
-        first_move = next(u for u in dialogue if u.cell is not None)
-        state = DialogueState(layout, robot_starts=first_move.speaker == "SYS")
+        first_move = next((u for u in dialogue if u.cell is not None), None)
+        state = DialogueState(layout, robot_starts=first_move is None or first_move.speaker == "SYS")
         for utterance in dialogue:
             if utterance.speaker == "SYS":
                 states.append(state.encode())
