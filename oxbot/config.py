@@ -117,7 +117,11 @@ class RewardConfig:
     end_reward_loss: float = 0.0
     """Paper §2.2: 0 at the end of a dialogue whose game the robot lost."""
     end_reward_otherwise: float = 5.0
-    """Paper §2.2: 5 at the end of any other dialogue."""
+    """Paper §2.2: 5 at the end of any other dialogue (oxbot: whose game was finished)."""
+    end_reward_declined: float = 3.0
+    """oxbot: at the end of a dialogue with a person who declined to play, and no game."""
+    end_reward_stopped: float = 3.0
+    """oxbot: at the end of a dialogue whose game the person asked to stop."""
     mask_threshold: float = 0.001
     """Paper §2.2: only actions with Pr(a|s) > 0.001 are offered."""
 
@@ -240,22 +244,39 @@ class DialogueConfig:
     decline_probability: float = 0.1
     """oxbot: chance that the simulated person declines the first invitation to play."""
     out_of_turn_probability: float = 0.05
-    """oxbot: chance that the simulated person answers with small talk instead."""
+    """oxbot: chance that the simulated person answers a request for a move with small talk."""
+    refuse_probability: float = 0.05
+    """oxbot: chance that the simulated person declines every invitation (declines for good)."""
+    stop_probability: float = 0.05
+    """oxbot: chance that the simulated person asks to stop after their first to third move."""
+    nonsense_probability: float = 0.05
+    """oxbot: chance that an answer to a question is none of the game's acts (chatter)."""
+    silence_probability: float = 0.05
+    """oxbot: chance that the simulated person does not answer an invitation at all."""
+    rematch_probability: float = 0.1
+    """oxbot: chance that the simulated person asks for another game when told who won."""
     max_turns: int = 60
     """oxbot: the dialogue length cap in system acts; the episode is truncated there."""
     nb_alpha: float = 0.01
     """oxbot: Laplace smoothing of the Naive Bayes action model (paper §2.2 gives none)."""
     nb_binarize: float = 0.5
-    """oxbot: a word feature above this counts as heard for the Naive Bayes action model."""
-    nb_flag_weight: int = 4
-    """oxbot: each game/dialogue flag counts this many times in the Naive Bayes action model."""
+    """oxbot: a feature above this counts as on for the Naive Bayes action model."""
 
     def __post_init__(self) -> None:
-        for name in ("asr_noise", "decline_probability", "out_of_turn_probability"):
+        for name in (
+            "asr_noise",
+            "decline_probability",
+            "out_of_turn_probability",
+            "refuse_probability",
+            "stop_probability",
+            "nonsense_probability",
+            "silence_probability",
+            "rematch_probability",
+        ):
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
                 raise ConfigError(f"dialogue.{name} is {value}; use a value in [0, 1]")
-        _require_positive(self, "max_turns", "nb_alpha", "nb_flag_weight")
+        _require_positive(self, "max_turns", "nb_alpha")
 
 
 @dataclass(frozen=True)

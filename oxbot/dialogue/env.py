@@ -31,16 +31,20 @@ the robot lost and 5 otherwise.
 ## Episode End
 
 Terminated when the robot says goodbye (`Salutation(closing)`): `info["outcome"]` is the game's
-result from the robot's side ("win", "draw", "loss"; a game left unfinished counts as a loss)
-and `info["transcript"]` the dialogue as `{"speaker", "act", "text"}` dicts. Truncated after
-`max_turns` system acts (`info["outcome"]` is then the result so far, or None).
+result from the robot's side ("win", "draw", "loss"), or "declined" (the person never agreed
+to play) or "stopped" (the person asked to stop mid-game); leaving a person who wanted to play
+counts as a loss. `info["transcript"]` is the dialogue as `{"speaker", "act", "text"}` dicts,
+the person's turns with the act they meant. Truncated after `max_turns` system acts
+(`info["outcome"]` is then the result so far, or None).
 
 ## Arguments
 
 `opponent`: the person's game strategy, a SPEC §5 callable `f(board) -> cell` or a name
 (`random`, `blocker`, `minimax`; default random, seeded by `reset`). `robot_starts`: who draws
-first (with circles). `config`: the `OxbotConfig` (reward, dialogue). `reset(options=...)` may
-change both for one episode: `{"opponent": ..., "robot_starts": ...}`.
+first (with circles). `config`: the `OxbotConfig` (reward, dialogue). `cooperative`: a person
+who always agrees and plays a whole game (recognition noise still on), for measuring game play.
+`reset(options=...)` may change opponent and starter for one episode: `{"opponent": ...,
+"robot_starts": ...}`.
 
 ## Version History
 
@@ -78,8 +82,10 @@ class InteractiveGameEnv(gym.Env):
         config: OxbotConfig | None = None,
         domain: Domain | None = None,
         render_mode: str | None = None,
+        cooperative: bool = False,
     ) -> None:
         self.config = config if config is not None else OxbotConfig()
+        self.cooperative = cooperative
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"render_mode {render_mode!r} is not supported; use 'ansi' or None")
         self.render_mode = render_mode
@@ -116,6 +122,13 @@ class InteractiveGameEnv(gym.Env):
                 asr_noise=cfg.asr_noise,
                 decline_probability=cfg.decline_probability,
                 out_of_turn_probability=cfg.out_of_turn_probability,
+                refuse_probability=cfg.refuse_probability,
+                stop_probability=cfg.stop_probability,
+                nonsense_probability=cfg.nonsense_probability,
+                silence_probability=cfg.silence_probability,
+                rematch_probability=cfg.rematch_probability,
+                cooperative=self.cooperative,
+                understanding=self.model.understanding,
             )
         self._simulator.opponent = opponent
         self._simulator.reset()
@@ -143,22 +156,22 @@ class InteractiveGameEnv(gym.Env):
         did = state.can_do(act)
         if did:
             reward = step_reward(state.board, action, float(self._probs[action]), rcfg)
-            state.robot_says(act, self.model.template(act, self.np_random))
+            last = state.transcript[-1]["text"] if state.transcript else ""
+            state.robot_says(act, self.model.template(act, self.np_random, last))
         else:  # a GameMove that cannot be drawn: a wasted turn
             reward = -rcfg.length_penalty
             state.robot_skips()
 
         terminated = act == CLOSING
-        result = state.outcome
+        result = self._closing_outcome() if terminated else state.outcome
         if terminated:
-            result = result or "loss"  # a game left unfinished: the robot walked away from it
             reward += end_reward(result, rcfg)
 
         # the person's turn: answer, perhaps draw
         if did:
             answer = self._simulator.respond(act, state.board, state.person_to_move)
             if answer.act != SILENCE:
-                state.person_says(answer.act, answer.text, answer.heard)
+                state.person_says(answer.act, answer.text, answer.heard, answer.understood)
 
         self._turns += 1
         truncated = not terminated and self._turns >= self.config.dialogue.max_turns
@@ -170,7 +183,20 @@ class InteractiveGameEnv(gym.Env):
         if self._done:
             info["outcome"] = result if terminated else state.outcome
             info["transcript"] = list(state.transcript)
+            info["person"] = self._simulator.kind
         return state.encode(), float(reward), terminated, truncated, info
+
+    def _closing_outcome(self) -> str:
+        """How the dialogue ended, when the robot says goodbye (see the module docstring)."""
+        result = self.state.outcome
+        if result is not None:
+            return result
+        person = self._simulator
+        if person.refused and not person.agreed:
+            return "declined"
+        if person.asked_to_stop:
+            return "stopped"
+        return "loss"  # the robot walked away from a person who wanted to play
 
     def render(self) -> str | None:
         """The dialogue so far and the board, as text (render_mode "ansi")."""

@@ -15,13 +15,19 @@ import numpy as np
 from oxbot.config import OxbotConfig
 from oxbot.dialogue.action_model import action_mask
 from oxbot.dialogue.domain import (
+    ACCEPT,
+    ASK_AGAIN,
     CLOSING,
     FEEDBACK_ACTS,
+    GRANT_REFUSAL,
+    GRANT_STOP,
     GREETING,
     INTRODUCTION,
     INVITATION,
     LETS_PLAY,
     MOVE_REQUEST,
+    REFUSALS,
+    STOP,
     game_move_cell,
     is_feedback,
     is_game_move,
@@ -49,22 +55,87 @@ def condition_key(opponent: str, robot_starts: bool) -> str:
 def check_dialogue(transcript: list[Turn], outcome: str | None) -> str | None:
     """Why a finished dialogue is not well formed, or None if it is.
 
-    Well formed: it greets first, introduces itself and invites before the first move, asks for
-    the person's move after each robot move unless the game is then over, gives exactly one
-    feedback act, the one matching the real outcome, after the game, and closes last.
+    Well formed: it greets first and closes last, once. It plays only with a person who agreed
+    (never a game nobody agreed to), asks to play at most once more after a no, and lets a
+    person who declines or asks to stop go: it acknowledges (`Acknowledge(playGame=no)`,
+    `Acknowledge(stop)`) and says goodbye, with no move after a stop. A game it plays, it plays
+    properly: introduction and invitation before the first move, the person asked for their
+    move after each robot move until the game is over, and exactly one feedback act, the one of
+    the real outcome. It never walks away from a person who wanted to play. The person's turns
+    are read as the acts they meant (the environment's transcript) or were understood as (the
+    robot's).
     """
-    acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
-    if not acts or acts[0] != GREETING:
+    sys_acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
+    if not sys_acts or sys_acts[0] != GREETING:
         return "does not greet first"
+    if sys_acts[-1] != CLOSING or sys_acts.count(CLOSING) != 1:
+        return "does not close with a goodbye"
+    for rule in (_agreed_before_playing, _lets_a_no_go, _lets_a_stop_go):
+        problem = rule(transcript)
+        if problem is not None:
+            return problem
+    if outcome in ("declined", "stopped"):
+        return None
+    return _played_properly(transcript, outcome)
+
+
+def _agreed_before_playing(transcript: list[Turn]) -> str | None:
+    agreed = False
+    for turn in transcript:
+        if turn["speaker"] == "usr":
+            agreed = agreed or turn["act"] == ACCEPT
+        elif (turn["act"] == LETS_PLAY or is_game_move(turn["act"])) and not agreed:
+            return f"starts a game nobody agreed to ({turn['act']})"
+    return None
+
+
+def _lets_a_no_go(transcript: list[Turn]) -> str | None:
+    refused = asked_after = 0
+    last_answer = ""
+    for turn in transcript:
+        act = turn["act"]
+        if turn["speaker"] == "usr" and (act in REFUSALS or act == ACCEPT):
+            refused += act in REFUSALS
+            last_answer = act
+        elif turn["speaker"] == "sys" and act in (INVITATION, ASK_AGAIN) and refused:
+            asked_after += 1
+            if asked_after > 1:
+                return "asks to play again after being told no twice"
+        elif turn["speaker"] == "sys" and last_answer in REFUSALS:
+            if is_game_move(act) or act == LETS_PLAY:
+                return "plays with a person who said no"
+            if act == CLOSING:
+                return "says goodbye to a no without acknowledging it"
+            if act == GRANT_REFUSAL:
+                last_answer = ""  # acknowledged: the goodbye may follow
+    return None
+
+
+def _lets_a_stop_go(transcript: list[Turn]) -> str | None:
+    stopped = acknowledged = False
+    for turn in transcript:
+        act = turn["act"]
+        if turn["speaker"] == "usr":
+            stopped = stopped or act == STOP
+        elif stopped and (is_game_move(act) or act == MOVE_REQUEST):
+            return f"goes on playing after the person asked to stop ({act})"
+        elif stopped and act == GRANT_STOP:
+            acknowledged = True
+        elif stopped and act == CLOSING and not acknowledged:
+            return "says goodbye to a stop without acknowledging it"
+    return None
+
+
+def _played_properly(transcript: list[Turn], outcome: str | None) -> str | None:
+    sys_acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
     first_move = next((i for i, t in enumerate(transcript) if is_game_move(t["act"])), None)
     if first_move is None:
-        return "no game was played"
+        return "walks away from a person who wanted to play"
     before = {t["act"] for t in transcript[:first_move] if t["speaker"] == "sys"}
     if INTRODUCTION not in before:
         return "does not introduce itself before the first move"
     if INVITATION not in before:
         return "does not invite the person before the first move"
-    feedback_at = [i for i, a in enumerate(acts) if is_feedback(a)]
     board: Board = EMPTY_BOARD
     sys_index = -1
     for turn in transcript:
@@ -75,17 +146,16 @@ def check_dialogue(transcript: list[Turn], outcome: str | None) -> str | None:
             continue
         board = play(board, cell, ROBOT if turn["speaker"] == "sys" else USER)
         if turn["speaker"] == "sys" and game_outcome(board) is None:
-            following = acts[sys_index + 1] if sys_index + 1 < len(acts) else None
+            following = sys_acts[sys_index + 1] if sys_index + 1 < len(sys_acts) else None
             if following != MOVE_REQUEST:
                 return f"does not ask for the person's move after its move {turn['act']}"
-    if outcome is None:
-        return "the game did not finish"
-    if len(feedback_at) != 1:
-        return f"gives {len(feedback_at)} feedback acts instead of one"
-    if acts[feedback_at[0]] != FEEDBACK_ACTS[outcome]:
-        return f"says {acts[feedback_at[0]]} but the outcome is a {outcome}"
-    if acts[-1] != CLOSING or acts.count(CLOSING) != 1:
-        return "does not close with a goodbye"
+    if outcome is None or game_outcome(board) is None:
+        return "walks away from an unfinished game"
+    feedback = [a for a in sys_acts if is_feedback(a)]
+    if len(feedback) != 1:
+        return f"gives {len(feedback)} feedback acts instead of one"
+    if feedback[0] != FEEDBACK_ACTS[outcome]:
+        return f"says {feedback[0]} but the outcome is a {outcome}"
     return None
 
 
@@ -99,6 +169,14 @@ class EvaluationResult:
     win_rate: float
     draw_rate: float
     loss_rate: float
+    declined_rate: float
+    """Share of dialogues the person declined to play, and the robot let them."""
+    stopped_rate: float
+    """Share of dialogues whose game the person asked to stop."""
+    task_success: float
+    """Share of dialogues that are well formed and end as the person wanted: a finished game
+    with a person who wanted one (perhaps after a first no), the goodbye without a game for one
+    who declines every time, the goodbye after a stop for one who asked to stop."""
     average_reward: float
     average_turns: float
     """Utterances per dialogue, robot's and person's (silences are not turns)."""
@@ -115,13 +193,27 @@ class EvaluationResult:
         return data
 
 
+WANTED = {"agrees": "game", "declines once": "game", "refuses": "declined", "stops": "stopped"}
+"""How each kind of simulated person (`UserSimulator.kind`) wants the dialogue to end ("game":
+a finished one, whoever won)."""
+
+
+def as_wanted(person: str, outcome: str | None) -> bool:
+    """True if a dialogue with this kind of person ended as they wanted."""
+    ended = "game" if outcome in ("win", "draw", "loss") else outcome
+    return WANTED[person] == ended
+
+
 @dataclass
 class _Tally:
     """What `evaluate` counts as dialogues finish."""
 
     keep_transcripts: int
     finished: int = 0
-    outcomes: dict[str, int] = field(default_factory=lambda: {"win": 0, "draw": 0, "loss": 0})
+    outcomes: dict[str, int] = field(
+        default_factory=lambda: dict.fromkeys(("win", "draw", "loss", "declined", "stopped"), 0)
+    )
+    successes: int = 0
     truncated: int = 0
     total_reward: float = 0.0
     total_turns: int = 0
@@ -142,6 +234,7 @@ class _Tally:
         problem = check_dialogue(transcript, result) if terminated else "truncated"
         if problem is None:
             self.good += 1
+            self.successes += as_wanted(info["person"], result)
         else:
             self.problems[problem] = self.problems.get(problem, 0) + 1
         if len(self.kept) < self.keep_transcripts:
@@ -156,6 +249,9 @@ class _Tally:
             win_rate=self.outcomes["win"] / n,
             draw_rate=self.outcomes["draw"] / n,
             loss_rate=self.outcomes["loss"] / n,
+            declined_rate=self.outcomes["declined"] / n,
+            stopped_rate=self.outcomes["stopped"] / n,
+            task_success=self.successes / n,
             average_reward=self.total_reward / n,
             average_turns=self.total_turns / n,
             well_formed=self.good / n,
@@ -174,14 +270,18 @@ def evaluate(
     seed: int = 0,
     n_envs: int = 250,
     keep_transcripts: int = 0,
+    cooperative: bool = False,
 ) -> EvaluationResult:
     """Play `games` dialogues with `policy` (greedy batch policy) and measure them.
 
-    `n_envs` environments run side by side, so that the policy acts on a batch of states."""
+    `n_envs` environments run side by side, so that the policy acts on a batch of states.
+    `cooperative`: with people who always agree and play a whole game, for game play."""
     config = config if config is not None else OxbotConfig()
     n_envs = max(1, min(n_envs, games))
     envs = [
-        InteractiveGameEnv(opponent=opponent, robot_starts=robot_starts, config=config)
+        InteractiveGameEnv(
+            opponent=opponent, robot_starts=robot_starts, config=config, cooperative=cooperative
+        )
         for _ in range(n_envs)
     ]
     first = [env.reset(seed=seed * 100_003 + i) for i, env in enumerate(envs)]

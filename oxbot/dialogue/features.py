@@ -29,18 +29,31 @@ and without them no policy can be well formed every time (see docs/deviations.md
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from oxbot.dialogue.domain import (
+    ACCEPT,
     FEEDBACK_ACTS,
+    GRANT_REFUSAL,
+    GRANT_STOP,
     GREETING,
     INTRODUCTION,
     INVITATION,
     N_ACTIONS,
+    REFUSALS,
+    SILENCE,
+    STOP,
+    SYSTEM_ACTS,
+    UNKNOWN,
+    USER_ACTS,
 )
 from oxbot.errors import DataError
+
+if TYPE_CHECKING:
+    from oxbot.dialogue.state import DialogueState
 from oxbot.game.board import (
     CELL_NAMES,
     EMPTY,
@@ -59,15 +72,29 @@ GAME_FLAGS: tuple[str, ...] = (
     "game:person_won",
     "game:draw",
 )
-DIALOGUE_FLAGS: dict[str, tuple[str, ...]] = {
+HEARD_ACTS: tuple[str, ...] = tuple(act for act in USER_ACTS if act != SILENCE)
+"""The acts the person's last answer can be understood as: one feature each, the
+understanding's score for the act it chose (1 for Unknown)."""
+SAID_FLAGS: dict[str, tuple[str, ...]] = {
     "dialogue:greeted": (GREETING,),
     "dialogue:introduced": (INTRODUCTION,),
     "dialogue:invited": (INVITATION,),
     "dialogue:gave_feedback": tuple(FEEDBACK_ACTS.values()),
+    "dialogue:acknowledged": (GRANT_REFUSAL, GRANT_STOP),
 }
 """Context features: 1 once the robot has said one of the acts."""
-_FLAG_OF_ACT: dict[str, int] = {
-    act: k for k, acts in enumerate(DIALOGUE_FLAGS.values()) for act in acts
+HEARD_FLAGS: dict[str, tuple[str, ...]] = {
+    "person:agreed": (ACCEPT,),
+    "person:refused": tuple(REFUSALS),
+    "person:stopped": (STOP,),
+}
+"""Context features: 1 once the person's answer was understood as one of the acts."""
+ASKED_TWICE = "dialogue:asked_twice"
+"""1 once the robot has asked to play (invited or asked again) twice or more."""
+DIALOGUE_FLAGS: tuple[str, ...] = (*SAID_FLAGS, ASKED_TWICE, *HEARD_FLAGS)
+_SAID: dict[str, int] = {act: k for k, acts in enumerate(SAID_FLAGS.values()) for act in acts}
+_HEARD: dict[str, int] = {
+    act: len(SAID_FLAGS) + 1 + k for k, acts in enumerate(HEARD_FLAGS.values()) for act in acts
 }
 
 
@@ -90,44 +117,56 @@ class FeatureLayout:
         self.robot_cells = slice(n, n + N_CELLS)
         self.person_cells = slice(n + N_CELLS, n + 2 * N_CELLS)
         self.flags = slice(self.person_cells.stop, self.person_cells.stop + len(GAME_FLAGS))
-        self.dialogue_flags = slice(self.flags.stop, self.flags.stop + len(DIALOGUE_FLAGS))
+        self.heard_acts = slice(self.flags.stop, self.flags.stop + len(HEARD_ACTS))
+        self.heard_index = {act: self.heard_acts.start + k for k, act in enumerate(HEARD_ACTS)}
+        self.last_acts = slice(self.heard_acts.stop, self.heard_acts.stop + N_ACTIONS)
+        self.last_index = {act: self.last_acts.start + k for k, act in enumerate(SYSTEM_ACTS)}
+        end = self.last_acts.stop
+        self.dialogue_flags = slice(end, end + len(DIALOGUE_FLAGS))
+        self.context = slice(self.flags.start, self.dialogue_flags.stop)
+        """Everything but the words and the cells: what the action model reads."""
         self.names: tuple[str, ...] = (
             *(f"word:{w}" for w in self.vocabulary),
             *(f"robot:{c}" for c in CELL_NAMES),
             *(f"person:{c}" for c in CELL_NAMES),
             *GAME_FLAGS,
+            *(f"heard:{act}" for act in HEARD_ACTS),
+            *(f"last:{act}" for act in SYSTEM_ACTS),
             *DIALOGUE_FLAGS,
         )
         self.n_features = len(self.names)
         self.n_words = n
 
-    def encode(
-        self,
-        system_words: Iterable[str],
-        user_words: Iterable[tuple[str, float]],
-        board: Board,
-        robot_starts: bool,
-        said: Iterable[str] = (),
-    ) -> np.ndarray:
-        """The state vector after a system response and the user's (heard) response.
-
-        `said` is every system act the robot has said so far in the dialogue.
-        """
-        state = np.zeros(self.n_features, dtype=np.float32)
-        for word in system_words:
+    def encode(self, state: DialogueState) -> np.ndarray:
+        """The feature vector of a dialogue state (see the module docstring)."""
+        vector = np.zeros(self.n_features, dtype=np.float32)
+        for word in state.system_words:
             i = self.word_index.get(word)
             if i is not None:
-                state[i] = 1.0
-        for word, confidence in user_words:  # the user's words override the system's
+                vector[i] = 1.0
+        for word, confidence in state.heard:  # the user's words override the system's
             i = self.word_index.get(word)
             if i is not None:
-                state[i] = confidence
-        self.encode_game(state, board, robot_starts)
-        for act in said:
-            k = _FLAG_OF_ACT.get(act)
+                vector[i] = confidence
+        self.encode_game(vector, state.board, state.robot_starts)
+        if state.understood is not None:
+            act, score = state.understood
+            i = self.heard_index.get(act)
+            if i is not None:
+                vector[i] = 1.0 if act == UNKNOWN else score
+        if state.last_act in self.last_index and state.system_words:
+            vector[self.last_index[state.last_act]] = 1.0
+        flags = vector[self.dialogue_flags]
+        for act in state.said:
+            k = _SAID.get(act)
             if k is not None:
-                state[self.dialogue_flags.start + k] = 1.0
-        return state
+                flags[k] = 1.0
+        flags[len(SAID_FLAGS)] = state.invitations >= 2
+        for act in state.person_acts:
+            k = _HEARD.get(act)
+            if k is not None:
+                flags[k] = 1.0
+        return vector
 
     def encode_game(self, state: np.ndarray, board: Board, robot_starts: bool) -> None:
         """Write the game-move features of `board` into `state` in place."""
