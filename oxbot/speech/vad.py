@@ -138,6 +138,11 @@ class UtteranceCutter:
         """Whether an utterance has started and not yet ended."""
         return self._utterance is not None
 
+    @property
+    def utterance_start(self) -> int | None:
+        """Where the utterance under way began in the stream (None: none is under way)."""
+        return self._utterance_start if self._utterance is not None else None
+
     def reset(self) -> None:
         """Forget the utterance under way and the pre-roll; the stream's count goes on."""
         self._position += len(self._leftover)
@@ -213,4 +218,19 @@ class UtteranceCutter:
         return heard
 
 
-__all__ = ["FrameClassifier", "HeardUtterance", "SileroVad", "UtteranceCutter"]
+def first_speech(
+    samples: np.ndarray, config: ListeningConfig | None = None, vad: FrameClassifier | None = None
+) -> int | None:
+    """Where a recording's first utterance begins, its pre-roll included (None: no speech):
+    leading audio before it (a device's click, a wait) can go."""
+    cutter = UtteranceCutter(config, RATE, vad)
+    for at in range(0, len(samples), RATE):
+        heard = cutter.feed(samples[at : at + RATE])
+        if heard:
+            return heard[0].start
+        if cutter.in_utterance:
+            return cutter.utterance_start
+    return None
+
+
+__all__ = ["FrameClassifier", "HeardUtterance", "SileroVad", "UtteranceCutter", "first_speech"]
