@@ -38,7 +38,7 @@ from oxbot.config import load_config
 from oxbot.robot.messages import SpeechAudio, SpeechHypotheses
 from oxbot.robot.session import Robot
 from oxbot.speech.audio import RATE, pcm16
-from oxbot.testing.browser import CHROMIUM, FLAGS
+from oxbot.testing.browser import CHROMIUM, FLAGS, room_script
 from oxbot.web.server import create_app, serving_in_background
 
 PHRASE = "yes, let's play"
@@ -59,50 +59,12 @@ def lost_ms(received: np.ndarray, source: np.ndarray) -> tuple[float, float]:
     return 1000 * start / RATE, match
 
 
-ROOM = """
-(() => {
-  const voice = Uint8Array.from(atob(%s), (c) => c.charCodeAt(0)).buffer, openMs = %d;
-  const room = { ctx: null, dest: null, buffer: null, spoken: [], listening: false };
-  window.__room = room;
-  async function ready() {
-    if (room.ctx) return;
-    room.ctx = new AudioContext();
-    room.dest = room.ctx.createMediaStreamDestination();
-    room.buffer = await room.ctx.decodeAudioData(voice.slice(0));
-  }
-  const real = navigator.mediaDevices.getUserMedia.bind(navigator.mediaDevices);
-  navigator.mediaDevices.getUserMedia = async (constraints) => {
-    if (!constraints || !constraints.audio) return real(constraints);
-    await ready();
-    await new Promise((r) => setTimeout(r, openMs));   // a device takes time to open
-    return new MediaStream([room.dest.stream.getAudioTracks()[0].clone()]);
-  };
-  addEventListener("DOMContentLoaded", () => {
-    ready();
-    const button = document.getElementById("talk");
-    new MutationObserver(() => {
-      const now = /Listening/.test(button.textContent);
-      if (now && !room.listening) {   // the person starts talking at once
-        const src = room.ctx.createBufferSource();
-        src.buffer = room.buffer; src.connect(room.dest); src.start();
-        room.spoken.push(performance.now());
-      }
-      room.listening = now;
-    }).observe(button, { childList: true, characterData: true, subtree: true });
-  });
-})();
-"""
-
-
 def person_talks(
     url: str, browser, heard: list, wav: Path, source, presses: int, hold_ms: int, open_ms: int
 ):
     """Losses of a person who starts at "Listening", per press, in one page."""
-    import base64
-    import json
-
     page = browser.new_page()
-    page.add_init_script(ROOM % (json.dumps(base64.b64encode(wav.read_bytes()).decode()), open_ms))
+    page.add_init_script(room_script(wav.read_bytes(), open_ms))
     page.goto(url + "/")
     page.get_by_test_id("start").click()
     page.wait_for_function("window.oxbot.hello !== null", timeout=30_000)

@@ -404,6 +404,8 @@ class WebConfig:
     """oxbot: the recogniser's sample rate (pocketsphinx en-us); the page resamples to it."""
     max_audio_seconds: float = 30.0
     """oxbot: longest push-to-talk recording."""
+    max_stream_piece_seconds: float = 1.0
+    """oxbot: longest piece of a hands-free stream in one message (the page sends 0.1 s)."""
     max_text_chars: int = 500
     """oxbot: longest typed answer."""
     max_sessions: int = 32
@@ -412,6 +414,7 @@ class WebConfig:
     def __post_init__(self) -> None:
         _require_positive(self, "max_message_bytes", "max_image_side", "min_image_side")
         _require_positive(self, "audio_rate", "max_audio_seconds", "max_text_chars")
+        _require_positive(self, "max_stream_piece_seconds")
         _require_positive(self, "max_sessions")
         if not 0 < self.port < 65536:
             raise ConfigError(f"web.port is {self.port}; use a port in 1-65535")
