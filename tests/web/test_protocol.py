@@ -283,7 +283,8 @@ def test_hands_free_a_spoken_answer_streamed_in_pieces_is_heard(ws_url):
             while (await next_of(ws, {"DialogueAct"}))["data"]["act"] != "Request(playGame)":
                 pass
             await next_of(ws, {"SpeakingFinished"})
-            await asyncio.sleep(0.4)  # past the robot's echo (the browser test streams in real time)
+            # past the robot's echo; the browser test streams in real time
+            await asyncio.sleep(0.4)
             for piece in pieces:
                 await ws.send(
                     json.dumps(
