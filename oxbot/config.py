@@ -354,8 +354,43 @@ class RobotConfig:
 
 
 @dataclass(frozen=True)
+class ListeningConfig:
+    """Hands-free listening: a microphone's stream cut into utterances by a voice activity
+    detector (Silero VAD), and the audio push-to-talk keeps from before the press."""
+
+    threshold: float = 0.5
+    """oxbot: the VAD's aggressiveness: speech probability a frame needs (Silero's default)."""
+    start_seconds: float = 0.15
+    """oxbot: speech heard within twice this time that starts an utterance (a click does not)."""
+    end_silence_seconds: float = 0.6
+    """oxbot: quiet that ends an utterance (the pauses between a phrase's words are shorter)."""
+    max_utterance_seconds: float = 8.0
+    """oxbot: an utterance is cut here and handed on even if the speech goes on."""
+    pre_roll_seconds: float = 0.3
+    """oxbot: audio kept from before an utterance's start or a push-to-talk press (first words)."""
+    echo_seconds: float = 0.3
+    """oxbot: not listened to after the robot stops speaking (its voice reaches a mic late)."""
+
+    def __post_init__(self) -> None:
+        if not 0 < self.threshold < 1:
+            raise ConfigError(
+                f"speech.listening.threshold is {self.threshold}; use a probability in (0, 1)"
+            )
+        _require_positive(self, "start_seconds", "end_silence_seconds", "max_utterance_seconds")
+        for name in ("pre_roll_seconds", "echo_seconds"):
+            value = getattr(self, name)
+            if not 0 <= value <= 2:
+                raise ConfigError(f"speech.listening.{name} is {value}; use 0 to 2 seconds")
+        if self.max_utterance_seconds <= self.start_seconds + self.pre_roll_seconds:
+            raise ConfigError(
+                "speech.listening.max_utterance_seconds must be longer than start_seconds "
+                "plus pre_roll_seconds"
+            )
+
+
+@dataclass(frozen=True)
 class SpeechConfig:
-    """Hearing and speaking: the recogniser and the voice."""
+    """Hearing and speaking: the recogniser, the voice and hands-free listening."""
 
     recognizer: str = "pocketsphinx"
     """Paper §3.1 used Google ASR; oxbot: pocketsphinx, or `module:factory` for another."""
@@ -363,6 +398,8 @@ class SpeechConfig:
     """Paper §3.1: the recogniser's N-best list is passed on; oxbot keeps this many entries."""
     voice: str = "en-us"
     """Paper §3.1 used MARY TTS; oxbot: the espeak-ng voice of the robot."""
+    listening: ListeningConfig = field(default_factory=ListeningConfig)
+    """Paper §3.1 listened by push-to-talk; oxbot adds hands-free listening with a VAD."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "nbest")
@@ -388,6 +425,8 @@ class WebConfig:
     """oxbot: the recogniser's sample rate (pocketsphinx en-us); the page resamples to it."""
     max_audio_seconds: float = 30.0
     """oxbot: longest push-to-talk recording."""
+    max_stream_piece_seconds: float = 1.0
+    """oxbot: longest piece of a hands-free stream in one message (the page sends 0.1 s)."""
     max_text_chars: int = 500
     """oxbot: longest typed answer."""
     max_sessions: int = 32
@@ -396,6 +435,7 @@ class WebConfig:
     def __post_init__(self) -> None:
         _require_positive(self, "max_message_bytes", "max_image_side", "min_image_side")
         _require_positive(self, "audio_rate", "max_audio_seconds", "max_text_chars")
+        _require_positive(self, "max_stream_piece_seconds")
         _require_positive(self, "max_sessions")
         if not 0 < self.port < 65536:
             raise ConfigError(f"web.port is {self.port}; use a port in 1-65535")

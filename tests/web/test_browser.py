@@ -64,8 +64,8 @@ def page(server_url, answer_wav, webcam_y4m, tmp_path_factory):
     assert Path(CHROMIUM).exists(), f"{CHROMIUM} is missing: run `make setup`"
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     profile = tmp_path_factory.mktemp("chromium-profile")
-    # %noloop: the phrase plays once from each getUserMedia call (the page opens the
-    # microphone at each press of push-to-talk), then silence
+    # %noloop: the phrase plays once from each getUserMedia call, then silence (the page
+    # opens the microphone at its first press of push-to-talk and keeps it open)
     args = [
         *FLAGS,
         f"--use-file-for-fake-audio-capture={answer_wav}%noloop",

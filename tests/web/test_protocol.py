@@ -19,8 +19,10 @@ from PIL import Image
 from oxbot.config import OxbotConfig, load_config
 from oxbot.errors import ConfigError
 from oxbot.game.board import outcome
+from oxbot.speech import Voice, pcm16, synthesize
 from oxbot.testing.player import GameRecord, data_url, play_game
 from oxbot.testing.sheet import Sheet
+from oxbot.testing.sounds import in_noise
 from oxbot.web.server import serve
 
 
@@ -113,6 +115,23 @@ BAD_INPUT = [
     ),
     ('{"type": "say", "text": ""}', "non-empty"),
     (b"\x00\x01binary", "binary messages"),
+    (
+        json.dumps({"type": "listen", "rate": 48000, "pcm": base64.b64encode(bytes(960)).decode()}),
+        "hands-free audio must be 16000 Hz",
+    ),
+    (json.dumps({"type": "listen", "rate": 16000, "pcm": "%%%"}), "not valid base64"),
+    (json.dumps({"type": "listen", "rate": 16000, "pcm": 3200}), "base64 string"),
+    (json.dumps({"type": "listen", "rate": 16000, "pcm": ""}), "empty"),
+    (
+        json.dumps({"type": "listen", "rate": 16000, "pcm": base64.b64encode(bytes(3)).decode()}),
+        "odd number",
+    ),
+    (
+        json.dumps(
+            {"type": "listen", "rate": 16000, "pcm": base64.b64encode(bytes(32_002)).decode()}
+        ),
+        "at most 1 s",
+    ),
 ]
 
 
@@ -250,3 +269,35 @@ def test_impossible_drawings_are_refused_in_words_and_never_change_the_board(ws_
     # the refused drawings never became moves: the board is the legal moves alone
     assert record.accepted == record.drawn
     assert record.outcome is not None and outcome(record.board()) == record.outcome
+
+
+def test_hands_free_a_spoken_answer_streamed_in_pieces_is_heard(ws_url):
+    speech = pcm16(synthesize("yes let's play", Voice("en-us")))
+    stream, _ = in_noise(speech, np.random.default_rng(8), before=0.5, after=1.0)
+    pieces = [stream[at : at + 1600] for at in range(0, len(stream), 1600)]
+
+    async def answer_hands_free() -> dict:
+        async with websockets.connect(ws_url) as ws:
+            hello = (await next_of(ws, {"Hello"}))["data"]
+            assert hello["stream_piece_seconds"] == 0.1 and hello["pre_roll_seconds"] > 0
+            while (await next_of(ws, {"DialogueAct"}))["data"]["act"] != "Request(playGame)":
+                pass
+            await next_of(ws, {"SpeakingFinished"})
+            # past the robot's echo; the browser test streams in real time
+            await asyncio.sleep(0.4)
+            for piece in pieces:
+                await ws.send(
+                    json.dumps(
+                        {"type": "listen", "rate": 16000, "pcm": base64.b64encode(piece).decode()}
+                    )
+                )
+            await ws.send(json.dumps({"type": "listen_off"}))
+            while True:
+                message = await next_of(ws, {"DialogueAct", "Error"}, 20)
+                if message["type"] == "Error" or message["data"]["speaker"] == "usr":
+                    return message
+
+    heard = asyncio.run(answer_hands_free())
+    assert heard["type"] == "DialogueAct", heard
+    assert heard["data"]["text"].startswith("yes"), heard
+    assert heard["data"]["act"] == "Confirm(playGame=yes)"
