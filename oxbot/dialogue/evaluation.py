@@ -19,6 +19,7 @@ from oxbot.dialogue.domain import (
     ASK_AGAIN,
     CLOSING,
     FEEDBACK_ACTS,
+    GAME_MOVE_TEMPLATE,
     GRANT_REFUSAL,
     GRANT_STOP,
     GREETING,
@@ -317,9 +318,9 @@ def format_transcript(transcript: list[Turn]) -> str:
 
 class _DecisionStates:
     """The states a dialogue reaches at the robot's turn on a given board, in the game-tree
-    check: after "Nice, let's play." on the empty board; else after "Your turn." and the
-    person's drawing, each of their utterances heard cleanly and `noisy_variants` times
-    through the noisy recogniser."""
+    check: after the person agreed and "Nice, let's play." on the empty board; else after "Your
+    turn." and the person's drawing, each phrasing of a drawing heard cleanly, and
+    `noisy_variants` random ones through the noisy recogniser."""
 
     def __init__(
         self, model: DialogueModel, robot_starts: bool, hearing: UserSimulator, noisy_variants: int
@@ -328,13 +329,14 @@ class _DecisionStates:
         agreed = model.new_state(robot_starts)  # greeted, introduced, invited; the person agreed
         for act in (GREETING, INTRODUCTION, INVITATION):
             agreed.robot_says(act, domain.templates_for(act)[0])
+        agreed.person_says(ACCEPT, "yes", (("yes", 1.0),), (ACCEPT, 1.0))
         self.openings = []
         for text in domain.templates_for(LETS_PLAY):
             opening = agreed.copy()
             opening.robot_says(LETS_PLAY, text)
             self.openings.append(opening)
         self.your_turn = domain.templates_for(MOVE_REQUEST)
-        self.moves = domain.responses_to(MOVE_REQUEST)
+        self.moves = hearing.phrasings(GAME_MOVE_TEMPLATE)
         self.hearing = hearing
         self.noisy_variants = noisy_variants
 
@@ -342,15 +344,16 @@ class _DecisionStates:
         if board == EMPTY_BOARD:
             return np.stack([state.encode() for state in self.openings])
         states = []
+        rng = self.hearing.rng
         for your_turn in self.your_turn:
             state = self.openings[0].at(board)
             state.robot_says(MOVE_REQUEST, your_turn)
-            for move in self.moves:
-                clean = tuple((w, 1.0) for w in move.words)
-                noisy = [self.hearing.recognize(move.words) for _ in range(self.noisy_variants)]
-                for heard in [clean, *noisy]:  # each a new answer to the same "Your turn."
-                    state.person_says(move.act, move.text, heard)
-                    states.append(state.encode())
+            noisy = [self.moves[i] for i in rng.integers(len(self.moves), size=self.noisy_variants)]
+            answers = [(text, False) for text in self.moves] + [(text, True) for text in noisy]
+            for text, misheard in answers:  # each a new answer to the same "Your turn."
+                heard, understood = self.hearing.hear(text, MOVE_REQUEST, misheard)
+                state.person_says(GAME_MOVE_TEMPLATE, text, heard, understood)
+                states.append(state.encode())
         return np.stack(states)
 
 
@@ -366,14 +369,18 @@ def losing_positions(
     Walks the whole game tree: at every robot turn the policy sees the states a dialogue
     reaches there (`_DecisionStates`), and every cell it picks in any of these is followed;
     the person tries every empty cell. Returns how many of the robot's decision boards lead to
-    a position the person wins at once, or where the policy does not draw at all. Zero means
-    no person can beat it (up to the sampled noise).
+    a position the person wins at once, or where the policy draws on none of the hearings (on
+    one, asking again for a move that was misheard wastes a turn, and is followed on the next).
+    Zero means no person can beat it (up to the sampled noise).
     """
     config = config if config is not None else OxbotConfig()
     model = build_dialogue_model(config)
     action_model = model.action_model
     hearing = UserSimulator(
-        model.domain, rng=np.random.default_rng(seed), asr_noise=config.dialogue.asr_noise
+        model.domain,
+        rng=np.random.default_rng(seed),
+        asr_noise=config.dialogue.asr_noise,
+        understanding=model.understanding,
     )
     decision_states = _DecisionStates(model, robot_starts, hearing, noisy_variants)
     bad: set[Board] = set()
@@ -390,8 +397,8 @@ def losing_positions(
 
     def robot_turn(board: Board) -> None:
         picked = choices(board)
-        if not all(is_game_move(a) for a in picked):
-            bad.add(board)
+        if not any(is_game_move(a) for a in picked):
+            bad.add(board)  # it never draws here (a wasted turn on one hearing is not a loss)
         for cell in (a for a in picked if is_game_move(a)):
             after = play(board, cell, ROBOT)
             if game_outcome(after) is None:

@@ -201,12 +201,25 @@ class UserSimulator:
         if cell is not None:
             act = game_move(cell)
             text = f"{text} {draw_tag('usr', cell)}".strip()
-        heard = self.recognize(words_of(text))
+        heard, understood = self.hear(text, system_act)
+        return UserTurn(act, text, heard, cell, understood)
+
+    def hear(
+        self, text: str, system_act: str, noisy: bool = True
+    ) -> tuple[Heard, tuple[str, float]]:
+        """What the robot hears of `text` (through the noisy recogniser, unless not `noisy`)
+        and understands it as, in answer to `system_act`: the act and its score."""
+        words = words_of(text)
+        heard = self.recognize(words) if noisy else tuple((w, 1.0) for w in words)
         if not heard:
-            return UserTurn(act, text, (), cell, (SILENCE, 0.0))
+            return (), (SILENCE, 0.0)
         reading = self.understanding.read(" ".join(w for w, _ in heard), system_act)
         score = 1.0 if reading.act == UNKNOWN else reading.score * _mean(heard)
-        return UserTurn(act, text, heard, cell, (reading.act, score))
+        return heard, (reading.act, score)
+
+    def phrasings(self, act: str) -> tuple[str, ...]:
+        """The texts the person may say `act` with."""
+        return self._phrasings[act]
 
     def recognize(self, words: list[str]) -> Heard:
         """The words as the noisy recogniser hears them: (word, confidence) pairs."""

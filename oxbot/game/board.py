@@ -37,6 +37,7 @@ the centre is `middle`)."""
 
 LABELS: tuple[str, ...] = ("circle", "cross", "nothing")
 """SPEC §1: the perceiver's labels, in this order when indexed 0, 1, 2."""
+PLURALS = {"circle": "circles", "cross": "crosses"}
 
 _ROWS = tuple(tuple(range(r * SIZE, (r + 1) * SIZE)) for r in range(SIZE))
 LINES: tuple[tuple[int, ...], ...] = (

@@ -26,7 +26,7 @@ stream cannot stop at the goodbye's instant).
 
 server → client: {"type": "Hello", "data": {...}} first (the session's symbols, the cell
 names and the system acts), then every bus message, and {"type": "Error", "data": {"message",
-"about", "code"}} for anything the server refused (`code` is "game_over" for game messages
+"about", "code"}} for anything the server refused (`code` is "game_over" for a drawing
 after the robot's goodbye, else empty). A bad message never closes the socket and never
 reaches another session. The limits are `[web]` in the config (`oxbot config`).
 """
@@ -314,8 +314,9 @@ class GameOver(InvalidInputError):
 
 CLIENT_TYPES = ("frame", "look", "say", "talk", "listen", "listen_off", "new_game")
 """The message types a tab may send."""
-GAME_TYPES = ("frame", "say", "talk")
-"""The ones refused once the robot has said goodbye (until a new game)."""
+GAME_TYPES = ("frame",)
+"""The ones refused once the robot has said goodbye (until a new game). Words still reach the
+robot, which listens for "new game", "again!" after its goodbye."""
 OFF_LOOP_TYPES = ("listen", "listen_off")
 """The ones handled off the event loop: the VAD (loaded at the first piece) runs on each."""
 

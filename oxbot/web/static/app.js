@@ -239,7 +239,7 @@ const handlers = {
   Decision(d) { showDecision(d); },
   HeadMove(d) { lookTowards(d.direction); },
   DialogueEnded(d) {
-    state.ended = true; enableAnswers(false);
+    state.ended = true;   // drawings stop; words still go: "new game", "again!" start another
     const text = { win: "The robot won.", loss: "You won!", draw: "A draw." }[d.outcome] || "The game ended.";
     $("turn").textContent = `${text} Press New game to play again.`;
     addNote(`Game over: ${d.outcome || "unfinished"}.`);
