@@ -25,8 +25,10 @@ interaction manager keeps.
 
 ## Rewards
 
-R(s,a,s') = BR*w + DR*(1-w) - DL (`oxbot.dialogue.reward`), plus 0 at the end of the dialogue if
-the robot lost and 5 otherwise.
+R(s,a,s') = BR*w + DR*(1-w) - DL (`oxbot.dialogue.reward`), plus at the end of the dialogue 0 if
+the robot lost and 5 after any other game (the paper's); oxbot: 3 when the person declined to
+play or asked to stop and the robot let them, and 0 for any dialogue that is not well formed
+(`oxbot.dialogue.wellformed`: a game nobody agreed to, a no or a stop not let go, walking away).
 
 ## Episode End
 
@@ -65,6 +67,7 @@ from oxbot.dialogue.model import build_dialogue_model
 from oxbot.dialogue.reward import end_reward, step_reward
 from oxbot.dialogue.simulator import UserSimulator
 from oxbot.dialogue.state import DialogueState, Turn
+from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.errors import ConfigError, InvalidInputError
 from oxbot.game.board import Board, render
 from oxbot.game.opponents import Opponent, make_opponent
@@ -164,8 +167,9 @@ class InteractiveGameEnv(gym.Env):
 
         terminated = act == CLOSING
         result = self._closing_outcome() if terminated else state.outcome
-        if terminated:
-            reward += end_reward(result, rcfg)
+        if terminated:  # no end reward for a dialogue that is not well formed
+            well_formed = check_dialogue(state.transcript, result) is None
+            reward += end_reward(result if well_formed else "loss", rcfg)
 
         # the person's turn: answer, perhaps draw
         if did:
