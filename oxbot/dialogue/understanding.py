@@ -9,8 +9,10 @@ dialogues' USR lines, and `[Unknown]` things people say that are none of the gam
 
 The classifier is a logistic regression (scikit-learn) over word unigrams and bigrams ("why
 not" is not "not") and character n-grams within words (typed misspellings, recogniser
-fragments), TF-IDF weighted. It never guesses: below `min_probability` for its best act, or
-when the best act is `Unknown`, the answer is Unknown, and the robot asks again.
+fragments), TF-IDF weighted. It never guesses: below `min_probability` for its best act, when
+the best act is `Unknown`, when no word of the answer is a word of any phrasing, or when the
+answer says no where it looks like a yes (or the reverse), it is Unknown, and the robot asks
+again.
 
     classifier = UserActClassifier(load_domain())
     classifier.classify("sure why not")   # Confirm(playGame=yes), its probability, a phrase
@@ -143,6 +145,8 @@ class UserActClassifier:
         self.classes: list[str] = [str(c) for c in self.model.classes_]
         self._features = features
         self._parts = _linear_parts(self.vectorizer, self.model)
+        self.words = frozenset(w for text in self.texts for w in text.split())
+        """Every word of the phrasings: an answer with none of them is not understood."""
         self._cache: dict[str, np.ndarray] = {}
 
     @property
@@ -209,7 +213,8 @@ class UserActClassifier:
     def _decide(self, probabilities: np.ndarray, text: str, context: str) -> UserAct:
         k = int(np.argmax(probabilities))
         act, p = self.classes[k], float(probabilities[k])
-        if act == UNKNOWN or p < self.min_probability or _contradicts(act, text):
+        unknown_words = self.words.isdisjoint(text.split())  # only letters in common
+        if act == UNKNOWN or p < self.min_probability or unknown_words or _contradicts(act, text):
             return UserAct(UNKNOWN, 0.0)
         return UserAct(IN_CONTEXT.get(context, {}).get(act, act), round(p, 6))
 

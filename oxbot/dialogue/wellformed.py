@@ -35,7 +35,8 @@ def check_dialogue(transcript: list[Turn], outcome: str | None) -> str | None:
     Well formed: it greets first and closes last, once. It plays only with a person who agreed
     (never a game nobody agreed to), asks to play at most once more after a no, and lets a
     person who declines or asks to stop go: it acknowledges (`Acknowledge(playGame=no)`,
-    `Acknowledge(stop)`) and says goodbye, with no move after a stop. A game it plays, it plays
+    `Acknowledge(stop)`) and says goodbye, with no move after a stop (it may ask for the move
+    once more, when it did not understand the stop). A game it plays, it plays
     properly: introduction and invitation before the first move, the person asked for their
     move after each robot move until the game is over, and exactly one feedback act, the one of
     the real outcome. It never walks away from a person who wanted to play. The person's turns
@@ -89,16 +90,19 @@ def _lets_a_no_go(transcript: list[Turn]) -> str | None:
 
 
 def _lets_a_stop_go(transcript: list[Turn]) -> str | None:
-    stopped = acknowledged = False
+    stops = 0
+    acknowledged = False
     for turn in transcript:
         act = turn["act"]
         if turn["speaker"] == "usr":
-            stopped = stopped or act == STOP
-        elif stopped and (is_game_move(act) or act == MOVE_REQUEST):
+            stops += act == STOP
+        elif stops and is_game_move(act):
             return f"goes on playing after the person asked to stop ({act})"
-        elif stopped and act == GRANT_STOP:
+        elif stops >= 2 and act == MOVE_REQUEST:  # once may be a stop it did not understand
+            return "asks for a move again after being asked to stop twice"
+        elif stops and act == GRANT_STOP:
             acknowledged = True
-        elif stopped and act == CLOSING and not acknowledged:
+        elif stops and act == CLOSING and not acknowledged:
             return "says goodbye to a stop without acknowledging it"
     return None
 

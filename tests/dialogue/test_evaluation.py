@@ -54,6 +54,99 @@ def test_each_broken_rule_is_caught(edit, outcome, problem):
     assert problem in check_dialogue(edit(FIGURE_1), outcome)
 
 
+GREETED = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playGame)")]
+
+
+@pytest.mark.parametrize(
+    "transcript,outcome,problem",
+    [
+        # let a no go: acknowledge it, say goodbye, play nothing
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=no)"),
+                sys("Acknowledge(playGame=no)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
+            None,
+        ),
+        (
+            [*GREETED, usr("Reject(playGame=no)"), sys("Salutation(closing)")],
+            "declined",
+            "says goodbye to a no without acknowledging it",
+        ),
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=later)"),
+                sys("Reply(playGame=yes)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
+            "starts a game nobody agreed to",
+        ),
+        # ask once more after a no, never twice
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=no)"),
+                sys("Request(playGame)"),
+                usr("Reject(playGame=no)"),
+                sys("Request(repeat)"),
+                usr("Reject(playGame=no)"),
+                sys("Acknowledge(playGame=no)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
+            "asks to play again after being told no twice",
+        ),
+        # a game nobody agreed to: the answer was not understood
+        (
+            [*GREETED, usr("Unknown"), sys("Reply(playGame=yes)"), sys("Salutation(closing)")],
+            "loss",
+            "starts a game nobody agreed to",
+        ),
+        # a stop is a stop
+        (
+            [
+                *FIGURE_1[:8],
+                usr("Request(stop)"),
+                sys("Acknowledge(stop)"),
+                sys("Salutation(closing)"),
+            ],
+            "stopped",
+            None,
+        ),
+        (
+            [
+                *FIGURE_1[:8],
+                usr("Request(stop)"),
+                sys("Request(userGameMove)"),
+                usr("Request(stop)"),
+                sys("Request(userGameMove)"),
+                sys("Salutation(closing)"),
+            ],
+            "stopped",
+            "asks for a move again after being asked to stop twice",
+        ),
+        # never walk away from a person who wanted to play
+        (
+            [*GREETED, usr("Confirm(playGame=yes)"), sys("Salutation(closing)")],
+            "loss",
+            "walks away from a person who wanted to play",
+        ),
+        ([*FIGURE_1[:8], sys("Salutation(closing)")], "loss", "walks away from an unfinished game"),
+    ],
+)
+def test_the_rules_for_people_who_say_no_stop_or_are_not_understood(transcript, outcome, problem):
+    found = check_dialogue(transcript, outcome)
+    if problem is None:
+        assert found is None
+    else:
+        assert found is not None and problem in found, found
+
+
 def test_the_shipped_policy_never_loses_and_wins_near_the_optimum():
     """A quick version of the acceptance check; the full 10,000 games are in the slow test."""
     policy = load_policy()
