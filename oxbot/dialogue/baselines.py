@@ -89,7 +89,11 @@ def train_tabular_q(
     epsilon: tuple[float, float] = (1.0, 0.01),
 ) -> TabularQ:
     """Q-learning for `experiences` steps in the DQN's training conditions (`config.agent`:
-    seed, discount, opponents, who starts; epsilon falling linearly over half the run)."""
+    seed, discount, opponents, who starts, `eval_every`; epsilon falling linearly over half
+    the run), keeping the best evaluated table as the DQN keeps its best network
+    (`oxbot.dialogue.training.evaluate_checkpoint`)."""
+    from oxbot.dialogue.training import evaluate_checkpoint
+
     cfg = config.agent
     started = time.process_time()
     env = InteractiveGameEnv(config=config)
@@ -99,8 +103,13 @@ def train_tabular_q(
     opponents = {name: make_opponent(name, rng) for name in names}
     starts = who_starts(cfg.robot_starts)
     table: dict[bytes, np.ndarray] = defaultdict(lambda: np.zeros(N_ACTIONS))
-    options = {"opponent": opponents[names[rng.choice(len(names), p=weights)]]}
-    obs, info = env.reset(seed=cfg.seed, options={**options, "robot_starts": bool(starts[0])})
+    best, best_score = TabularQ(), None
+
+    def next_episode() -> dict:
+        name = names[rng.choice(len(names), p=weights)]
+        return {"opponent": opponents[name], "robot_starts": bool(rng.choice(starts))}
+
+    obs, info = env.reset(seed=cfg.seed, options=next_episode())
     for step in range(experiences):
         eps = max(epsilon[1], epsilon[0] - (epsilon[0] - epsilon[1]) * step / (experiences / 2))
         mask = info["action_mask"]
@@ -112,15 +121,20 @@ def train_tabular_q(
         next_obs, reward, terminated, truncated, info = env.step(action)
         target = reward
         if not terminated:
+            following = table[TabularQ.key(next_obs)]
             target += cfg.discount * float(
-                np.max(np.where(info["action_mask"], table[TabularQ.key(next_obs)], -np.inf))
+                np.max(np.where(info["action_mask"], following, -np.inf))
             )
         q[action] += learning_rate * (target - q[action])
         obs = next_obs
         if terminated or truncated:
-            options = {
-                "opponent": opponents[names[rng.choice(len(names), p=weights)]],
-                "robot_starts": bool(rng.choice(starts)),
-            }
-            obs, info = env.reset(options=options)
-    return TabularQ(dict(table), experiences, time.process_time() - started)
+            obs, info = env.reset(options=next_episode())
+        if cfg.eval_every and (step + 1) % cfg.eval_every == 0:
+            candidate = TabularQ({k: v.copy() for k, v in table.items()}, step + 1)
+            _, score = evaluate_checkpoint(config, candidate.act_batch, step + 1)
+            if best_score is None or score >= best_score:
+                best, best_score = candidate, score
+    if not cfg.eval_every:
+        best = TabularQ(dict(table), experiences)
+    best.cpu_seconds = time.process_time() - started
+    return best
