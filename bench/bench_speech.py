@@ -107,11 +107,12 @@ def plan(
         "speech_commands": f"{len(recordings)} recordings, "
         f"{len({r.speaker for r in recordings})} speakers",
     }
-    if not recordings and "speech_commands" in args.sets:
+    chosen = [name for name in args.sets if name != "speech_commands" or recordings]
+    if len(chosen) < len(args.sets):
         print(f"speech_commands: no recordings under {args.speech_commands} (see SOURCES.md)")
-    for name in args.sets:
+    for name in chosen:
         print(f"{name}: {sizes[name]}")
-    return {name: runs[name] for name in args.sets if name != "speech_commands" or recordings}
+    return {name: runs[name] for name in chosen}
 
 
 def row(trials: Sequence[Trial]) -> str:
