@@ -1,8 +1,8 @@
 """Benchmark of hearing the person: intents understood, flips and decoding speed, on what the
 project tunes on and on held-out phrases, voices and people it never tunes on.
 
-    .venv/bin/python bench/bench_speech.py                    # every set, every condition
-    .venv/bin/python bench/bench_speech.py --quick            # a sample of each: a few minutes
+    .venv/bin/python bench/bench_speech.py                    # everything: ~30 min, 30,000 clips
+    .venv/bin/python bench/bench_speech.py --quick            # a sample of each: ~2 min
     .venv/bin/python bench/bench_speech.py --sets espeak flite --conditions clean "10 dB"
 
 Sets (`--sets`):
@@ -177,13 +177,13 @@ def report(name: str, trials: list[Trial], conditions: Sequence[Condition]) -> N
 
 def summary(results: dict[str, list[Trial]], conditions: Sequence[Condition]) -> None:
     print("\n== summary: accept/decline accuracy (flips) per set and condition")
-    print(f"  {'set':16s}" + "".join(f" {c.name:>13s}" for c in conditions) + f" {'all':>13s}")
+    print(f"  {'set':16s}" + "".join(f" {c.name:>14s}" for c in conditions) + f" {'all':>14s}")
     for name, trials in results.items():
         cells = []
         for group in [[t for t in trials if t.condition == c] for c in conditions] + [trials]:
             answers = [t for t in group if t.expected_intent in ANSWERS]
-            cells.append(f"{accuracy(answers):6.1%} ({sum(t.flip for t in answers):3d})")
-        print(f"  {name:16s}" + "".join(f" {cell:>13s}" for cell in cells))
+            cells.append(f"{accuracy(answers):6.1%} ({sum(t.flip for t in answers):4d})")
+        print(f"  {name:16s}" + "".join(f" {cell:>14s}" for cell in cells))
     print("\n== totals per set")
     for name, trials in results.items():
         answers = [t for t in trials if t.expected_intent in ANSWERS]
