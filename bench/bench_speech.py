@@ -32,6 +32,7 @@ import statistics
 import time
 from collections import Counter, defaultdict
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 from oxbot.dialogue.domain import load_domain
@@ -190,8 +191,10 @@ def summary(results: dict[str, list[Trial]], conditions: Sequence[Condition]) ->
         rest = [t for t in trials if t.expected_intent not in ANSWERS]
         audio = sum(t.audio_seconds for t in trials)
         decoding = sum(t.decode_seconds for t in trials)
+        top = accuracy([replace(t, act=t.top_act) for t in answers])
         print(
-            f"  {name:16s} accept/decline {accuracy(answers):6.1%} of {len(answers)}, "
+            f"  {name:16s} accept/decline {accuracy(answers):6.1%} of {len(answers)} "
+            f"(best hypothesis alone {top:.1%}), "
             f"flips {sum(t.flip for t in answers)}, unsure {sum(t.unsure for t in answers)}; "
             f"other intents {f'{accuracy(rest):.1%}' if rest else '-'} of {len(rest)}; "
             f"RTF median {median_real_time_factor(trials):.3f}, "
