@@ -33,6 +33,7 @@ from oxbot.dialogue.domain import (
     ACCEPT,
     ACKNOWLEDGE,
     ASK_AGAIN,
+    CLOSING,
     DECLINE,
     FEEDBACK_ACTS,
     GAME_MOVES,
@@ -80,7 +81,7 @@ UNSURE = ("not sure", "don't know", "dunno", "don't understand", "it depends", "
 """Words that say the person has not decided: whatever they were read as, not understood."""
 
 _AS_YES = {ACKNOWLEDGE: ACCEPT, NEW_GAME: ACCEPT, I_START: ACCEPT}
-_AS_STOP = {DECLINE: STOP, POSTPONE: STOP}
+_AS_STOP = {DECLINE: STOP, POSTPONE: STOP, CLOSING: STOP}
 IN_CONTEXT: dict[str, dict[str, str]] = {
     **{asked: _AS_YES for asked in (INVITATION, ASK_AGAIN)},
     **{told: {ACCEPT: ACKNOWLEDGE} for told in FEEDBACK_ACTS.values()},
@@ -88,7 +89,7 @@ IN_CONTEXT: dict[str, dict[str, str]] = {
 }
 """What an act means as the answer to a system act: asked to play, "okay then", "one game" and
 "can I start" all say yes; told who won, "yes" acknowledges it; in the middle of a game, "no",
-"I don't want to" ask to stop."""
+"I don't want to" and "goodbye" ask to stop."""
 
 
 class Scored(Protocol):

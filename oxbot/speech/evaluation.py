@@ -424,15 +424,18 @@ def _hear(
     recognizer: Recognizer,
     seed: int,
 ) -> list[Trial]:
-    """One utterance under every condition: decoded, timed and understood."""
+    """One utterance under every condition: decoded, timed and understood, as an answer to the
+    invitation when it is one (accept or decline: the robot reads it in that context)."""
     trials = []
+    intent = expected if expected in INTENTS else intent_of_act(expected)
+    context = INVITATION if intent in ("accept", "decline") else ""
     for condition in conditions:
         key = zlib.crc32(f"{noise_key}|{condition.seed_key}".encode())
         samples = condition.apply(clean, np.random.default_rng([seed, key]))
         started = time.perf_counter()
         nbest = recognizer.decode(samples)
         decode_seconds = time.perf_counter() - started
-        top = classifier.classify(nbest[0].text).act if nbest else SILENCE
+        top = classifier.classify(nbest[0].text, context).act if nbest else SILENCE
         trials.append(
             Trial(
                 voice,
@@ -440,7 +443,7 @@ def _hear(
                 phrase,
                 expected,
                 nbest[0].text if nbest else "",
-                classifier.intent_of(nbest).act,
+                classifier.intent_of(nbest, context).act,
                 top,
                 decode_seconds,
                 len(samples) / RATE,

@@ -17,14 +17,14 @@ from tests.dialogue.conftest import replace_line
 
 def test_shipped_domain_has_varied_seed_dialogues_games_and_refusals():
     domain = load_domain()
-    assert len(domain.dialogues) == 16
+    assert len(domain.dialogues) == 18
     feedback = Counter(
         u.act for d in domain.dialogues for u in d if u.act.startswith("Provide(feedback=")
     )
     assert set(feedback) == set(FEEDBACK_ACTS.values())  # robot wins, draws and losses
     games = [d for d in domain.dialogues if any(u.cell is not None for u in d)]
     starters = Counter(next(u.speaker for u in d if u.cell is not None) for d in games)
-    assert starters == {"SYS": 7, "USR": 6}
+    assert starters == {"SYS": 8, "USR": 7}
     refusals = [d for d in domain.dialogues if d not in games]
     assert len(refusals) == 3  # no thanks; no twice; maybe later
     assert all("Acknowledge(playGame=no)" in [u.act for u in d] for d in refusals)
