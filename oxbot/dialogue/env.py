@@ -36,7 +36,8 @@ Terminated when the robot says goodbye (`Salutation(closing)`): `info["outcome"]
 result from the robot's side ("win", "draw", "loss"), or "declined" (the person never agreed
 to play) or "stopped" (the person asked to stop mid-game); leaving a person who wanted to play
 counts as a loss. `info["transcript"]` is the dialogue as `{"speaker", "act", "text"}` dicts,
-the person's turns with the act they meant. Truncated after `max_turns` system acts
+the person's turns with the act they meant; `info["understood"]` the act each turn was
+understood as; `info["person"]` the kind of person (`UserSimulator.kind`). Truncated after `max_turns` system acts
 (`info["outcome"]` is then the result so far, or None).
 
 ## Arguments
@@ -168,7 +169,7 @@ class InteractiveGameEnv(gym.Env):
         terminated = act == CLOSING
         result = self._closing_outcome() if terminated else state.outcome
         if terminated:  # no end reward for a dialogue that is not well formed
-            well_formed = check_dialogue(state.transcript, result) is None
+            well_formed = check_dialogue(state.transcript, result, state.understood_turns) is None
             reward += end_reward(result if well_formed else "loss", rcfg)
 
         # the person's turn: answer, perhaps draw
@@ -187,6 +188,7 @@ class InteractiveGameEnv(gym.Env):
         if self._done:
             info["outcome"] = result if terminated else state.outcome
             info["transcript"] = list(state.transcript)
+            info["understood"] = list(state.understood_turns)
             info["person"] = self._simulator.kind
         return state.encode(), float(reward), terminated, truncated, info
 

@@ -117,7 +117,8 @@ class _Tally:
         self.total_reward += episode_return
         transcript = info["transcript"]
         self.total_turns += len(transcript)
-        problem = check_dialogue(transcript, result) if terminated else "truncated"
+        understood = info.get("understood")
+        problem = check_dialogue(transcript, result, understood) if terminated else "truncated"
         if problem is None:
             self.good += 1
             self.successes += as_wanted(info["person"], result)

@@ -1,30 +1,36 @@
 """The state the interaction manager sees: word features plus game and dialogue context.
 
-Layout (SPEC §3, paper §2.2 "State Space") with the shipped vocabulary of 35 words, 61 features:
+Layout (SPEC §3, paper §2.2 "State Space") with the shipped vocabulary of 84 words, 150 features:
 
-    index  name                     value
-    0-34   word:<w>, vocabulary     system words of the last response: 1 if present; user words
-           order                    of the last answer: the recogniser's confidence in [0, 1],
-                                    overriding the system's value on overlap
-    35-43  robot:<cell>             1 if the robot's mark is on the cell (row-major, upper left
-                                    first)
-    44-52  person:<cell>            1 if the person's mark is on the cell
-    53     game:robot_to_move       1 while the game is on and it is the robot's turn to draw
-                                    (before the first move: 1 if the robot starts)
-    54     game:robot_won           1 once the robot has three in a row
-    55     game:person_won          1 once the person has three in a row
-    56     game:draw                1 once the board is full with no line
-    57     dialogue:greeted         1 once the robot has said Salutation(greeting)
-    58     dialogue:introduced      1 once it has said Provide(name)
-    59     dialogue:invited         1 once it has said Request(playGame)
-    60     dialogue:gave_feedback   1 once it has said a Provide(feedback=...) act
+    index    name                     value
+    0-83     word:<w>, vocabulary     system words of the last response: 1 if present; user
+             order                    words of the last answer: the recogniser's confidence in
+                                      [0, 1], overriding the system's value on overlap
+    84-92    robot:<cell>             1 if the robot's mark is on the cell (row-major)
+    93-101   person:<cell>            1 if the person's mark is on the cell
+    102      game:robot_to_move       1 while the game is on and it is the robot's turn to draw
+                                      (before the first move: 1 if the robot starts)
+    103      game:robot_won           1 once the robot has three in a row
+    104      game:person_won          1 once the person has three in a row
+    105      game:draw                1 once the board is full with no line
+    106-119  heard:<user act>         the act the last answer was understood as
+                                      (`UserActClassifier`): its score (1 for Unknown)
+    120-140  last:<system act>        1 for the robot's last act
+    141-144  dialogue:greeted, introduced, invited, gave_feedback
+                                      1 once the robot has said that act (any feedback act)
+    145      dialogue:acknowledged    1 once it has acknowledged a refusal or a stop
+    146      dialogue:asked_twice     1 once it has asked to play (invited, asked again) twice
+    147-149  person:agreed, refused, stopped
+                                      1 once an answer was understood as that (any refusal)
 
-The paper had 57 features (about 40 words plus game moves); the first 57 here are exactly that
-kind (35 words, 18 cells, 4 game flags). The word features are reset every turn; the others keep
-the history instead (paper: "we kept the game move features as to describe the game state rather
-than resetting them at every turn"). oxbot adds the four dialogue flags for the same reason: the
-last turn's words cannot tell whether the robot has already introduced itself or given feedback,
-and without them no policy can be well formed every time (see docs/deviations.md).
+The paper had 57 features (about 40 words plus game moves); the words, cells and game flags here
+are exactly that kind. The word features are reset every turn; the others keep the history
+instead (paper: "we kept the game move features as to describe the game state rather than
+resetting them at every turn"). oxbot adds the rest for the same reason, and because people
+answer in hundreds of ways the words alone cannot tell apart: the understood act and its score,
+the robot's own last act (its words vary with its templates), and what the dialogue has been
+through — whether the robot introduced itself, gave feedback, asked twice; whether the person
+agreed, refused or asked to stop (see docs/deviations.md).
 """
 
 from __future__ import annotations

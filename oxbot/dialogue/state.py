@@ -82,6 +82,9 @@ class DialogueState:
         self.invitations = 0
         """How many times the robot has asked to play (invited, or asked again)."""
         self.transcript: list[Turn] = []
+        self.understood_turns: list[str] = []
+        """For each turn of the transcript, the act it was understood as (the robot's own turns
+        and drawings: their act)."""
         self._features: np.ndarray | None = None
 
     # --- the game ---------------------------------------------------------------------------
@@ -120,13 +123,12 @@ class DialogueState:
         self.invitations += act in ASKING_TO_PLAY
         self.system_words = _words(text)
         self.heard, self.understood = (), None
-        self.transcript.append({"speaker": "sys", "act": act, "text": text})
-        self._features = None
+        self._turn("sys", act, text)
 
     def robot_informs(self, act: str, text: str) -> None:
         """The robot says something outside the policy's acts (about an impossible drawing):
         in the transcript, not in what the policy sees."""
-        self.transcript.append({"speaker": "sys", "act": act, "text": text})
+        self._turn("sys", act, text)
 
     def robot_skips(self) -> None:
         """The robot's act could not be done (a GameMove out of turn): nothing said or heard."""
@@ -152,7 +154,11 @@ class DialogueState:
         if understood is not None:
             self.understood = understood
             self.person_acts.append(understood[0])
-        self.transcript.append({"speaker": "usr", "act": act, "text": text})
+        self._turn("usr", act, text, understood[0] if understood is not None else act)
+
+    def _turn(self, speaker: str, act: str, text: str, understood: str = "") -> None:
+        self.transcript.append({"speaker": speaker, "act": act, "text": text})
+        self.understood_turns.append(understood or act)
         self._features = None
 
     # --- how the policy sees it -------------------------------------------------------------
@@ -181,6 +187,7 @@ class DialogueState:
         twin.said = set(self.said)
         twin.person_acts = list(self.person_acts)
         twin.transcript = list(self.transcript)
+        twin.understood_turns = list(self.understood_turns)
         twin._features = None
         return twin
 

@@ -227,15 +227,16 @@ def learn_from(batch: Batch, learner: _Learner, step: int, config: AgentConfig) 
     learner.optimizer.step()
 
 
-def evaluation_score(results: dict[str, Any]) -> tuple[float, float]:
-    """Order policies: fewest losing boards and lost or badly formed games, then most wins."""
-    faults = results["losing_positions"] + sum(
+def evaluation_score(results: dict[str, Any]) -> tuple[float, float, float]:
+    """Order policies: fewest losing boards (a person who finds one beats the robot every
+    time), then fewest lost or badly formed dialogues, then most wins against random people."""
+    faults = sum(
         round(r["games"] * (r["loss_rate"] + 1 - r["well_formed"]))
         for r in results.values()
         if isinstance(r, dict)
     )
     wins = sum(r["win_rate"] for k, r in results.items() if k.startswith("random"))
-    return (-faults, wins)
+    return (-results["losing_positions"], -faults, wins)
 
 
 def train_agent(
@@ -251,6 +252,9 @@ def train_agent(
     out_dir = Path(out_dir)
     cfg = config.agent
     torch.set_num_threads(1)  # a 60-unit MLP trains fastest on one thread
+    # the same seed gives the same weights here; on another CPU, BLAS kernels may still sum in
+    # another order (docs/dialogue.md says what differs)
+    torch.use_deterministic_algorithms(True)
     started_at = time.perf_counter()
 
     # --- set-up: environment, networks, replay memory, opponents -------------------------------

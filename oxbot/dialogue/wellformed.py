@@ -6,6 +6,8 @@ and the evaluations count how many do (`oxbot.dialogue.evaluation`).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from oxbot.dialogue.domain import (
     ACCEPT,
     ASK_AGAIN,
@@ -29,7 +31,9 @@ from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, play
 from oxbot.game.board import outcome as game_outcome
 
 
-def check_dialogue(transcript: list[Turn], outcome: str | None) -> str | None:
+def check_dialogue(
+    transcript: list[Turn], outcome: str | None, understood: Sequence[str] | None = None
+) -> str | None:
     """Why a finished dialogue is not well formed, or None if it is.
 
     Well formed: it greets first and closes last, once. It plays only with a person who agreed
@@ -41,17 +45,23 @@ def check_dialogue(transcript: list[Turn], outcome: str | None) -> str | None:
     move after each robot move until the game is over, and exactly one feedback act, the one of
     the real outcome. It never walks away from a person who wanted to play. The person's turns
     are read as the acts they meant (the environment's transcript) or were understood as (the
-    robot's).
+    robot's); where `understood` gives, for each turn, the act the robot understood, asking
+    again after a no or a stop it did not understand is allowed: it asked because it could not
+    tell (a no it understood twice, or a stop it understood twice, it must let go).
     """
+    heard = list(understood) if understood is not None else [t["act"] for t in transcript]
     sys_acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
     if not sys_acts or sys_acts[0] != GREETING:
         return "does not greet first"
     if sys_acts[-1] != CLOSING or sys_acts.count(CLOSING) != 1:
         return "does not close with a goodbye"
-    for rule in (_agreed_before_playing, _lets_a_no_go, _lets_a_stop_go):
-        problem = rule(transcript)
-        if problem is not None:
-            return problem
+    problem = (
+        _agreed_before_playing(transcript)
+        or _lets_a_no_go(transcript, heard)
+        or _lets_a_stop_go(transcript, heard)
+    )
+    if problem is not None:
+        return problem
     if outcome in ("declined", "stopped"):
         return None
     return _played_properly(transcript, outcome)
@@ -67,14 +77,14 @@ def _agreed_before_playing(transcript: list[Turn]) -> str | None:
     return None
 
 
-def _lets_a_no_go(transcript: list[Turn]) -> str | None:
+def _lets_a_no_go(transcript: list[Turn], heard: list[str]) -> str | None:
     refused = asked_after = 0
     last_answer = ""
-    for turn in transcript:
+    for turn, understood in zip(transcript, heard, strict=True):
         act = turn["act"]
-        if turn["speaker"] == "usr" and (act in REFUSALS or act == ACCEPT):
-            refused += act in REFUSALS
-            last_answer = act
+        if turn["speaker"] == "usr" and (understood in REFUSALS or understood == ACCEPT):
+            refused += understood in REFUSALS
+            last_answer = understood
         elif turn["speaker"] == "sys" and act in (INVITATION, ASK_AGAIN) and refused:
             asked_after += 1
             if asked_after > 1:
@@ -89,16 +99,17 @@ def _lets_a_no_go(transcript: list[Turn]) -> str | None:
     return None
 
 
-def _lets_a_stop_go(transcript: list[Turn]) -> str | None:
-    stops = 0
+def _lets_a_stop_go(transcript: list[Turn], heard: list[str]) -> str | None:
+    stops = understood_stops = 0
     acknowledged = False
-    for turn in transcript:
+    for turn, understood in zip(transcript, heard, strict=True):
         act = turn["act"]
         if turn["speaker"] == "usr":
             stops += act == STOP
+            understood_stops += understood == STOP
         elif stops and is_game_move(act):
             return f"goes on playing after the person asked to stop ({act})"
-        elif stops >= 2 and act == MOVE_REQUEST:  # once may be a stop it did not understand
+        elif understood_stops >= 2 and act == MOVE_REQUEST:
             return "asks for a move again after being asked to stop twice"
         elif stops and act == GRANT_STOP:
             acknowledged = True
