@@ -10,9 +10,10 @@ dialogues' USR lines, and `[Unknown]` things people say that are none of the gam
 The classifier is a logistic regression (scikit-learn) over word unigrams and bigrams ("why
 not" is not "not") and character n-grams within words (typed misspellings, recogniser
 fragments), TF-IDF weighted. It never guesses: below `min_probability` for its best act, when
-the best act is `Unknown`, when no word of the answer is a word of any phrasing, or when the
-answer says no where it looks like a yes (or the reverse), it is Unknown, and the robot asks
-again.
+the best act is `Unknown`, when no word of the answer is a word of any phrasing, when a single
+word is not itself a phrasing (a recogniser that lost "why" of "why not" leaves "not"), or when
+the answer says no where it looks like a yes (or the reverse), it is Unknown, and the robot
+asks again.
 
     classifier = UserActClassifier(load_domain())
     classifier.classify("sure why not")   # Confirm(playGame=yes), its probability, a phrase
@@ -148,6 +149,9 @@ class UserActClassifier:
         self._parts = _linear_parts(self.vectorizer, self.model)
         self.words = frozenset(w for text in self.texts for w in text.split())
         """Every word of the phrasings: an answer with none of them is not understood."""
+        self.one_word_answers = frozenset(text for text in self.texts if " " not in text)
+        """The phrasings of one word: another single word is a fragment ("not" of "why not",
+        "in" of "I'm in"), not an answer."""
         self._cache: dict[str, np.ndarray] = {}
 
     @property
@@ -214,8 +218,16 @@ class UserActClassifier:
     def _decide(self, probabilities: np.ndarray, text: str, context: str) -> UserAct:
         k = int(np.argmax(probabilities))
         act, p = self.classes[k], float(probabilities[k])
-        unknown_words = self.words.isdisjoint(text.split())  # only letters in common
-        if act == UNKNOWN or p < self.min_probability or unknown_words or _contradicts(act, text):
+        words = text.split()
+        unknown_words = self.words.isdisjoint(words)  # only letters in common
+        fragment = len(words) == 1 and text not in self.one_word_answers
+        if (
+            act == UNKNOWN
+            or p < self.min_probability
+            or unknown_words
+            or fragment
+            or _contradicts(act, text)
+        ):
             return UserAct(UNKNOWN, 0.0)
         return UserAct(IN_CONTEXT.get(context, {}).get(act, act), round(p, 6))
 
