@@ -9,8 +9,9 @@ one system act; the person then answers (or stays silent) and may draw.
 
 ## Action Space
 
-`Discrete(N_ACTIONS)`: the paper's 18 acts in `oxbot.dialogue.domain.SYSTEM_ACTS`, 0-8 being
-`GameMove(gridloc=...)` on the cells row-major from the upper left. `info["action_mask"]`
+`Discrete(N_ACTIONS)`: the 21 acts in `oxbot.dialogue.domain.SYSTEM_ACTS` (the paper's 18, then
+ask again, acknowledge a refusal, acknowledge a stop), 0-8 being `GameMove(gridloc=...)` on the
+cells row-major from the upper left. `info["action_mask"]`
 (bool, one per act) says which acts are offered (Pr(a|s) > 0.001 from the action model, all
 valid GameMoves if any is, never an occupied cell). An act outside the mask is still said; a
 GameMove that cannot be drawn (occupied cell, not the robot's turn) is a wasted turn: nothing
@@ -18,8 +19,9 @@ happens but -DL.
 
 ## Observation Space
 
-`Box(0, 1, (61,), float32)`, the layout in `oxbot.dialogue.features`: word features of the last
-system and user responses, game-move features that keep the board, and dialogue flags. The
+`Box(0, 1, (150,), float32)`, the layout in `oxbot.dialogue.features`: word features of the last
+system and user responses, game-move features that keep the board, game flags, the act the
+person's answer was understood as (with its score), the robot's last act and dialogue flags. The
 state behind it is a `DialogueState` (`oxbot.dialogue.state`), the same the robot's
 interaction manager keeps.
 
@@ -29,13 +31,17 @@ R(s,a,s') = BR*w + DR*(1-w) - DL (`oxbot.dialogue.reward`), plus at the end of t
 the robot lost and 5 after any other game (the paper's); oxbot: 3 when the person declined to
 play or asked to stop and the robot let them, and 0 for any dialogue that is not well formed
 (`oxbot.dialogue.wellformed`: a game nobody agreed to, a no or a stop not let go, walking away).
+A person the robot ignores — it starts a game they did not agree to, asks to play a third time
+after two noes, goes on after a stop — walks away there: the dialogue ends at once, with no end
+reward (`info["walked_away"]` says why).
 
 ## Episode End
 
-Terminated when the robot says goodbye (`Salutation(closing)`): `info["outcome"]` is the game's
+Terminated when the robot says goodbye (`Salutation(closing)`), or when the person walks away
+(above): `info["outcome"]` is the game's
 result from the robot's side ("win", "draw", "loss"), or "declined" (the person never agreed
-to play) or "stopped" (the person asked to stop mid-game); leaving a person who wanted to play
-counts as a loss. `info["transcript"]` is the dialogue as `{"speaker", "act", "text"}` dicts,
+to play), "stopped" (the person asked to stop mid-game) or "abandoned" (the robot left a person
+who wanted to play; rewarded as a loss). `info["transcript"]` is the dialogue as `{"speaker", "act", "text"}` dicts,
 the person's turns with the act they meant; `info["understood"]` the act each turn was
 understood as; `info["person"]` the kind of person (`UserSimulator.kind`). Truncated after `max_turns` system acts
 (`info["outcome"]` is then the result so far, or None).
@@ -51,7 +57,9 @@ who always agrees and plays a whole game (recognition noise still on), for measu
 
 ## Version History
 
-- v0: the first version (oxbot issue 5).
+- v0: the first version (oxbot issue 5); issue 14 kept the id and grew the acts (21), the
+  features (150), the people (who decline, stop, chatter, say nothing, walk away when ignored)
+  and the outcomes ("declined", "stopped").
 """
 
 from __future__ import annotations
@@ -68,7 +76,7 @@ from oxbot.dialogue.model import build_dialogue_model
 from oxbot.dialogue.reward import end_reward, step_reward
 from oxbot.dialogue.simulator import UserSimulator
 from oxbot.dialogue.state import DialogueState, Turn
-from oxbot.dialogue.wellformed import check_dialogue
+from oxbot.dialogue.wellformed import check_dialogue, ignores_the_person
 from oxbot.errors import ConfigError, InvalidInputError
 from oxbot.game.board import Board, render
 from oxbot.game.opponents import Opponent, make_opponent
@@ -166,14 +174,15 @@ class InteractiveGameEnv(gym.Env):
             reward = -rcfg.length_penalty
             state.robot_skips()
 
-        terminated = act == CLOSING
+        ignored = ignores_the_person(state.transcript, state.understood_turns) if did else None
+        terminated = act == CLOSING or ignored is not None
         result = self._closing_outcome() if terminated else state.outcome
         if terminated:  # no end reward for a dialogue that is not well formed
             well_formed = check_dialogue(state.transcript, result, state.understood_turns) is None
             reward += end_reward(result if well_formed else "loss", rcfg)
 
-        # the person's turn: answer, perhaps draw
-        if did:
+        # the person's turn: answer, perhaps draw; or walk away from a robot that ignores them
+        if did and ignored is None:
             answer = self._simulator.respond(act, state.board, state.person_to_move)
             if answer.act != SILENCE:
                 state.person_says(answer.act, answer.text, answer.heard, answer.understood)
@@ -185,6 +194,8 @@ class InteractiveGameEnv(gym.Env):
         info: dict[str, Any] = {"action_mask": mask}
         if not did:
             info["invalid_action"] = True
+        if ignored is not None:
+            info["walked_away"] = ignored
         if self._done:
             info["outcome"] = result if terminated else state.outcome
             info["transcript"] = list(state.transcript)
@@ -202,7 +213,7 @@ class InteractiveGameEnv(gym.Env):
             return "declined"
         if person.asked_to_stop:
             return "stopped"
-        return "loss"  # the robot walked away from a person who wanted to play
+        return "abandoned"  # the robot walked away from a person who wanted to play
 
     def render(self) -> str | None:
         """The dialogue so far and the board, as text (render_mode "ansi")."""

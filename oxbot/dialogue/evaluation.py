@@ -40,6 +40,10 @@ CONDITIONS = tuple((name, robot_starts) for name in OPPONENTS for robot_starts i
 """Every opponent in both who-starts conditions, in the order reports list them."""
 
 
+OUTCOMES = ("win", "draw", "loss", "declined", "stopped", "abandoned")
+"""`info["outcome"]` of a finished dialogue (`InteractiveGameEnv`)."""
+
+
 def condition_key(opponent: str, robot_starts: bool) -> str:
     """`random/robot` or `random/person`: an opponent and who starts, as metrics key them."""
     return f"{opponent}/{'robot' if robot_starts else 'person'}"
@@ -55,10 +59,14 @@ class EvaluationResult:
     win_rate: float
     draw_rate: float
     loss_rate: float
+    """Share of dialogues whose game the person won."""
     declined_rate: float
     """Share of dialogues the person declined to play, and the robot let them."""
     stopped_rate: float
     """Share of dialogues whose game the person asked to stop."""
+    abandoned_rate: float
+    """Share of dialogues where the robot left a person who wanted to play (misheard, or a
+    mistake): no game, or an unfinished one."""
     task_success: float
     """Share of dialogues that are well formed and end as the person wanted: a finished game
     with a person who wanted one (perhaps after a first no), the goodbye without a game for one
@@ -97,7 +105,7 @@ class _Tally:
     keep_transcripts: int
     finished: int = 0
     outcomes: dict[str, int] = field(
-        default_factory=lambda: dict.fromkeys(("win", "draw", "loss", "declined", "stopped"), 0)
+        default_factory=lambda: dict.fromkeys(OUTCOMES, 0)
     )
     successes: int = 0
     truncated: int = 0
@@ -138,6 +146,7 @@ class _Tally:
             loss_rate=self.outcomes["loss"] / n,
             declined_rate=self.outcomes["declined"] / n,
             stopped_rate=self.outcomes["stopped"] / n,
+            abandoned_rate=self.outcomes["abandoned"] / n,
             task_success=self.successes / n,
             average_reward=self.total_reward / n,
             average_turns=self.total_turns / n,

@@ -38,6 +38,7 @@ def end_reward(outcome: str, config: RewardConfig) -> float:
     to play or asked to stop, and the robot let them."""
     return {
         "loss": config.end_reward_loss,
+        "abandoned": config.end_reward_loss,
         "declined": config.end_reward_declined,
         "stopped": config.end_reward_stopped,
     }.get(outcome, config.end_reward_otherwise)

@@ -1,7 +1,8 @@
 """What makes a dialogue well formed: the rules a finished dialogue is checked against.
 
-The environment pays no end-of-dialogue reward for a dialogue that breaks them (`end_reward`),
-and the evaluations count how many do (`oxbot.dialogue.evaluation`).
+The environment pays no end-of-dialogue reward for a dialogue that breaks them (`end_reward`);
+a simulated person the robot ignores (`ignores_the_person`) walks away at once; the
+evaluations count how many dialogues break them (`oxbot.dialogue.evaluation`).
 """
 
 from __future__ import annotations
@@ -49,22 +50,31 @@ def check_dialogue(
     again after a no or a stop it did not understand is allowed: it asked because it could not
     tell (a no it understood twice, or a stop it understood twice, it must let go).
     """
-    heard = list(understood) if understood is not None else [t["act"] for t in transcript]
     sys_acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
     if not sys_acts or sys_acts[0] != GREETING:
         return "does not greet first"
+    problem = ignores_the_person(transcript, understood)
+    if problem is not None:
+        return problem
     if sys_acts[-1] != CLOSING or sys_acts.count(CLOSING) != 1:
         return "does not close with a goodbye"
-    problem = (
+    if outcome in ("declined", "stopped"):
+        return None
+    return _played_properly(transcript, outcome)
+
+
+def ignores_the_person(
+    transcript: list[Turn], understood: Sequence[str] | None = None
+) -> str | None:
+    """The first rule about the person's will the dialogue so far breaks, or None: a game
+    nobody agreed to, a no or a stop not let go. Each is decided as soon as the robot says the
+    act that breaks it, so the simulated person can walk away there (`InteractiveGameEnv`)."""
+    heard = list(understood) if understood is not None else [t["act"] for t in transcript]
+    return (
         _agreed_before_playing(transcript)
         or _lets_a_no_go(transcript, heard)
         or _lets_a_stop_go(transcript, heard)
     )
-    if problem is not None:
-        return problem
-    if outcome in ("declined", "stopped"):
-        return None
-    return _played_properly(transcript, outcome)
 
 
 def _agreed_before_playing(transcript: list[Turn]) -> str | None:

@@ -5,6 +5,7 @@ from gymnasium.utils.env_checker import check_env
 
 from oxbot.config import DialogueConfig, OxbotConfig, load_config
 from oxbot.dialogue import ENV_ID, InteractiveGameEnv, load_policy
+from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.dialogue.domain import (
     ACTION_INDEX,
     CLOSING,
@@ -78,11 +79,11 @@ def test_the_dialogue_is_capped():
     assert truncated and info["outcome"] is None and len(info["transcript"]) >= 7
 
 
-def test_closing_early_abandons_the_game_as_a_loss_with_no_end_reward():
+def test_closing_early_abandons_the_person_with_no_end_reward():
     env = InteractiveGameEnv()
     env.reset(seed=0)
     _, reward, terminated, _, info = env.step(SYSTEM_ACTS.index("Salutation(closing)"))
-    assert terminated and info["outcome"] == "loss"
+    assert terminated and info["outcome"] == "abandoned"
     assert reward == pytest.approx(0.5 * env_probability_of_closing_at_start() - 0.1)
 
 
@@ -133,14 +134,30 @@ def test_a_person_who_declines_is_let_go_with_the_end_reward_of_a_refusal():
     assert reward > 2.5  # 3 at the end, well formed
 
 
-def test_forcing_a_game_on_a_person_who_declined_earns_no_end_reward():
+def test_a_person_who_declined_walks_away_from_a_game_forced_on_them():
     config = load_config(None, ["dialogue.refuse_probability=1", "dialogue.asr_noise=0"])
     env = InteractiveGameEnv(config=config)
     env.reset(seed=0)
-    say(env, "Salutation(greeting)", INTRODUCTION, INVITATION, LETS_PLAY, MOVE_REQUEST)
-    reward, terminated, info = say(env, GRANT_STOP, CLOSING)
+    say(env, "Salutation(greeting)", INTRODUCTION, INVITATION)
+    reward, terminated, info = say(env, LETS_PLAY)
     assert terminated and info["outcome"] == "declined"
-    assert reward < 1  # ill formed: a game nobody agreed to, so no end reward
+    assert "starts a game nobody agreed to" in info["walked_away"]
+    assert reward < 1  # ill formed, so no end reward
+    assert env.state.transcript[-1]["act"] == LETS_PLAY  # no answer: the person left
+    problem = check_dialogue(info["transcript"], info["outcome"], info["understood"])
+    assert problem is not None and "nobody agreed" in problem
+
+
+def test_a_person_asked_a_third_time_after_two_noes_walks_away():
+    quiet = [f"dialogue.{kind}_probability=0" for kind in ("nonsense", "silence", "out_of_turn")]
+    config = load_config(None, ["dialogue.refuse_probability=1", "dialogue.asr_noise=0", *quiet])
+    env = InteractiveGameEnv(config=config)
+    env.reset(seed=0)
+    say(env, "Salutation(greeting)", INTRODUCTION)
+    for asked in range(1, 4):
+        _, terminated, info = say(env, INVITATION)
+        assert terminated == (asked == 3)
+    assert info["walked_away"] == "asks to play again after being told no twice"
 
 
 def test_a_person_who_asks_to_stop_ends_the_dialogue_as_stopped():
