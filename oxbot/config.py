@@ -172,6 +172,9 @@ class AgentConfig:
     """oxbot: augment each sampled experience with a random symmetry of the board; off."""
     misheard_words: float = 0.0
     """oxbot: share of sampled states given one extra low-confidence misheard word; off."""
+    board_head: bool = False
+    """oxbot: the GameMoves' values from a move value of the whole state plus per-cell
+    advantages of the board alone (a dueling split, `oxbot.dialogue.agent`); off."""
     opponents: str = "random"
     """Paper §3.3: a semi-random simulated person; oxbot: a weighted mix, random:2,minimax:1."""
     robot_starts: str = "yes"

@@ -129,6 +129,8 @@ class FeatureLayout:
         self.last_index = {act: self.last_acts.start + k for k, act in enumerate(SYSTEM_ACTS)}
         end = self.last_acts.stop
         self.dialogue_flags = slice(end, end + len(DIALOGUE_FLAGS))
+        self.board = slice(self.robot_cells.start, self.flags.stop)
+        """The cells and the game flags: all the board says, whoever speaks."""
         self.context = slice(self.flags.start, self.dialogue_flags.stop)
         """Everything but the words and the cells: what the action model reads."""
         self.names: tuple[str, ...] = (

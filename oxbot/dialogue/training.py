@@ -330,7 +330,12 @@ def train_agent(
 def _new_learner(env: InteractiveGameEnv, cfg: AgentConfig) -> _Learner:
     rng = np.random.default_rng(cfg.seed)
     torch.manual_seed(cfg.seed)
-    q_network = QNetwork(env.layout.n_features, cfg.hidden_sizes)
+    board = env.layout.board
+    q_network = QNetwork(
+        env.layout.n_features,
+        cfg.hidden_sizes,
+        board_features=(board.start, board.stop) if cfg.board_head else None,
+    )
     return _Learner(
         q_network=q_network,
         target_network=copy.deepcopy(q_network),
