@@ -289,8 +289,13 @@ class Recording:
 
 
 def accept_decline_phrases(domain: Domain) -> dict[str, str]:
-    """The person's answers to the invitation (`Request(playGame)`), phrase -> act."""
-    return {" ".join(u.words): u.act for u in domain.responses_to(INVITATION) if u.words}
+    """The person's yes and no answers to the invitation (`Request(playGame)`), phrase -> act
+    (its other answers, "what time is it", are left out)."""
+    return {
+        " ".join(u.words): u.act
+        for u in domain.responses_to(INVITATION)
+        if u.words and intent_of_act(u.act) in ("accept", "decline")
+    }
 
 
 def read_labelled_phrases(path: str | Path) -> dict[str, str]:
