@@ -41,8 +41,7 @@ def check_dialogue(
     (never a game nobody agreed to), asks to play at most once more after a no, and lets a
     person who declines or asks to stop go: it acknowledges (`Acknowledge(playGame=no)`,
     `Acknowledge(stop)`) and says goodbye, with no move after a stop (it may ask for the move
-    once more, when it did not understand the stop); a no after the game's feedback, to no new
-    invitation, turns nothing down and needs no acknowledging. A game it plays, it plays
+    once more, when it did not understand the stop). A game it plays, it plays
     properly: introduction and invitation before the first move, the person asked for their
     move after each robot move until the game is over, and exactly one feedback act, the one of
     the real outcome. It never walks away from a person who wanted to play. The person's turns
@@ -91,14 +90,8 @@ def _agreed_before_playing(transcript: list[Turn]) -> str | None:
 def _lets_a_no_go(transcript: list[Turn], heard: list[str]) -> str | None:
     refused = asked_after = 0
     last_answer = ""
-    game_over = asked_to_play = False
     for turn, understood in zip(transcript, heard, strict=True):
         act = turn["act"]
-        if turn["speaker"] == "sys":
-            game_over = game_over or is_feedback(act)
-            asked_to_play = act in (INVITATION, ASK_AGAIN)
-        if turn["speaker"] == "usr" and game_over and not asked_to_play:
-            continue  # "oh no" after the feedback turns down nothing: nothing was offered
         if turn["speaker"] == "usr" and (understood in REFUSALS or understood == ACCEPT):
             refused += understood in REFUSALS
             last_answer = understood

@@ -2,9 +2,8 @@ import time
 
 import pytest
 
-from oxbot.config import load_config
 from oxbot.dialogue.agent import load_policy
-from oxbot.dialogue.evaluation import OUTCOMES, check_dialogue, evaluate, losing_positions
+from oxbot.dialogue.evaluation import check_dialogue, evaluate, losing_positions
 from oxbot.game import win_probability_vs_random
 from oxbot.game.board import EMPTY_BOARD, ROBOT
 
@@ -131,34 +130,13 @@ GREETED = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playG
             "stopped",
             "asks for a move again after being asked to stop twice",
         ),
-        # a no after the game's feedback turns nothing down: the goodbye may follow
-        (
-            [*FIGURE_1[:-1], usr("Reject(playGame=no)"), sys("Salutation(closing)")],
-            "win",
-            None,
-        ),
-        # ... but a no to a new invitation after the game is let go as any other
-        (
-            [
-                *FIGURE_1[:-1],
-                sys("Request(playGame)"),
-                usr("Reject(playGame=no)"),
-                sys("Salutation(closing)"),
-            ],
-            "win",
-            "says goodbye to a no without acknowledging it",
-        ),
         # never walk away from a person who wanted to play
         (
             [*GREETED, usr("Confirm(playGame=yes)"), sys("Salutation(closing)")],
-            "abandoned",
+            "loss",
             "walks away from a person who wanted to play",
         ),
-        (
-            [*FIGURE_1[:8], sys("Salutation(closing)")],
-            "abandoned",
-            "walks away from an unfinished game",
-        ),
+        ([*FIGURE_1[:8], sys("Salutation(closing)")], "loss", "walks away from an unfinished game"),
     ],
 )
 def test_the_rules_for_people_who_say_no_stop_or_are_not_understood(transcript, outcome, problem):
@@ -170,14 +148,11 @@ def test_the_rules_for_people_who_say_no_stop_or_are_not_understood(transcript, 
 
 
 def test_the_shipped_policy_never_loses_and_wins_near_the_optimum():
-    """A quick version of the acceptance check; the full 10,000 games are in the slow test.
-    Game play, against people who always play a whole game, heard through the noisy ASR."""
+    """A quick version of the acceptance check; the full 10,000 games are in the slow test."""
     policy = load_policy()
     for opponent, games in (("random", 1000), ("blocker", 300), ("minimax", 300)):
         for robot_starts in (True, False):
-            r = evaluate(
-                policy.act_batch, opponent, robot_starts, games, seed=123, cooperative=True
-            )
+            r = evaluate(policy.act_batch, opponent, robot_starts, games, seed=123)
             assert r.loss_rate == 0, (opponent, robot_starts, r.summary())
             assert r.well_formed == 1.0, r.problems
             assert r.truncated == 0
@@ -186,39 +161,13 @@ def test_the_shipped_policy_never_loses_and_wins_near_the_optimum():
                 assert r.win_rate >= optimum - 0.02  # 1,000 games: 2 points of slack
 
 
-PERSON_KINDS = ("decline", "refuse", "stop", "nonsense", "silence", "out_of_turn", "rematch")
-ONLY = {
-    kind: [f"dialogue.{k}_probability={int(k == kind)}" for k in PERSON_KINDS]
-    for kind in ("refuse", "stop", "decline")
-}
-
-
-@pytest.mark.parametrize(
-    ("kind", "outcomes"),
-    [("refuse", {"declined"}), ("stop", {"stopped"}), ("decline", {"win", "draw"})],
-)
-def test_the_shipped_policy_does_what_the_person_wants(kind, outcomes):
-    """Heard cleanly: a person who says no every time is let go, never made to play; one who
-    asks to stop is let go; one who says no once and yes when asked again gets a game."""
-    config = load_config(None, ["dialogue.asr_noise=0", *ONLY[kind]])
-    policy = load_policy()
-    for robot_starts in (True, False):
-        r = evaluate(policy.act_batch, "minimax", robot_starts, 200, config, seed=11)
-        assert r.well_formed == 1.0, r.problems
-        assert r.task_success == 1.0
-        got = {k for k in OUTCOMES if getattr(r, f"{k}_rate") > 0}
-        assert got <= outcomes, got
-
-
 @pytest.mark.slow
 def test_acceptance_ten_thousand_games_per_condition():
     policy = load_policy()
     started = time.perf_counter()
     for opponent in ("random", "blocker", "minimax"):
         for robot_starts in (True, False):
-            r = evaluate(
-                policy.act_batch, opponent, robot_starts, 10_000, seed=2026, cooperative=True
-            )
+            r = evaluate(policy.act_batch, opponent, robot_starts, 10_000, seed=2026)
             assert r.games == 10_000
             assert r.loss_rate == 0, (opponent, robot_starts, r.summary())
             assert r.well_formed == 1.0, r.problems
