@@ -617,13 +617,18 @@ def _table_lines(section: Any, name: str, lines: list[str]) -> None:
             tables.append(f)
             continue
         if f.name in docs:
-            lines.append(f"# {docs[f.name]}")
+            lines.extend(_comment(docs[f.name]))
         lines.append(f"{f.name} = {_toml_value(value)}")
     lines.append("")
     for f in tables:  # a TOML table's own fields come before its sub-tables
         if f.name in docs:
-            lines.append(f"# {docs[f.name]}")
+            lines.extend(_comment(docs[f.name]))
         _table_lines(getattr(section, f.name), f"{name}.{f.name}", lines)
+
+
+def _comment(doc: str) -> list[str]:
+    """A field's documentation as TOML comment lines, however many lines it has."""
+    return [f"# {line.strip()}" for line in doc.splitlines()]
 
 
 def _toml_value(value: Any) -> str:

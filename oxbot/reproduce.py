@@ -1059,7 +1059,8 @@ def _agent_peers_notes(f: dict[str, Any]) -> list[str]:
         f"{f['configs']['train']['agent']['eval_games']:,} games in each of the six "
         "conditions against the training person) with no game lost. Final columns: the last "
         f"policy of each peer and oxbot's kept one, {f['budgets']['evaluation_games']:,} games "
-        "per condition against people who always play a whole game. DQN cannot mask its exploration, but it is "
+        "per condition against people who always play a whole game. DQN cannot mask its "
+        "exploration, but it is "
         "judged like oxbot's agent, greedy over the offered acts; MaskablePPO gets the mask "
         "through sb3-contrib's `ActionMasker` and acts by its most likely act. Peer settings:",
         "",

@@ -41,9 +41,10 @@ Terminated when the robot says goodbye (`Salutation(closing)`), or when the pers
 (above): `info["outcome"]` is the game's
 result from the robot's side ("win", "draw", "loss"), or "declined" (the person never agreed
 to play), "stopped" (the person asked to stop mid-game) or "abandoned" (the robot left a person
-who wanted to play; rewarded as a loss). `info["transcript"]` is the dialogue as `{"speaker", "act", "text"}` dicts,
-the person's turns with the act they meant; `info["understood"]` the act each turn was
-understood as; `info["person"]` the kind of person (`UserSimulator.kind`). Truncated after `max_turns` system acts
+who wanted to play; rewarded as a loss). `info["transcript"]` is the dialogue as
+`{"speaker", "act", "text"}` dicts, the person's turns with the act they meant;
+`info["understood"]` the act each turn was understood as; `info["person"]` the kind of person
+(`UserSimulator.kind`). Truncated after `max_turns` system acts
 (`info["outcome"]` is then the result so far, or None).
 
 ## Arguments

@@ -104,9 +104,7 @@ class _Tally:
 
     keep_transcripts: int
     finished: int = 0
-    outcomes: dict[str, int] = field(
-        default_factory=lambda: dict.fromkeys(OUTCOMES, 0)
-    )
+    outcomes: dict[str, int] = field(default_factory=lambda: dict.fromkeys(OUTCOMES, 0))
     successes: int = 0
     truncated: int = 0
     total_reward: float = 0.0

@@ -5,7 +5,6 @@ from gymnasium.utils.env_checker import check_env
 
 from oxbot.config import DialogueConfig, OxbotConfig, load_config
 from oxbot.dialogue import ENV_ID, InteractiveGameEnv, load_policy
-from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.dialogue.domain import (
     ACTION_INDEX,
     CLOSING,
@@ -18,6 +17,7 @@ from oxbot.dialogue.domain import (
     N_ACTIONS,
     SYSTEM_ACTS,
 )
+from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.errors import OpponentError
 
 GREETING = SYSTEM_ACTS.index("Salutation(greeting)")
