@@ -100,20 +100,21 @@ def replay(recognizer, row: dict, outside_fit: float, calibration: dict) -> List
     if listening is None:
         return None
     phrases = listening.phrases
-    if listening.words.nbest and listening.words.nbest[0][0] in recognizer._phrase_set:
+    if recognizer.is_phrase(listening.words):
         phrases = None  # the recogniser would not have run the grammar
     return recognizer.choose(listening.words, phrases, listening.outside, outside_fit, calibration)
 
 
-def seconds_spent(row: dict, answer: Listening | None, outside_fit: float) -> float:
+def seconds_spent(recognizer, row: dict, outside_fit: float) -> float:
     """The time the searches the recogniser would have run took."""
     listening: Listening | None = row["listening"]
     if listening is None:
         return 0.0
     spent = listening.words.seconds
-    if listening.fit < outside_fit and listening.outside is not None:
+    poor = listening.fit < outside_fit
+    if poor and listening.outside is not None:
         spent += listening.outside.seconds
-    if answer is not None and answer.chosen in ("phrases", "fragment") and listening.phrases:
+    if not recognizer.is_phrase(listening.words) and listening.phrases is not None:
         spent += listening.phrases.seconds
     return spent
 
@@ -202,7 +203,7 @@ def report(title: str, rows: list[dict], recognizer, classifier, outside_fit, ca
             f"{kept_wrong / len(wrong):.1%} of the wrong; "
             f"{kept_right / max(kept_right + kept_wrong, 1):.1%} of those kept are right"
         )
-    factors = [seconds_spent(r, answers[id(r)], outside_fit) / r["seconds"] for r in rows]
+    factors = [seconds_spent(recognizer, r, outside_fit) / r["seconds"] for r in rows]
     print(
         f"  real-time factor of the searches run: median {statistics.median(factors):.3f}, "
         f"90th percentile {np.percentile(factors, 90):.3f}, max {max(factors):.3f}"

@@ -83,11 +83,18 @@ SCORE_SCALE = 1024.0
 multiplied back, differences of scores are log-likelihood ratios in nats. With the raw scores,
 the N-best entries were near ties and their votes took the understanding from 90% to 78% of acts
 right on the tuning recordings; scaled, it matches the best hypothesis alone."""
-OUTSIDE_FIT = -5.58
+OUTSIDE_FIT = -5.62
 """Below this fit (`Listening.fit`, nats per frame) the domain's words do not explain the
 recording and the general English model listens too: 5% of the domain's phrases in the tuning
-voices (clean and at 20 dB SNR) and 93% of the chatter fit worse."""
-CALIBRATION = {"intercept": 1.878, "fit": 0.4, "posterior": 3.148, "phrases": -1.554}
+voices (clean and at 20 dB SNR) fit worse, and about 90% of the chatter."""
+CALIBRATION = {
+    "intercept": -0.357,
+    "fit": 0.098,
+    "posterior": 4.139,
+    "phrases": -1.271,
+    "outside": -3.008,
+    "fragment": 0.0,
+}
 """Logistic regression of P(best hypothesis right word for word) on the fit, the mean lattice
 posterior of the domain's best path, and which search found the hypothesis (coefficients for
 the grammar of complete phrases, `phrases`; the general model, `outside`; a domain path that
@@ -239,7 +246,7 @@ class PocketsphinxRecognizer:
             outside = phrases = None
             if every_search or heard.fit < OUTSIDE_FIT:
                 outside = self._search(self._general, "_default", data, "outside")
-            if every_search or not (heard.nbest and heard.nbest[0][0] in self._phrase_set):
+            if every_search or not self.is_phrase(heard):
                 phrases = self._search(self._domain, "phrases", data, "phrases")
                 complete = [(t, s) for t, s in phrases.nbest if t in self._phrase_set]
                 phrases = Search(
@@ -266,14 +273,14 @@ class PocketsphinxRecognizer:
             and outside.fit > heard.fit
         ):
             chosen, entries, words = "outside", list(outside.nbest), outside.words
-        elif heard.nbest[0][0] in self._phrase_set:
+        elif self.is_phrase(heard):
+            # Below a complete phrase, only complete phrases: a fragment of one ("i" under
+            # "hi") is no other reading of the recording, only a worse path through it.
             chosen, words = "words", heard.words
-            entries = sorted(heard.nbest, key=lambda e: e[0] not in self._phrase_set)
+            entries = [e for e in heard.nbest if e[0] in self._phrase_set]
         elif phrases is not None and phrases.nbest:
             chosen, words = "phrases", ()
-            entries = list(phrases.nbest) + [
-                e for e in heard.nbest if e[0] not in dict(phrases.nbest)
-            ]
+            entries = list(phrases.nbest)
         else:
             chosen, entries, words = "fragment", list(heard.nbest), heard.words
         entries = entries[: self.nbest]
@@ -290,6 +297,10 @@ class PocketsphinxRecognizer:
             for i, ((text, _), c) in enumerate(zip(entries, confidences, strict=True))
         ]
         return Listening(heard, phrases, outside, chosen, hypotheses)
+
+    def is_phrase(self, search: Search) -> bool:
+        """Whether the best path of a search is one of the domain's complete phrases."""
+        return bool(search.nbest) and search.nbest[0][0] in self._phrase_set
 
     def _search(self, decoder: Decoder, search: str, data: bytes, name: str) -> Search:
         started = time.perf_counter()
