@@ -1,7 +1,10 @@
 """Tuning of the recogniser's constants on the project's own material, and their check.
 
-    .venv/bin/python bench/tune_recognition.py                 # about 40 min on 2 cores
-    .venv/bin/python bench/tune_recognition.py --every 4       # a quarter of it
+    .venv/bin/python bench/tune_recognition.py                 # about 80 min on one core
+    .venv/bin/python bench/tune_recognition.py --every 4       # a quarter of it: ~20 min
+    .venv/bin/python bench/tune_recognition.py --every 4 --cache /tmp/tune4.pkl   # again: ~1 min
+
+The shipped constants were fitted with `--every 4` (docs/robot.md, "Hearing the person").
 
 The material: every phrasing of the domain (`Domain.user_phrases()`) spoken by two of the 12
 espeak-ng voices of `oxbot.speech.evaluation.VOICES` (phrase i by voices i and i + 6), and every
