@@ -34,6 +34,7 @@ import time
 import zlib
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -62,6 +63,10 @@ VOICES: tuple[str, ...] = (
 """espeak-ng voices: American, British and Scottish accents, male and female variants.
 
 The project tunes on these. Every held-out voice below differs from all of them."""
+TUNING_VOICES = VOICES[0::2]
+"""The half of VOICES the recogniser's constants are fitted on (`bench/tune_recognition.py`)."""
+CHECK_VOICES = VOICES[1::2]
+"""The other half, on which the fitted constants are checked."""
 
 HELD_OUT_ESPEAK: tuple[str, ...] = (
     "en-gb-x-gbclan+m2@130",
@@ -217,6 +222,15 @@ def as_condition(condition: Condition | float | None) -> Condition:
     if isinstance(condition, Condition):
         return condition
     return CLEAN if condition is None else white_noise(float(condition))
+
+
+def chatter_sentences() -> list[str]:
+    """Made-up things a person might say that are none of the game's acts, most of their words
+    outside the domain (`oxbot/data/speech/chatter.txt`): even lines for tuning, odd ones for
+    checking."""
+    path = resources.files("oxbot") / "data" / "speech" / "chatter.txt"
+    lines = path.read_text(encoding="utf-8").splitlines()
+    return [line.strip() for line in lines if line.strip() and not line.startswith("#")]
 
 
 @dataclass(frozen=True)

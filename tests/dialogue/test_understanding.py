@@ -137,6 +137,14 @@ def test_intent_of_nothing_heard_or_nothing_matched(classifier):
         classifier.intent_of([("okay", 1.5)])
 
 
+def test_a_yes_the_recogniser_is_unsure_of_is_asked_again_a_no_is_not(classifier):
+    sure, unsure = classifier.min_yes_confidence + 0.05, classifier.min_yes_confidence - 0.05
+    assert classifier.intent_of([("sure why not", sure)], INVITATION).act == ACCEPT
+    assert classifier.intent_of([("sure why not", unsure)], INVITATION) == UserAct(UNKNOWN, 0.0)
+    assert classifier.intent_of([("no thanks", unsure)], INVITATION).act == DECLINE
+    assert classifier.read("sure why not", INVITATION).act == ACCEPT  # the simulator's path
+
+
 def test_the_fast_path_gives_scikit_learns_probabilities(classifier):
     texts = [*classifier.texts[:200], "asdf qwerty", "sure why nt", "yes yes no"]
     ours = np.stack([classifier.probabilities(t) for t in texts])
