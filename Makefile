@@ -6,8 +6,9 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 # Debian packages the robot and its tests use: speech synthesis, audio tools, the test browser,
-# and the handwriting fonts of the perceiver's other-hand test set (never trained on).
-SYSTEM_PACKAGES := espeak-ng sox chromium \
+# the handwriting fonts of the perceiver's other-hand test set (never trained on), and flite,
+# a second synthesiser whose voices the listening tests hold out (never tuned on).
+SYSTEM_PACKAGES := espeak-ng sox chromium flite \
 	fonts-dkg-handwriting fonts-breip fonts-femkeklaver fonts-rufscript
 
 .PHONY: setup system venv run test lint format bench clean

@@ -299,8 +299,15 @@ def evaluate_agent_command(
         Path | None, typer.Option("--policy", help="A policy file (default: the shipped one).")
     ] = None,
     seed: Annotated[int, typer.Option(help="Seed of the simulated people.")] = 0,
+    cooperative: Annotated[
+        bool,
+        typer.Option(
+            "--cooperative",
+            help="People who always agree and play a whole game (game play, as in the paper).",
+        ),
+    ] = False,
 ) -> None:
-    """Play the greedy policy against a simulated person and measure its dialogues."""
+    """Play the greedy policy against simulated people and measure its dialogues."""
     import json
 
     from oxbot.dialogue.agent import load_policy
@@ -317,7 +324,14 @@ def evaluate_agent_command(
     policy = load_policy(policy_file)
     results = [
         evaluate(
-            policy.act_batch, name, start, games, _config(ctx), seed=seed, keep_transcripts=show
+            policy.act_batch,
+            name,
+            start,
+            games,
+            _config(ctx),
+            seed=seed,
+            keep_transcripts=show,
+            cooperative=cooperative,
         )
         for name in names
         for start in starts
@@ -330,7 +344,10 @@ def evaluate_agent_command(
             typer.echo(
                 f"{r.opponent:8s} {who:14s} games {r.games}  win {r.win_rate:.2%}  "
                 f"draw {r.draw_rate:.2%}  loss {r.loss_rate:.2%}  reward {r.average_reward:.2f}  "
-                f"turns {r.average_turns:.1f}  well-formed {r.well_formed:.2%}"
+                f"turns {r.average_turns:.1f}  well-formed {r.well_formed:.2%}  "
+                f"declined {r.declined_rate:.2%}  stopped {r.stopped_rate:.2%}  "
+                f"abandoned {r.abandoned_rate:.2%}  "
+                f"as wanted {r.task_success:.2%}"
             )
     for r in results:
         for transcript in r.transcripts[:show]:

@@ -117,7 +117,11 @@ class RewardConfig:
     end_reward_loss: float = 0.0
     """Paper §2.2: 0 at the end of a dialogue whose game the robot lost."""
     end_reward_otherwise: float = 5.0
-    """Paper §2.2: 5 at the end of any other dialogue."""
+    """Paper §2.2: 5 at the end of any other dialogue (oxbot: whose game was finished)."""
+    end_reward_declined: float = 3.0
+    """oxbot: at the end of a dialogue with a person who declined to play, and no game."""
+    end_reward_stopped: float = 3.0
+    """oxbot: at the end of a dialogue whose game the person asked to stop."""
     mask_threshold: float = 0.001
     """Paper §2.2: only actions with Pr(a|s) > 0.001 are offered."""
 
@@ -168,6 +172,9 @@ class AgentConfig:
     """oxbot: augment each sampled experience with a random symmetry of the board; off."""
     misheard_words: float = 0.0
     """oxbot: share of sampled states given one extra low-confidence misheard word; off."""
+    board_head: bool = False
+    """oxbot: the GameMoves' values from a move value of the whole state plus per-cell
+    advantages of the board alone (a dueling split, `oxbot.dialogue.agent`); off."""
     opponents: str = "random"
     """Paper §3.3: a semi-random simulated person; oxbot: a weighted mix, random:2,minimax:1."""
     robot_starts: str = "yes"
@@ -240,22 +247,39 @@ class DialogueConfig:
     decline_probability: float = 0.1
     """oxbot: chance that the simulated person declines the first invitation to play."""
     out_of_turn_probability: float = 0.05
-    """oxbot: chance that the simulated person answers with small talk instead."""
+    """oxbot: chance that the simulated person answers a request for a move with small talk."""
+    refuse_probability: float = 0.05
+    """oxbot: chance that the simulated person declines every invitation (declines for good)."""
+    stop_probability: float = 0.05
+    """oxbot: chance that the simulated person asks to stop after their first to third move."""
+    nonsense_probability: float = 0.05
+    """oxbot: chance that an answer to a question is none of the game's acts (chatter)."""
+    silence_probability: float = 0.05
+    """oxbot: chance that the simulated person does not answer an invitation at all."""
+    rematch_probability: float = 0.1
+    """oxbot: chance that the simulated person asks for another game when told who won."""
     max_turns: int = 60
     """oxbot: the dialogue length cap in system acts; the episode is truncated there."""
     nb_alpha: float = 0.01
     """oxbot: Laplace smoothing of the Naive Bayes action model (paper §2.2 gives none)."""
     nb_binarize: float = 0.5
-    """oxbot: a word feature above this counts as heard for the Naive Bayes action model."""
-    nb_flag_weight: int = 4
-    """oxbot: each game/dialogue flag counts this many times in the Naive Bayes action model."""
+    """oxbot: a feature above this counts as on for the Naive Bayes action model."""
 
     def __post_init__(self) -> None:
-        for name in ("asr_noise", "decline_probability", "out_of_turn_probability"):
+        for name in (
+            "asr_noise",
+            "decline_probability",
+            "out_of_turn_probability",
+            "refuse_probability",
+            "stop_probability",
+            "nonsense_probability",
+            "silence_probability",
+            "rematch_probability",
+        ):
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
                 raise ConfigError(f"dialogue.{name} is {value}; use a value in [0, 1]")
-        _require_positive(self, "max_turns", "nb_alpha", "nb_flag_weight")
+        _require_positive(self, "max_turns", "nb_alpha")
 
 
 @dataclass(frozen=True)
@@ -333,8 +357,43 @@ class RobotConfig:
 
 
 @dataclass(frozen=True)
+class ListeningConfig:
+    """Hands-free listening: a microphone's stream cut into utterances by a voice activity
+    detector (Silero VAD), and the audio push-to-talk keeps from before the press."""
+
+    threshold: float = 0.5
+    """oxbot: the VAD's aggressiveness: speech probability a frame needs (Silero's default)."""
+    start_seconds: float = 0.15
+    """oxbot: speech heard within twice this time that starts an utterance (a click does not)."""
+    end_silence_seconds: float = 0.6
+    """oxbot: quiet that ends an utterance (the pauses between a phrase's words are shorter)."""
+    max_utterance_seconds: float = 8.0
+    """oxbot: an utterance is cut here and handed on even if the speech goes on."""
+    pre_roll_seconds: float = 0.3
+    """oxbot: audio kept from before an utterance's start or a push-to-talk press (first words)."""
+    echo_seconds: float = 0.3
+    """oxbot: not listened to after the robot stops speaking (its voice reaches a mic late)."""
+
+    def __post_init__(self) -> None:
+        if not 0 < self.threshold < 1:
+            raise ConfigError(
+                f"speech.listening.threshold is {self.threshold}; use a probability in (0, 1)"
+            )
+        _require_positive(self, "start_seconds", "end_silence_seconds", "max_utterance_seconds")
+        for name in ("pre_roll_seconds", "echo_seconds"):
+            value = getattr(self, name)
+            if not 0 <= value <= 2:
+                raise ConfigError(f"speech.listening.{name} is {value}; use 0 to 2 seconds")
+        if self.max_utterance_seconds <= self.start_seconds + self.pre_roll_seconds:
+            raise ConfigError(
+                "speech.listening.max_utterance_seconds must be longer than start_seconds "
+                "plus pre_roll_seconds"
+            )
+
+
+@dataclass(frozen=True)
 class SpeechConfig:
-    """Hearing and speaking: the recogniser and the voice."""
+    """Hearing and speaking: the recogniser, the voice and hands-free listening."""
 
     recognizer: str = "pocketsphinx"
     """Paper §3.1 used Google ASR; oxbot: pocketsphinx, or `module:factory` for another."""
@@ -342,6 +401,8 @@ class SpeechConfig:
     """Paper §3.1: the recogniser's N-best list is passed on; oxbot keeps this many entries."""
     voice: str = "en-us"
     """Paper §3.1 used MARY TTS; oxbot: the espeak-ng voice of the robot."""
+    listening: ListeningConfig = field(default_factory=ListeningConfig)
+    """Paper §3.1 listened by push-to-talk; oxbot adds hands-free listening with a VAD."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "nbest")
@@ -367,6 +428,8 @@ class WebConfig:
     """oxbot: the recogniser's sample rate (pocketsphinx en-us); the page resamples to it."""
     max_audio_seconds: float = 30.0
     """oxbot: longest push-to-talk recording."""
+    max_stream_piece_seconds: float = 1.0
+    """oxbot: longest piece of a hands-free stream in one message (the page sends 0.1 s)."""
     max_text_chars: int = 500
     """oxbot: longest typed answer."""
     max_sessions: int = 32
@@ -375,6 +438,7 @@ class WebConfig:
     def __post_init__(self) -> None:
         _require_positive(self, "max_message_bytes", "max_image_side", "min_image_side")
         _require_positive(self, "audio_rate", "max_audio_seconds", "max_text_chars")
+        _require_positive(self, "max_stream_piece_seconds")
         _require_positive(self, "max_sessions")
         if not 0 < self.port < 65536:
             raise ConfigError(f"web.port is {self.port}; use a port in 1-65535")
@@ -553,13 +617,18 @@ def _table_lines(section: Any, name: str, lines: list[str]) -> None:
             tables.append(f)
             continue
         if f.name in docs:
-            lines.append(f"# {docs[f.name]}")
+            lines.extend(_comment(docs[f.name]))
         lines.append(f"{f.name} = {_toml_value(value)}")
     lines.append("")
     for f in tables:  # a TOML table's own fields come before its sub-tables
         if f.name in docs:
-            lines.append(f"# {docs[f.name]}")
+            lines.extend(_comment(docs[f.name]))
         _table_lines(getattr(section, f.name), f"{name}.{f.name}", lines)
+
+
+def _comment(doc: str) -> list[str]:
+    """A field's documentation as TOML comment lines, however many lines it has."""
+    return [f"# {line.strip()}" for line in doc.splitlines()]
 
 
 def _toml_value(value: Any) -> str:

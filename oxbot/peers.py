@@ -189,12 +189,13 @@ def peer_batch_policy(algorithm: str, model: Any) -> Policy:
 
 
 def evaluate_conditions(
-    policy: Policy, games: int, config: OxbotConfig, seed: int
+    policy: Policy, games: int, config: OxbotConfig, seed: int, cooperative: bool = False
 ) -> dict[str, dict[str, Any]]:
-    """oxbot's evaluation in all six conditions: `{"random/robot": summary, ...}`."""
+    """oxbot's evaluation in all six conditions: `{"random/robot": summary, ...}`; with
+    `cooperative` people, who always play a whole game (game play, as the paper measured it)."""
     return {
         condition_key(name, starts): evaluate(
-            policy, name, starts, games, config, seed=seed
+            policy, name, starts, games, config, seed=seed, cooperative=cooperative
         ).summary()
         for name, starts in CONDITIONS
     }

@@ -384,6 +384,9 @@ def measure_shipped(
         },
         "agent": {
             "final": evaluate_conditions(
+                policy.act_batch, budgets.evaluation_games, eval_config, seed=0, cooperative=True
+            ),
+            "people": evaluate_conditions(
                 policy.act_batch, budgets.evaluation_games, eval_config, seed=0
             ),
             "train_s": agent_metrics["wall_clock_s"],
@@ -455,7 +458,9 @@ def train_and_evaluate_agent(
     m = result.metrics
     policy = load_policy(work_dir / "agent" / "agent.pt")
     same = _same_weights(policy.q_network, load_policy().q_network)
-    final = evaluate_conditions(policy.act_batch, budgets.evaluation_games, eval_config, seed=0)
+    games = budgets.evaluation_games
+    final = evaluate_conditions(policy.act_batch, games, eval_config, seed=0, cooperative=True)
+    people = evaluate_conditions(policy.act_batch, games, eval_config, seed=0)
     evaluations = [
         {
             "train_s": e["elapsed_s"],
@@ -478,6 +483,7 @@ def train_and_evaluate_agent(
         "steps_to_zero_losses": first_zero["steps"] if first_zero else None,
         "evaluations": evaluations,
         "final": final,
+        "people": people,
         "same_as_shipped": same,
         "reward_png": str(work_dir / "agent" / "agent_reward.png"),
         "win_draw_png": str(work_dir / "agent" / "agent_win_draw.png"),
@@ -520,7 +526,11 @@ def train_agent_peers(
                 on_progress=lambda s, t=task: progress.update(t, completed=s),
             )
         final = evaluate_conditions(
-            peer_batch_policy(algorithm, run.model), budgets.evaluation_games, eval_config, seed=0
+            peer_batch_policy(algorithm, run.model),
+            budgets.evaluation_games,
+            eval_config,
+            seed=0,
+            cooperative=True,
         )
         peers[algorithm] = {
             **run.to_dict(),
@@ -842,20 +852,33 @@ def _outcome_ok(r: dict[str, Any], opponent: str, goal_win: float) -> bool:
 
 
 def _interaction_manager_rows(f: dict[str, Any]) -> list[str]:
-    """The agent's well-formed dialogues over all games, and its training time."""
+    """The agent's dialogues with the default simulated people (well formed, as they wanted),
+    and its training time."""
     agent, sa = f["agent"], f["shipped"]["agent"]
-    well_formed = min(r["well_formed"] for r in agent["final"].values())
-    shipped_well_formed = min(r["well_formed"] for r in sa["final"].values())
-    total_games = sum(r["games"] for r in agent["final"].values())
+    well_formed = min(r["well_formed"] for r in agent["people"].values())
+    shipped_well_formed = min(r["well_formed"] for r in sa["people"].values())
+    success = min(r["task_success"] for r in agent["people"].values())
+    shipped_success = min(r["task_success"] for r in sa["people"].values())
+    total_games = sum(r["games"] for r in agent["people"].values())
+    people = "the default simulated people (some decline, stop, chatter or say nothing)"
     return [
         _row(
-            "well-formed dialogues (greeting, name, invitation, right feedback, goodbye), all "
-            f"{total_games:,} games",
+            "well-formed dialogues (docs/dialogue.md: greeting, a game only with a person who "
+            f"agreed, a no or a stop let go, right feedback, goodbye), {people}, all "
+            f"{total_games:,} dialogues, lowest condition",
             "not measured",
             _pct(well_formed),
             _pct(shipped_well_formed),
             "100%",
             _met(well_formed == 1.0, shipped_well_formed == 1.0),
+        ),
+        _row(
+            f"task success (well formed and as the person wanted), {people}, lowest condition",
+            "not measured",
+            _pct(success),
+            _pct(shipped_success),
+            "—",
+            "—",
         ),
         _row(
             "training time of the interaction manager",
@@ -935,8 +958,9 @@ def _shipped_models_note(f: dict[str, Any]) -> list[str]:
         + ("identical to" if data["seed_images_same_as_shipped"] else "different from")
         + " `oxbot/data/seeds/`. Both columns are measured in this run on the same test "
         f"images and the same games: greedy, {f['budgets']['evaluation_games']:,} games per "
-        "condition against the default simulated person (as `oxbot evaluate agent --opponent "
-        "all --robot-starts both`), seed 0. The shipped models' training times are those their "
+        "condition: game play against people who always play a whole game (as `oxbot evaluate "
+        "agent --opponent all --robot-starts both --cooperative`), dialogues against the default "
+        "simulated people, seed 0. The shipped models' training times are those their "
         "metrics files recorded.",
         "",
     ]
@@ -1035,7 +1059,8 @@ def _agent_peers_notes(f: dict[str, Any]) -> list[str]:
         f"{f['configs']['train']['agent']['eval_games']:,} games in each of the six "
         "conditions against the training person) with no game lost. Final columns: the last "
         f"policy of each peer and oxbot's kept one, {f['budgets']['evaluation_games']:,} games "
-        "per condition against the default person. DQN cannot mask its exploration, but it is "
+        "per condition against people who always play a whole game. DQN cannot mask its "
+        "exploration, but it is "
         "judged like oxbot's agent, greedy over the offered acts; MaskablePPO gets the mask "
         "through sb3-contrib's `ActionMasker` and acts by its most likely act. Peer settings:",
         "",

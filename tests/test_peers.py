@@ -88,9 +88,10 @@ def test_a_peer_trains_for_its_budget_and_is_evaluated_in_every_condition(algori
     assert run.time_to_zero_losses == expected
     # the greedy peer only ever picks an offered act
     rng = np.random.default_rng(0)
-    states = rng.random((64, 61), dtype=np.float32)
-    masks = rng.random((64, 18)) < 0.3
-    masks[np.arange(64), rng.integers(18, size=64)] = True
+    n_features, n_actions = run.model.observation_space.shape[0], run.model.action_space.n
+    states = rng.random((64, n_features), dtype=np.float32)
+    masks = rng.random((64, n_actions)) < 0.3
+    masks[np.arange(64), rng.integers(n_actions, size=64)] = True
     acts = peer_batch_policy(algorithm, run.model)(states, masks)
     assert masks[np.arange(64), acts].all()
 

@@ -7,6 +7,7 @@ from typer.testing import CliRunner
 
 from oxbot.cli import app
 from oxbot.config import OxbotConfig
+from oxbot.dialogue.domain import load_domain
 from oxbot.errors import ConfigError
 from oxbot.reproduce import MARKER, PAPER_FIGURES, _ratio, reproduce
 
@@ -67,7 +68,7 @@ def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path:
     # the figures behind the table, and what makes them repeatable
     assert figures["data"]["seed_images"] == 108
     assert figures["data"]["seed_images_same_as_shipped"]  # the seeds are redrawn exactly
-    assert figures["data"]["seed_dialogues"] == 10
+    assert figures["data"]["seed_dialogues"] == len(load_domain().dialogues)
     assert figures["perceiver"]["train_images"] == 1_000
     assert f"{100 * figures['perceiver']['accuracy']:.1f}%" in report
     assert figures["agent"]["experiences"] == 8_000

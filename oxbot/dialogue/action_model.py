@@ -6,11 +6,13 @@ addition, if a physical action was included in the action set, we included all v
 actions". The same probabilities are the DR term of the reward.
 
 The classifier (scikit-learn's `BernoulliNB`) predicts the act *type*: the GameMoves are one
-class, because ten seed games say nothing about which cell is good; every valid cell gets the
-GameMove probability and an occupied cell gets 0. It reads the word features and the game and
-dialogue flags, not the cells: the seeds' ten boards say nothing about which act follows which
-board, and per-cell features would let it veto acts on boards it has never seen. A word counts
-as heard above `binarize`.
+class, because a few seed games say nothing about which cell is good; every valid cell gets the
+GameMove probability and an occupied cell gets 0. It reads the context features — the game
+flags, the act the person's answer was understood as, the robot's last act, the dialogue flags
+(`FeatureLayout.context`) — not the words and not the cells: the robot says each act in several
+ways and people answer in hundreds, which a few seed dialogues cannot cover, and per-cell
+features would let it veto acts on boards it has never seen. A feature counts above
+`binarize`.
 """
 
 from __future__ import annotations
@@ -20,7 +22,15 @@ from typing import Any
 import numpy as np
 from sklearn.naive_bayes import BernoulliNB
 
-from oxbot.dialogue.domain import ACTION_INDEX, N_ACTIONS, SYSTEM_ACTS, Domain, is_game_move
+from oxbot.dialogue.domain import (
+    ACTION_INDEX,
+    GAME_MOVE_TEMPLATE,
+    N_ACTIONS,
+    SILENCE,
+    SYSTEM_ACTS,
+    Domain,
+    is_game_move,
+)
 from oxbot.dialogue.features import FeatureLayout
 from oxbot.dialogue.state import DialogueState
 from oxbot.game.board import EMPTY, N_CELLS, Board
@@ -50,14 +60,15 @@ def seed_examples(domain: Domain, layout: FeatureLayout) -> tuple[np.ndarray, li
     """Replay the seed dialogues: the state before each system act, and its class label.
 
     The states are the ones a dialogue reaches (`DialogueState`): the last system words (1),
-    the words of the person's answer to them (confidence 1 in the seeds; none if silent), the
-    board, the acts said so far.
+    the words of the person's answer to them and the act they were understood as (confidence 1
+    in the seeds; none if silent), the board, the acts said and heard so far.
     """
     states: list[np.ndarray] = []
     acts: list[str] = []
     for dialogue in domain.dialogues:
-        first_move = next(u for u in dialogue if u.cell is not None)
-        state = DialogueState(layout, robot_starts=first_move.speaker == "SYS")
+        first_move = next((u for u in dialogue if u.cell is not None), None)
+        robot_starts = first_move is None or first_move.speaker == "SYS"
+        state = DialogueState(layout, robot_starts)
         for utterance in dialogue:
             if utterance.speaker == "SYS":
                 states.append(state.encode())
@@ -65,7 +76,9 @@ def seed_examples(domain: Domain, layout: FeatureLayout) -> tuple[np.ndarray, li
                 state.robot_says(utterance.act, utterance.text)
             else:
                 heard = tuple((w, 1.0) for w in utterance.words)
-                state.person_says(utterance.act, utterance.text, heard)
+                act = GAME_MOVE_TEMPLATE if is_game_move(utterance.act) else utterance.act
+                understood = (act, 1.0) if heard else (SILENCE, 0.0)
+                state.person_says(utterance.act, utterance.text, heard, understood)
     return np.stack(states), acts
 
 
@@ -82,18 +95,15 @@ class ActionModel:
         layout: FeatureLayout,
         alpha: float = 0.01,
         binarize: float = 0.5,
-        flag_weight: int = 4,
         threshold: float = 0.001,
     ) -> None:
         self.layout = layout
         self.alpha = alpha
         self.binarize = binarize
-        self.flag_weight = flag_weight
         self.threshold = threshold
-        words = np.arange(layout.n_words)
-        flags = np.r_[layout.flags.start : layout.dialogue_flags.stop]
-        # weighted Naive Bayes: a flag column repeated k times counts as k independent features
-        self.columns = np.r_[words, np.repeat(flags, flag_weight)]
+        # the context, not the words: the robot's own words vary with its templates and the
+        # person's are read as acts (heard:*); seed dialogues cannot cover every phrasing
+        self.columns = np.arange(layout.context.start, layout.context.stop)
         self._memo: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
 
     def fit(self, states: np.ndarray, labels: list[str]) -> ActionModel:

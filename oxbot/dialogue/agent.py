@@ -5,8 +5,14 @@ Paper §2.2 "Model Architecture": a fully connected network with 57 inputs, two 
 replay and a target network (Mnih et al. 2015); the defaults are in `AgentConfig`. At test time
 the policy is greedy over the offered acts: argmax of Q(s, a) where `action_mask` is true.
 
-A policy file (`torch.save` of plain types) records the feature layout it was trained on; a file
-from another layout (another vocabulary) is refused with a `ModelFileError`.
+oxbot's option (`agent.board_head`): the nine GameMoves' values are split, as in a dueling
+network (Wang et al. 2016), into one value of moving now, from the whole state, and an advantage
+per cell from a second tower that sees the board alone. Whether to draw or to talk still depends
+on everything heard; which cell, only on the board, so a misheard word cannot change it.
+
+A policy file (`torch.save` of plain types) records the feature layout it was trained on and the
+network's shape; a file from another layout (another vocabulary) is refused with a
+`ModelFileError`.
 """
 
 from __future__ import annotations
@@ -21,7 +27,7 @@ import torch
 from torch import nn
 
 from oxbot.atomic import atomic_write
-from oxbot.dialogue.domain import N_ACTIONS, SYSTEM_ACTS
+from oxbot.dialogue.domain import GAME_MOVES, N_ACTIONS, SYSTEM_ACTS
 from oxbot.errors import ModelFileError
 
 POLICY_FORMAT = "oxbot-dqn-policy/1"
@@ -29,27 +35,49 @@ SHIPPED_POLICY = "agent.pt"
 
 
 class QNetwork(nn.Module):
-    """Q(s, ·): state features -> hidden ReLU layers -> one value per act (paper: 57-60-60-18)."""
+    """Q(s, ·): state features -> hidden ReLU layers -> one value per act (paper: 57-60-60-18).
+
+    With `board_features` (start, stop) — the board's feature columns — the GameMoves (acts
+    0-8) get Q = V_move(s) + A(board) - mean A(board): `net` gives the other acts and V_move,
+    `board_net` (the same hidden sizes) the per-cell advantages A (see the module)."""
 
     def __init__(
         self,
         n_features: int,
         hidden_sizes: Sequence[int] = (60, 60),
         n_actions: int = N_ACTIONS,
+        board_features: tuple[int, int] | None = None,
     ):
         super().__init__()
-        layers: list[nn.Module] = []
-        size = n_features
-        for hidden in hidden_sizes:
-            layers += [nn.Linear(size, int(hidden)), nn.ReLU()]
-            size = int(hidden)
-        layers.append(nn.Linear(size, n_actions))
-        self.net = nn.Sequential(*layers)
         self.n_features = n_features
         self.hidden_sizes = tuple(int(h) for h in hidden_sizes)
+        self.board_features = tuple(board_features) if board_features is not None else None
+        n_moves = len(GAME_MOVES)
+        if self.board_features is None:
+            self.net = _mlp(n_features, self.hidden_sizes, n_actions)
+        else:
+            start, stop = self.board_features
+            self.net = _mlp(n_features, self.hidden_sizes, n_actions - n_moves + 1)
+            self.board_net = _mlp(stop - start, self.hidden_sizes, n_moves)
 
     def forward(self, states: torch.Tensor) -> torch.Tensor:
-        return self.net(states)
+        if self.board_features is None:
+            return self.net(states)
+        start, stop = self.board_features
+        out = self.net(states)
+        advantage = self.board_net(states[..., start:stop])
+        moves = out[..., :1] + advantage - advantage.mean(dim=-1, keepdim=True)
+        return torch.cat([moves, out[..., 1:]], dim=-1)
+
+
+def _mlp(n_in: int, hidden_sizes: Sequence[int], n_out: int) -> nn.Sequential:
+    layers: list[nn.Module] = []
+    size = n_in
+    for hidden in hidden_sizes:
+        layers += [nn.Linear(size, int(hidden)), nn.ReLU()]
+        size = int(hidden)
+    layers.append(nn.Linear(size, n_out))
+    return nn.Sequential(*layers)
 
 
 def masked_argmax(q_values: np.ndarray, masks: np.ndarray) -> np.ndarray:
@@ -103,6 +131,7 @@ class DQNPolicy:
             "feature_names": list(self.feature_names),
             "action_names": list(SYSTEM_ACTS),
             "hidden_sizes": list(self.q_network.hidden_sizes),
+            "board_features": self.q_network.board_features,
             "state_dict": self.q_network.state_dict(),
             "metadata": self.metadata,
         }
@@ -151,7 +180,10 @@ def load_policy(
         )
     if tuple(payload["action_names"]) != SYSTEM_ACTS:
         raise ModelFileError(f"policy file {path} was trained on other acts; retrain it")
-    network = QNetwork(len(saved), payload["hidden_sizes"], len(SYSTEM_ACTS))
+    board = payload.get("board_features")
+    network = QNetwork(
+        len(saved), payload["hidden_sizes"], len(SYSTEM_ACTS), tuple(board) if board else None
+    )
     try:
         network.load_state_dict(payload["state_dict"])
     except RuntimeError as exc:

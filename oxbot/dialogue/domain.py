@@ -15,6 +15,8 @@ SimpleDS's. Every utterance is one line, `SPEAKER:[Act]"words"`:
   `$loc` stands for the cell in the GameMove template.
 - `user_responses.txt`: `SystemAct => USR:[UserAct]"words"` lines, the person's alternatives to
   each system act (`""` is silence).
+- `user_phrases.txt` (optional): `[UserAct]` sections of the many ways people say each act,
+  one a line; the language understanding learns from them and the recogniser listens for them.
 
 Lines starting with `#` are comments. The vocabulary is every word of the templates and the user
 responses (lower-cased; bracketed game-move tags are actions, not words); every word of the seed
@@ -24,7 +26,7 @@ dialogues must be in it. Every problem is a `DataError` naming the file and line
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
@@ -53,10 +55,25 @@ FEEDBACK_WIN = "Provide(feedback=win)"
 FEEDBACK_DRAW = "Provide(feedback=draw)"
 FEEDBACK_LOSS = "Provide(feedback=loose)"
 """The paper's spelling."""
+ASK_AGAIN = "Request(repeat)"
+"""oxbot: "Sorry, I didn't catch that. Shall we play?" when the answer was not understood."""
+GRANT_REFUSAL = "Acknowledge(playGame=no)"
+"""oxbot: "Okay, maybe another time." after the person declines, before the goodbye."""
+GRANT_STOP = "Acknowledge(stop)"
+"""oxbot: "Okay, let's stop here." after the person asks to stop mid-game."""
 
 # The person's acts.
 ACCEPT = "Confirm(playGame=yes)"
 DECLINE = "Reject(playGame=no)"
+POSTPONE = "Reject(playGame=later)"
+"""A decline for now ("maybe later"): the robot takes it as a no."""
+STOP = "Request(stop)"
+NEW_GAME = "Request(newGame)"
+"""Another game, a rematch ("again!", "one more")."""
+THANKS = "Thank"
+WHO_STARTS = "Request(whoStarts)"
+I_START = "Request(userStarts)"
+COMPLAINT = "Complain"
 ACKNOWLEDGE = "Acknowledge"
 SILENCE = "Silence"
 """The person said nothing (or nothing was heard)."""
@@ -88,11 +105,16 @@ SYSTEM_ACTS: tuple[str, ...] = (
     MOVE_REQUEST,
     CLOSING,
     GREETING,
+    ASK_AGAIN,
+    GRANT_REFUSAL,
+    GRANT_STOP,
 )
 """SPEC §3: the paper's 18 actions, in its order: first a GameMove on each cell (the act's index
-is its cell's), then the rest. A new act goes at the end, with its templates, its user
-responses and a seed dialogue that uses it (the action model never offers an act no seed
-dialogue shows)."""
+is its cell's), then the rest; oxbot's own acts follow. A new act goes at the end, with its
+templates, its user responses and a seed dialogue that uses it (the action model never offers
+an act no seed dialogue shows)."""
+PAPER_ACTS = SYSTEM_ACTS[:18]
+"""The paper's 18 acts (SPEC §3)."""
 N_ACTIONS = len(SYSTEM_ACTS)
 ACTION_INDEX: dict[str, int] = {act: i for i, act in enumerate(SYSTEM_ACTS)}
 
@@ -104,11 +126,21 @@ USER_ACTS: tuple[str, ...] = (
     CLOSING,
     ACCEPT,
     DECLINE,
+    POSTPONE,
+    STOP,
+    NEW_GAME,
+    THANKS,
+    WHO_STARTS,
+    I_START,
+    COMPLAINT,
     ACKNOWLEDGE,
     GAME_MOVE_TEMPLATE,
     SILENCE,
+    UNKNOWN,
 )
 """The person's acts; `GameMove(gridloc=$loc)` stands for a drawing on any cell."""
+REFUSALS = frozenset({DECLINE, POSTPONE})
+"""The person's answers that mean no to a game."""
 
 
 def game_move_cell(act: str) -> int | None:
@@ -184,6 +216,8 @@ class Domain:
     """System act (`GameMove(gridloc=$loc)` for every cell) -> the person's alternatives."""
     vocabulary: tuple[str, ...]
     """The words of the templates and user responses, in order of first appearance."""
+    phrasings: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    """User act -> how people say it (`user_phrases.txt`), normalised words."""
 
     def templates_for(self, act: str) -> tuple[str, ...]:
         """The template texts of a system act, with `$loc` filled for a GameMove."""
@@ -195,11 +229,24 @@ class Domain:
         )
 
     def user_utterances(self) -> list[DomainLine]:
-        """Everything the person says in the domain: the response alternatives, then the
-        seed dialogues' USR lines."""
+        """Everything the person says in the domain's dialogues: the response alternatives,
+        then the seed dialogues' USR lines."""
         spoken = [u for alternatives in self.responses.values() for u in alternatives]
         spoken += [u for dialogue in self.dialogues for u in dialogue if u.speaker == "USR"]
         return spoken
+
+    def user_phrases(self) -> list[tuple[str, str]]:
+        """(words, user act) of everything the person may say: the phrasings, the response
+        alternatives and the seed dialogues' USR lines, each once; a drawing's act is
+        `GameMove(gridloc=$loc)` whatever its cell."""
+        found: dict[tuple[str, str], None] = {}
+        for act, phrasings in self.phrasings.items():
+            found.update(dict.fromkeys((text, act) for text in phrasings))
+        for utterance in self.user_utterances():
+            act = GAME_MOVE_TEMPLATE if is_game_move(utterance.act) else utterance.act
+            if utterance.words and act != SILENCE:
+                found[" ".join(utterance.words), act] = None
+        return list(found)
 
     def responses_to(self, act: str) -> tuple[DomainLine, ...]:
         """The person's alternatives to a system act (empty means silence)."""
@@ -287,6 +334,34 @@ def parse_responses(path: Path) -> dict[str, tuple[DomainLine, ...]]:
             raise DataError(f"{where}: write a person's drawing as {GAME_MOVE_TEMPLATE}")
         responses.setdefault(system_act, []).append(utterance)
     return {act: tuple(alternatives) for act, alternatives in responses.items()}
+
+
+_SECTION = re.compile(r"^\[([^\]]+)\]$")
+
+
+def parse_phrasings(path: Path) -> dict[str, tuple[str, ...]]:
+    """The user phrases file: `[UserAct]` sections of one phrasing a line (see its header)."""
+    phrasings: dict[str, list[str]] = {}
+    act: str | None = None
+    for n, line in _lines(path):
+        if not line or line.startswith("#"):
+            continue
+        where = f"{path.name}:{n}"
+        section = _SECTION.match(line)
+        if section is not None:
+            act = section.group(1)
+            if act not in USER_ACTS or act == SILENCE:
+                listed = ", ".join(a for a in USER_ACTS if a != SILENCE)
+                raise DataError(f"{where}: unknown user act [{act}]; user acts are {listed}")
+            phrasings.setdefault(act, [])
+            continue
+        if act is None:
+            raise DataError(f"{where}: a phrasing before any [UserAct] section; start one")
+        words = " ".join(words_of(line))
+        if not words:
+            raise DataError(f"{where}: {line!r} has no words")
+        phrasings[act].append(words)
+    return {act: tuple(dict.fromkeys(texts)) for act, texts in phrasings.items()}
 
 
 def parse_dialogues(path: Path, vocabulary: tuple[str, ...]) -> tuple[tuple[DomainLine, ...], ...]:
@@ -380,4 +455,6 @@ def load_domain(directory: str | Path | None = None) -> Domain:
             f"{', '.join(unseen) or 'GameMove'}; the action model never offers an act it has "
             "not seen: add a dialogue that uses it"
         )
-    return Domain(dialogues, templates, responses, vocabulary)
+    phrases_file = root / "user_phrases.txt"
+    phrasings = parse_phrasings(phrases_file) if phrases_file.exists() else {}
+    return Domain(dialogues, templates, responses, vocabulary, phrasings)

@@ -9,8 +9,9 @@ one system act; the person then answers (or stays silent) and may draw.
 
 ## Action Space
 
-`Discrete(N_ACTIONS)`: the paper's 18 acts in `oxbot.dialogue.domain.SYSTEM_ACTS`, 0-8 being
-`GameMove(gridloc=...)` on the cells row-major from the upper left. `info["action_mask"]`
+`Discrete(N_ACTIONS)`: the 21 acts in `oxbot.dialogue.domain.SYSTEM_ACTS` (the paper's 18, then
+ask again, acknowledge a refusal, acknowledge a stop), 0-8 being `GameMove(gridloc=...)` on the
+cells row-major from the upper left. `info["action_mask"]`
 (bool, one per act) says which acts are offered (Pr(a|s) > 0.001 from the action model, all
 valid GameMoves if any is, never an occupied cell). An act outside the mask is still said; a
 GameMove that cannot be drawn (occupied cell, not the robot's turn) is a wasted turn: nothing
@@ -18,33 +19,48 @@ happens but -DL.
 
 ## Observation Space
 
-`Box(0, 1, (61,), float32)`, the layout in `oxbot.dialogue.features`: word features of the last
-system and user responses, game-move features that keep the board, and dialogue flags. The
+`Box(0, 1, (150,), float32)`, the layout in `oxbot.dialogue.features`: word features of the last
+system and user responses, game-move features that keep the board, game flags, the act the
+person's answer was understood as (with its score), the robot's last act and dialogue flags. The
 state behind it is a `DialogueState` (`oxbot.dialogue.state`), the same the robot's
 interaction manager keeps.
 
 ## Rewards
 
-R(s,a,s') = BR*w + DR*(1-w) - DL (`oxbot.dialogue.reward`), plus 0 at the end of the dialogue if
-the robot lost and 5 otherwise.
+R(s,a,s') = BR*w + DR*(1-w) - DL (`oxbot.dialogue.reward`), plus at the end of the dialogue 0 if
+the robot lost and 5 after any other game (the paper's); oxbot: 3 when the person declined to
+play or asked to stop and the robot let them, and 0 for any dialogue that is not well formed
+(`oxbot.dialogue.wellformed`: a game nobody agreed to, a no or a stop not let go, walking away).
+A person the robot ignores — it starts a game they did not agree to, asks to play a third time
+after two noes, goes on after a stop — walks away there: the dialogue ends at once, with no end
+reward (`info["walked_away"]` says why).
 
 ## Episode End
 
-Terminated when the robot says goodbye (`Salutation(closing)`): `info["outcome"]` is the game's
-result from the robot's side ("win", "draw", "loss"; a game left unfinished counts as a loss)
-and `info["transcript"]` the dialogue as `{"speaker", "act", "text"}` dicts. Truncated after
-`max_turns` system acts (`info["outcome"]` is then the result so far, or None).
+Terminated when the robot says goodbye (`Salutation(closing)`), or when the person walks away
+(above): `info["outcome"]` is the game's
+result from the robot's side ("win", "draw", "loss"), or "declined" (the person never agreed
+to play), "stopped" (the person asked to stop mid-game) or "abandoned" (the robot left a person
+who wanted to play; rewarded as a loss). `info["transcript"]` is the dialogue as
+`{"speaker", "act", "text"}` dicts, the person's turns with the act they meant;
+`info["understood"]` the act each turn was understood as; `info["person"]` the kind of person
+(`UserSimulator.kind`). Truncated after `max_turns` system acts
+(`info["outcome"]` is then the result so far, or None).
 
 ## Arguments
 
 `opponent`: the person's game strategy, a SPEC §5 callable `f(board) -> cell` or a name
 (`random`, `blocker`, `minimax`; default random, seeded by `reset`). `robot_starts`: who draws
-first (with circles). `config`: the `OxbotConfig` (reward, dialogue). `reset(options=...)` may
-change both for one episode: `{"opponent": ..., "robot_starts": ...}`.
+first (with circles). `config`: the `OxbotConfig` (reward, dialogue). `cooperative`: a person
+who always agrees and plays a whole game (recognition noise still on), for measuring game play.
+`reset(options=...)` may change opponent and starter for one episode: `{"opponent": ...,
+"robot_starts": ...}`.
 
 ## Version History
 
-- v0: the first version (oxbot issue 5).
+- v0: the first version (oxbot issue 5); issue 14 kept the id and grew the acts (21), the
+  features (150), the people (who decline, stop, chatter, say nothing, walk away when ignored)
+  and the outcomes ("declined", "stopped").
 """
 
 from __future__ import annotations
@@ -61,6 +77,7 @@ from oxbot.dialogue.model import build_dialogue_model
 from oxbot.dialogue.reward import end_reward, step_reward
 from oxbot.dialogue.simulator import UserSimulator
 from oxbot.dialogue.state import DialogueState, Turn
+from oxbot.dialogue.wellformed import check_dialogue, ignores_the_person
 from oxbot.errors import ConfigError, InvalidInputError
 from oxbot.game.board import Board, render
 from oxbot.game.opponents import Opponent, make_opponent
@@ -78,8 +95,10 @@ class InteractiveGameEnv(gym.Env):
         config: OxbotConfig | None = None,
         domain: Domain | None = None,
         render_mode: str | None = None,
+        cooperative: bool = False,
     ) -> None:
         self.config = config if config is not None else OxbotConfig()
+        self.cooperative = cooperative
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ConfigError(f"render_mode {render_mode!r} is not supported; use 'ansi' or None")
         self.render_mode = render_mode
@@ -116,6 +135,13 @@ class InteractiveGameEnv(gym.Env):
                 asr_noise=cfg.asr_noise,
                 decline_probability=cfg.decline_probability,
                 out_of_turn_probability=cfg.out_of_turn_probability,
+                refuse_probability=cfg.refuse_probability,
+                stop_probability=cfg.stop_probability,
+                nonsense_probability=cfg.nonsense_probability,
+                silence_probability=cfg.silence_probability,
+                rematch_probability=cfg.rematch_probability,
+                cooperative=self.cooperative,
+                understanding=self.model.understanding,
             )
         self._simulator.opponent = opponent
         self._simulator.reset()
@@ -143,22 +169,24 @@ class InteractiveGameEnv(gym.Env):
         did = state.can_do(act)
         if did:
             reward = step_reward(state.board, action, float(self._probs[action]), rcfg)
-            state.robot_says(act, self.model.template(act, self.np_random))
+            last = state.transcript[-1]["text"] if state.transcript else ""
+            state.robot_says(act, self.model.template(act, self.np_random, last))
         else:  # a GameMove that cannot be drawn: a wasted turn
             reward = -rcfg.length_penalty
             state.robot_skips()
 
-        terminated = act == CLOSING
-        result = state.outcome
-        if terminated:
-            result = result or "loss"  # a game left unfinished: the robot walked away from it
-            reward += end_reward(result, rcfg)
+        ignored = ignores_the_person(state.transcript, state.understood_turns) if did else None
+        terminated = act == CLOSING or ignored is not None
+        result = self._closing_outcome() if terminated else state.outcome
+        if terminated:  # no end reward for a dialogue that is not well formed
+            well_formed = check_dialogue(state.transcript, result, state.understood_turns) is None
+            reward += end_reward(result if well_formed else "loss", rcfg)
 
-        # the person's turn: answer, perhaps draw
-        if did:
+        # the person's turn: answer, perhaps draw; or walk away from a robot that ignores them
+        if did and ignored is None:
             answer = self._simulator.respond(act, state.board, state.person_to_move)
             if answer.act != SILENCE:
-                state.person_says(answer.act, answer.text, answer.heard)
+                state.person_says(answer.act, answer.text, answer.heard, answer.understood)
 
         self._turns += 1
         truncated = not terminated and self._turns >= self.config.dialogue.max_turns
@@ -167,10 +195,26 @@ class InteractiveGameEnv(gym.Env):
         info: dict[str, Any] = {"action_mask": mask}
         if not did:
             info["invalid_action"] = True
+        if ignored is not None:
+            info["walked_away"] = ignored
         if self._done:
             info["outcome"] = result if terminated else state.outcome
             info["transcript"] = list(state.transcript)
+            info["understood"] = list(state.understood_turns)
+            info["person"] = self._simulator.kind
         return state.encode(), float(reward), terminated, truncated, info
+
+    def _closing_outcome(self) -> str:
+        """How the dialogue ended, when the robot says goodbye (see the module docstring)."""
+        result = self.state.outcome
+        if result is not None:
+            return result
+        person = self._simulator
+        if person.refused and not person.agreed:
+            return "declined"
+        if person.asked_to_stop:
+            return "stopped"
+        return "abandoned"  # the robot walked away from a person who wanted to play
 
     def render(self) -> str | None:
         """The dialogue so far and the board, as text (render_mode "ansi")."""

@@ -15,21 +15,20 @@ import numpy as np
 from oxbot.config import OxbotConfig
 from oxbot.dialogue.action_model import action_mask
 from oxbot.dialogue.domain import (
-    CLOSING,
-    FEEDBACK_ACTS,
+    ACCEPT,
+    GAME_MOVE_TEMPLATE,
     GREETING,
     INTRODUCTION,
     INVITATION,
     LETS_PLAY,
     MOVE_REQUEST,
-    game_move_cell,
-    is_feedback,
     is_game_move,
 )
 from oxbot.dialogue.env import InteractiveGameEnv, format_turn
 from oxbot.dialogue.model import DialogueModel, build_dialogue_model
 from oxbot.dialogue.simulator import UserSimulator
 from oxbot.dialogue.state import Turn
+from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, legal_moves, play, winner
 from oxbot.game.board import outcome as game_outcome
 from oxbot.game.opponents import OPPONENTS
@@ -41,52 +40,13 @@ CONDITIONS = tuple((name, robot_starts) for name in OPPONENTS for robot_starts i
 """Every opponent in both who-starts conditions, in the order reports list them."""
 
 
+OUTCOMES = ("win", "draw", "loss", "declined", "stopped", "abandoned")
+"""`info["outcome"]` of a finished dialogue (`InteractiveGameEnv`)."""
+
+
 def condition_key(opponent: str, robot_starts: bool) -> str:
     """`random/robot` or `random/person`: an opponent and who starts, as metrics key them."""
     return f"{opponent}/{'robot' if robot_starts else 'person'}"
-
-
-def check_dialogue(transcript: list[Turn], outcome: str | None) -> str | None:
-    """Why a finished dialogue is not well formed, or None if it is.
-
-    Well formed: it greets first, introduces itself and invites before the first move, asks for
-    the person's move after each robot move unless the game is then over, gives exactly one
-    feedback act, the one matching the real outcome, after the game, and closes last.
-    """
-    acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
-    if not acts or acts[0] != GREETING:
-        return "does not greet first"
-    first_move = next((i for i, t in enumerate(transcript) if is_game_move(t["act"])), None)
-    if first_move is None:
-        return "no game was played"
-    before = {t["act"] for t in transcript[:first_move] if t["speaker"] == "sys"}
-    if INTRODUCTION not in before:
-        return "does not introduce itself before the first move"
-    if INVITATION not in before:
-        return "does not invite the person before the first move"
-    feedback_at = [i for i, a in enumerate(acts) if is_feedback(a)]
-    board: Board = EMPTY_BOARD
-    sys_index = -1
-    for turn in transcript:
-        if turn["speaker"] == "sys":
-            sys_index += 1
-        cell = game_move_cell(turn["act"])
-        if cell is None:
-            continue
-        board = play(board, cell, ROBOT if turn["speaker"] == "sys" else USER)
-        if turn["speaker"] == "sys" and game_outcome(board) is None:
-            following = acts[sys_index + 1] if sys_index + 1 < len(acts) else None
-            if following != MOVE_REQUEST:
-                return f"does not ask for the person's move after its move {turn['act']}"
-    if outcome is None:
-        return "the game did not finish"
-    if len(feedback_at) != 1:
-        return f"gives {len(feedback_at)} feedback acts instead of one"
-    if acts[feedback_at[0]] != FEEDBACK_ACTS[outcome]:
-        return f"says {acts[feedback_at[0]]} but the outcome is a {outcome}"
-    if acts[-1] != CLOSING or acts.count(CLOSING) != 1:
-        return "does not close with a goodbye"
-    return None
 
 
 @dataclass
@@ -99,6 +59,18 @@ class EvaluationResult:
     win_rate: float
     draw_rate: float
     loss_rate: float
+    """Share of dialogues whose game the person won."""
+    declined_rate: float
+    """Share of dialogues the person declined to play, and the robot let them."""
+    stopped_rate: float
+    """Share of dialogues whose game the person asked to stop."""
+    abandoned_rate: float
+    """Share of dialogues where the robot left a person who wanted to play (misheard, or a
+    mistake): no game, or an unfinished one."""
+    task_success: float
+    """Share of dialogues that are well formed and end as the person wanted: a finished game
+    with a person who wanted one (perhaps after a first no), the goodbye without a game for one
+    who declines every time, the goodbye after a stop for one who asked to stop."""
     average_reward: float
     average_turns: float
     """Utterances per dialogue, robot's and person's (silences are not turns)."""
@@ -115,13 +87,25 @@ class EvaluationResult:
         return data
 
 
+WANTED = {"agrees": "game", "declines once": "game", "refuses": "declined", "stops": "stopped"}
+"""How each kind of simulated person (`UserSimulator.kind`) wants the dialogue to end ("game":
+a finished one, whoever won)."""
+
+
+def as_wanted(person: str, outcome: str | None) -> bool:
+    """True if a dialogue with this kind of person ended as they wanted."""
+    ended = "game" if outcome in ("win", "draw", "loss") else outcome
+    return WANTED[person] == ended
+
+
 @dataclass
 class _Tally:
     """What `evaluate` counts as dialogues finish."""
 
     keep_transcripts: int
     finished: int = 0
-    outcomes: dict[str, int] = field(default_factory=lambda: {"win": 0, "draw": 0, "loss": 0})
+    outcomes: dict[str, int] = field(default_factory=lambda: dict.fromkeys(OUTCOMES, 0))
+    successes: int = 0
     truncated: int = 0
     total_reward: float = 0.0
     total_turns: int = 0
@@ -139,9 +123,11 @@ class _Tally:
         self.total_reward += episode_return
         transcript = info["transcript"]
         self.total_turns += len(transcript)
-        problem = check_dialogue(transcript, result) if terminated else "truncated"
+        understood = info.get("understood")
+        problem = check_dialogue(transcript, result, understood) if terminated else "truncated"
         if problem is None:
             self.good += 1
+            self.successes += as_wanted(info["person"], result)
         else:
             self.problems[problem] = self.problems.get(problem, 0) + 1
         if len(self.kept) < self.keep_transcripts:
@@ -156,6 +142,10 @@ class _Tally:
             win_rate=self.outcomes["win"] / n,
             draw_rate=self.outcomes["draw"] / n,
             loss_rate=self.outcomes["loss"] / n,
+            declined_rate=self.outcomes["declined"] / n,
+            stopped_rate=self.outcomes["stopped"] / n,
+            abandoned_rate=self.outcomes["abandoned"] / n,
+            task_success=self.successes / n,
             average_reward=self.total_reward / n,
             average_turns=self.total_turns / n,
             well_formed=self.good / n,
@@ -174,14 +164,18 @@ def evaluate(
     seed: int = 0,
     n_envs: int = 250,
     keep_transcripts: int = 0,
+    cooperative: bool = False,
 ) -> EvaluationResult:
     """Play `games` dialogues with `policy` (greedy batch policy) and measure them.
 
-    `n_envs` environments run side by side, so that the policy acts on a batch of states."""
+    `n_envs` environments run side by side, so that the policy acts on a batch of states.
+    `cooperative`: with people who always agree and play a whole game, for game play."""
     config = config if config is not None else OxbotConfig()
     n_envs = max(1, min(n_envs, games))
     envs = [
-        InteractiveGameEnv(opponent=opponent, robot_starts=robot_starts, config=config)
+        InteractiveGameEnv(
+            opponent=opponent, robot_starts=robot_starts, config=config, cooperative=cooperative
+        )
         for _ in range(n_envs)
     ]
     first = [env.reset(seed=seed * 100_003 + i) for i, env in enumerate(envs)]
@@ -217,9 +211,9 @@ def format_transcript(transcript: list[Turn]) -> str:
 
 class _DecisionStates:
     """The states a dialogue reaches at the robot's turn on a given board, in the game-tree
-    check: after "Nice, let's play." on the empty board; else after "Your turn." and the
-    person's drawing, each of their utterances heard cleanly and `noisy_variants` times
-    through the noisy recogniser."""
+    check: after the person agreed and "Nice, let's play." on the empty board; else after "Your
+    turn." and the person's drawing, each phrasing of a drawing heard cleanly, and
+    `noisy_variants` random ones through the noisy recogniser."""
 
     def __init__(
         self, model: DialogueModel, robot_starts: bool, hearing: UserSimulator, noisy_variants: int
@@ -228,29 +222,33 @@ class _DecisionStates:
         agreed = model.new_state(robot_starts)  # greeted, introduced, invited; the person agreed
         for act in (GREETING, INTRODUCTION, INVITATION):
             agreed.robot_says(act, domain.templates_for(act)[0])
+        agreed.person_says(ACCEPT, "yes", (("yes", 1.0),), (ACCEPT, 1.0))
         self.openings = []
         for text in domain.templates_for(LETS_PLAY):
             opening = agreed.copy()
             opening.robot_says(LETS_PLAY, text)
             self.openings.append(opening)
         self.your_turn = domain.templates_for(MOVE_REQUEST)
-        self.moves = domain.responses_to(MOVE_REQUEST)
+        self.moves = hearing.phrasings(GAME_MOVE_TEMPLATE)
         self.hearing = hearing
         self.noisy_variants = noisy_variants
 
     def at(self, board: Board) -> np.ndarray:
         if board == EMPTY_BOARD:
             return np.stack([state.encode() for state in self.openings])
+        rng = self.hearing.rng
+        noisy = rng.integers(len(self.moves), size=self.noisy_variants)
+        answers = [(text, False) for text in self.moves] + [(self.moves[i], True) for i in noisy]
+        turns = rng.integers(len(self.your_turn), size=len(answers))
         states = []
-        for your_turn in self.your_turn:
-            state = self.openings[0].at(board)
-            state.robot_says(MOVE_REQUEST, your_turn)
-            for move in self.moves:
-                clean = tuple((w, 1.0) for w in move.words)
-                noisy = [self.hearing.recognize(move.words) for _ in range(self.noisy_variants)]
-                for heard in [clean, *noisy]:  # each a new answer to the same "Your turn."
-                    state.person_says(move.act, move.text, heard)
-                    states.append(state.encode())
+        for (text, misheard), k in zip(answers, turns, strict=True):
+            state = self.openings[0].at(
+                board
+            )  # "Your turn." in one of its wordings, then the drawing
+            state.robot_says(MOVE_REQUEST, self.your_turn[k])
+            heard, understood = self.hearing.hear(text, MOVE_REQUEST, misheard)
+            state.person_says(GAME_MOVE_TEMPLATE, text, heard, understood)
+            states.append(state.encode())
         return np.stack(states)
 
 
@@ -266,14 +264,18 @@ def losing_positions(
     Walks the whole game tree: at every robot turn the policy sees the states a dialogue
     reaches there (`_DecisionStates`), and every cell it picks in any of these is followed;
     the person tries every empty cell. Returns how many of the robot's decision boards lead to
-    a position the person wins at once, or where the policy does not draw at all. Zero means
-    no person can beat it (up to the sampled noise).
+    a position the person wins at once, or where the policy draws on none of the hearings (on
+    one, asking again for a move that was misheard wastes a turn, and is followed on the next).
+    Zero means no person can beat it (up to the sampled noise).
     """
     config = config if config is not None else OxbotConfig()
     model = build_dialogue_model(config)
     action_model = model.action_model
     hearing = UserSimulator(
-        model.domain, rng=np.random.default_rng(seed), asr_noise=config.dialogue.asr_noise
+        model.domain,
+        rng=np.random.default_rng(seed),
+        asr_noise=config.dialogue.asr_noise,
+        understanding=model.understanding,
     )
     decision_states = _DecisionStates(model, robot_starts, hearing, noisy_variants)
     bad: set[Board] = set()
@@ -290,8 +292,8 @@ def losing_positions(
 
     def robot_turn(board: Board) -> None:
         picked = choices(board)
-        if not all(is_game_move(a) for a in picked):
-            bad.add(board)
+        if not any(is_game_move(a) for a in picked):
+            bad.add(board)  # it never draws here (a wasted turn on one hearing is not a loss)
         for cell in (a for a in picked if is_game_move(a)):
             after = play(board, cell, ROBOT)
             if game_outcome(after) is None:

@@ -1,46 +1,65 @@
 """The state the interaction manager sees: word features plus game and dialogue context.
 
-Layout (SPEC §3, paper §2.2 "State Space") with the shipped vocabulary of 35 words, 61 features:
+Layout (SPEC §3, paper §2.2 "State Space") with the shipped vocabulary of 84 words, 150 features:
 
-    index  name                     value
-    0-34   word:<w>, vocabulary     system words of the last response: 1 if present; user words
-           order                    of the last answer: the recogniser's confidence in [0, 1],
-                                    overriding the system's value on overlap
-    35-43  robot:<cell>             1 if the robot's mark is on the cell (row-major, upper left
-                                    first)
-    44-52  person:<cell>            1 if the person's mark is on the cell
-    53     game:robot_to_move       1 while the game is on and it is the robot's turn to draw
-                                    (before the first move: 1 if the robot starts)
-    54     game:robot_won           1 once the robot has three in a row
-    55     game:person_won          1 once the person has three in a row
-    56     game:draw                1 once the board is full with no line
-    57     dialogue:greeted         1 once the robot has said Salutation(greeting)
-    58     dialogue:introduced      1 once it has said Provide(name)
-    59     dialogue:invited         1 once it has said Request(playGame)
-    60     dialogue:gave_feedback   1 once it has said a Provide(feedback=...) act
+    index    name                     value
+    0-83     word:<w>, vocabulary     system words of the last response: 1 if present; user
+             order                    words of the last answer: the recogniser's confidence in
+                                      [0, 1], overriding the system's value on overlap
+    84-92    robot:<cell>             1 if the robot's mark is on the cell (row-major)
+    93-101   person:<cell>            1 if the person's mark is on the cell
+    102      game:robot_to_move       1 while the game is on and it is the robot's turn to draw
+                                      (before the first move: 1 if the robot starts)
+    103      game:robot_won           1 once the robot has three in a row
+    104      game:person_won          1 once the person has three in a row
+    105      game:draw                1 once the board is full with no line
+    106-119  heard:<user act>         the act the last answer was understood as
+                                      (`UserActClassifier`): its score (1 for Unknown)
+    120-140  last:<system act>        1 for the robot's last act
+    141-144  dialogue:greeted, introduced, invited, gave_feedback
+                                      1 once the robot has said that act (any feedback act)
+    145      dialogue:acknowledged    1 once it has acknowledged a refusal or a stop
+    146      dialogue:asked_twice     1 once it has asked to play (invited, asked again) twice
+    147-149  person:agreed, refused, stopped
+                                      1 once an answer was understood as that (any refusal)
 
-The paper had 57 features (about 40 words plus game moves); the first 57 here are exactly that
-kind (35 words, 18 cells, 4 game flags). The word features are reset every turn; the others keep
-the history instead (paper: "we kept the game move features as to describe the game state rather
-than resetting them at every turn"). oxbot adds the four dialogue flags for the same reason: the
-last turn's words cannot tell whether the robot has already introduced itself or given feedback,
-and without them no policy can be well formed every time (see docs/deviations.md).
+The paper had 57 features (about 40 words plus game moves); the words, cells and game flags here
+are exactly that kind. The word features are reset every turn; the others keep the history
+instead (paper: "we kept the game move features as to describe the game state rather than
+resetting them at every turn"). oxbot adds the rest for the same reason, and because people
+answer in hundreds of ways the words alone cannot tell apart: the understood act and its score,
+the robot's own last act (its words vary with its templates), and what the dialogue has been
+through — whether the robot introduced itself, gave feedback, asked twice; whether the person
+agreed, refused or asked to stop (see docs/deviations.md).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from oxbot.dialogue.domain import (
+    ACCEPT,
     FEEDBACK_ACTS,
+    GRANT_REFUSAL,
+    GRANT_STOP,
     GREETING,
     INTRODUCTION,
     INVITATION,
     N_ACTIONS,
+    REFUSALS,
+    SILENCE,
+    STOP,
+    SYSTEM_ACTS,
+    UNKNOWN,
+    USER_ACTS,
 )
 from oxbot.errors import DataError
+
+if TYPE_CHECKING:
+    from oxbot.dialogue.state import DialogueState
 from oxbot.game.board import (
     CELL_NAMES,
     EMPTY,
@@ -59,15 +78,29 @@ GAME_FLAGS: tuple[str, ...] = (
     "game:person_won",
     "game:draw",
 )
-DIALOGUE_FLAGS: dict[str, tuple[str, ...]] = {
+HEARD_ACTS: tuple[str, ...] = tuple(act for act in USER_ACTS if act != SILENCE)
+"""The acts the person's last answer can be understood as: one feature each, the
+understanding's score for the act it chose (1 for Unknown)."""
+SAID_FLAGS: dict[str, tuple[str, ...]] = {
     "dialogue:greeted": (GREETING,),
     "dialogue:introduced": (INTRODUCTION,),
     "dialogue:invited": (INVITATION,),
     "dialogue:gave_feedback": tuple(FEEDBACK_ACTS.values()),
+    "dialogue:acknowledged": (GRANT_REFUSAL, GRANT_STOP),
 }
 """Context features: 1 once the robot has said one of the acts."""
-_FLAG_OF_ACT: dict[str, int] = {
-    act: k for k, acts in enumerate(DIALOGUE_FLAGS.values()) for act in acts
+HEARD_FLAGS: dict[str, tuple[str, ...]] = {
+    "person:agreed": (ACCEPT,),
+    "person:refused": tuple(REFUSALS),
+    "person:stopped": (STOP,),
+}
+"""Context features: 1 once the person's answer was understood as one of the acts."""
+ASKED_TWICE = "dialogue:asked_twice"
+"""1 once the robot has asked to play (invited or asked again) twice or more."""
+DIALOGUE_FLAGS: tuple[str, ...] = (*SAID_FLAGS, ASKED_TWICE, *HEARD_FLAGS)
+_SAID: dict[str, int] = {act: k for k, acts in enumerate(SAID_FLAGS.values()) for act in acts}
+_HEARD: dict[str, int] = {
+    act: len(SAID_FLAGS) + 1 + k for k, acts in enumerate(HEARD_FLAGS.values()) for act in acts
 }
 
 
@@ -90,44 +123,58 @@ class FeatureLayout:
         self.robot_cells = slice(n, n + N_CELLS)
         self.person_cells = slice(n + N_CELLS, n + 2 * N_CELLS)
         self.flags = slice(self.person_cells.stop, self.person_cells.stop + len(GAME_FLAGS))
-        self.dialogue_flags = slice(self.flags.stop, self.flags.stop + len(DIALOGUE_FLAGS))
+        self.heard_acts = slice(self.flags.stop, self.flags.stop + len(HEARD_ACTS))
+        self.heard_index = {act: self.heard_acts.start + k for k, act in enumerate(HEARD_ACTS)}
+        self.last_acts = slice(self.heard_acts.stop, self.heard_acts.stop + N_ACTIONS)
+        self.last_index = {act: self.last_acts.start + k for k, act in enumerate(SYSTEM_ACTS)}
+        end = self.last_acts.stop
+        self.dialogue_flags = slice(end, end + len(DIALOGUE_FLAGS))
+        self.board = slice(self.robot_cells.start, self.flags.stop)
+        """The cells and the game flags: all the board says, whoever speaks."""
+        self.context = slice(self.flags.start, self.dialogue_flags.stop)
+        """Everything but the words and the cells: what the action model reads."""
         self.names: tuple[str, ...] = (
             *(f"word:{w}" for w in self.vocabulary),
             *(f"robot:{c}" for c in CELL_NAMES),
             *(f"person:{c}" for c in CELL_NAMES),
             *GAME_FLAGS,
+            *(f"heard:{act}" for act in HEARD_ACTS),
+            *(f"last:{act}" for act in SYSTEM_ACTS),
             *DIALOGUE_FLAGS,
         )
         self.n_features = len(self.names)
         self.n_words = n
 
-    def encode(
-        self,
-        system_words: Iterable[str],
-        user_words: Iterable[tuple[str, float]],
-        board: Board,
-        robot_starts: bool,
-        said: Iterable[str] = (),
-    ) -> np.ndarray:
-        """The state vector after a system response and the user's (heard) response.
-
-        `said` is every system act the robot has said so far in the dialogue.
-        """
-        state = np.zeros(self.n_features, dtype=np.float32)
-        for word in system_words:
+    def encode(self, state: DialogueState) -> np.ndarray:
+        """The feature vector of a dialogue state (see the module docstring)."""
+        vector = np.zeros(self.n_features, dtype=np.float32)
+        for word in state.system_words:
             i = self.word_index.get(word)
             if i is not None:
-                state[i] = 1.0
-        for word, confidence in user_words:  # the user's words override the system's
+                vector[i] = 1.0
+        for word, confidence in state.heard:  # the user's words override the system's
             i = self.word_index.get(word)
             if i is not None:
-                state[i] = confidence
-        self.encode_game(state, board, robot_starts)
-        for act in said:
-            k = _FLAG_OF_ACT.get(act)
+                vector[i] = confidence
+        self.encode_game(vector, state.board, state.robot_starts)
+        if state.understood is not None:
+            act, score = state.understood
+            i = self.heard_index.get(act)
+            if i is not None:
+                vector[i] = 1.0 if act == UNKNOWN else score
+        if state.last_act in self.last_index and state.system_words:
+            vector[self.last_index[state.last_act]] = 1.0
+        flags = vector[self.dialogue_flags]
+        for act in state.said:
+            k = _SAID.get(act)
             if k is not None:
-                state[self.dialogue_flags.start + k] = 1.0
-        return state
+                flags[k] = 1.0
+        flags[len(SAID_FLAGS)] = state.invitations >= 2
+        for act in state.person_acts:
+            k = _HEARD.get(act)
+            if k is not None:
+                flags[k] = 1.0
+        return vector
 
     def encode_game(self, state: np.ndarray, board: Board, robot_starts: bool) -> None:
         """Write the game-move features of `board` into `state` in place."""

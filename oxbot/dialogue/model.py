@@ -16,6 +16,7 @@ from oxbot.dialogue.action_model import ActionModel
 from oxbot.dialogue.domain import SYSTEM_ACTS, Domain, load_domain
 from oxbot.dialogue.features import FeatureLayout
 from oxbot.dialogue.state import DialogueState
+from oxbot.dialogue.understanding import UserActClassifier
 
 
 class DialogueModel:
@@ -26,37 +27,46 @@ class DialogueModel:
         self.layout = layout
         self.action_model = action_model
         self._templates = {act: domain.templates_for(act) for act in SYSTEM_ACTS}
+        self._understanding: UserActClassifier | None = None
+
+    @property
+    def understanding(self) -> UserActClassifier:
+        """The domain's language understanding, trained at first use (a second)."""
+        if self._understanding is None:
+            self._understanding = UserActClassifier(self.domain)
+        return self._understanding
 
     def new_state(self, robot_starts: bool) -> DialogueState:
         """A dialogue before its first act."""
         return DialogueState(self.layout, robot_starts, self.action_model)
 
-    def template(self, act: str, rng: np.random.Generator) -> str:
-        """One of the act's template texts, picked at random (the cell filled for a GameMove)."""
+    def template(self, act: str, rng: np.random.Generator, last: str = "") -> str:
+        """One of the act's template texts, picked at random (the cell filled for a GameMove),
+        never `last` (the robot's previous sentence) when the act has others."""
         texts = self._templates[act]
+        if last in texts and len(texts) > 1:
+            texts = tuple(t for t in texts if t != last)
         return texts[int(rng.integers(len(texts)))]
 
 
 def build_dialogue_model(config: OxbotConfig, domain: Domain | None = None) -> DialogueModel:
     """The dialogue model of `domain` (the shipped one, built once, when None)."""
     d, r = config.dialogue, config.reward
-    settings = (d.nb_alpha, d.nb_binarize, d.nb_flag_weight, r.mask_threshold)
+    settings = (d.nb_alpha, d.nb_binarize, r.mask_threshold)
     if domain is None:
         return _shipped(*settings)
     return _build(domain, *settings)
 
 
 @functools.cache
-def _shipped(alpha: float, binarize: float, flag_weight: int, threshold: float) -> DialogueModel:
-    return _build(load_domain(), alpha, binarize, flag_weight, threshold)
+def _shipped(alpha: float, binarize: float, threshold: float) -> DialogueModel:
+    return _build(load_domain(), alpha, binarize, threshold)
 
 
-def _build(
-    domain: Domain, alpha: float, binarize: float, flag_weight: int, threshold: float
-) -> DialogueModel:
+def _build(domain: Domain, alpha: float, binarize: float, threshold: float) -> DialogueModel:
     layout = FeatureLayout(domain.vocabulary)
     action_model = ActionModel.from_domain(
-        domain, layout, alpha=alpha, binarize=binarize, flag_weight=flag_weight, threshold=threshold
+        domain, layout, alpha=alpha, binarize=binarize, threshold=threshold
     )
     return DialogueModel(domain, layout, action_model)
 

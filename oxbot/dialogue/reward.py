@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from oxbot.config import RewardConfig
 from oxbot.dialogue.domain import is_game_move
-from oxbot.game.board import ROBOT, Board, Outcome, is_drawing_move, is_winning_move
+from oxbot.game.board import ROBOT, Board, is_drawing_move, is_winning_move
 
 
 def bonus_reward(board: Board, action: int, config: RewardConfig) -> float:
@@ -32,6 +32,13 @@ def step_reward(board: Board, action: int, probability: float, config: RewardCon
     return bonus_reward(board, action, config) * w + probability * (1 - w) - config.length_penalty
 
 
-def end_reward(outcome: Outcome, config: RewardConfig) -> float:
-    """The reward at the end of the dialogue: 0 if the robot lost, 5 otherwise."""
-    return config.end_reward_loss if outcome == "loss" else config.end_reward_otherwise
+def end_reward(outcome: str, config: RewardConfig) -> float:
+    """The reward at the end of the dialogue: 0 if the robot lost (or walked away from a person
+    who wanted to play), 5 after any other game (paper §2.2); oxbot: 3 when the person declined
+    to play or asked to stop, and the robot let them."""
+    return {
+        "loss": config.end_reward_loss,
+        "abandoned": config.end_reward_loss,
+        "declined": config.end_reward_declined,
+        "stopped": config.end_reward_stopped,
+    }.get(outcome, config.end_reward_otherwise)

@@ -1,23 +1,26 @@
-"""The user simulator: a semi-random person built from the seed domain, heard through noisy ASR.
+"""The user simulator: a semi-random person built from the domain, heard through noisy ASR.
 
 Paper §3.3: "we used user simulations that provide semi-randomly generated user responses ...
 responses already chosen were not allowed. For example, drawing a symbol in the middle of the
 grid was only allowed if the location was empty."
 
-The simulated person answers each system act with one of its alternatives in
-`user_responses.txt`, except that
-- the first invitation to play is declined with probability `decline_probability`;
-- asked for a move, with probability `out_of_turn_probability` the person answers out of turn,
-  with small talk (an answer to the greeting or the introduction) and no drawing, so the robot
-  has to ask again (seed dialogue 8);
-- asked for a move, the person draws if it is their turn and the game is not over (a person who
-  declined goes along once the robot starts playing); the cell comes from the opponent strategy
-  (a SPEC §5 callable, default uniformly random), checked with `checked_move`.
+Each dialogue the person is one of three kinds, drawn at `reset`: one who wants to play, one
+who declines the first invitation and accepts when asked again (`decline_probability`), and one
+who declines every time (`refuse_probability`); and, independently, one who asks to stop in
+the middle of the game (`stop_probability`). In any answer the person may say something that
+is none of the game's acts (`nonsense_probability`) or nothing at all (`silence_probability`);
+asked for a move, they may answer out of turn with small talk (`out_of_turn_probability`);
+told the outcome, they may ask for another game (`rematch_probability`). A person who never
+agreed to play answers "Your turn" by asking to stop. `cooperative=True` is a person who always
+agrees and plays a whole game (recognition noise still on), for measuring game play.
 
-What the robot hears goes through a speech recogniser model with noise level `asr_noise` = n:
-each word is dropped with probability n/4, replaced by a random vocabulary word (confidence
-uniform in [0.1, 0.6]) with probability n/4, and otherwise heard with a confidence uniform in
-[1-n, 1].
+What the person says is one of the domain's phrasings of the act they mean
+(`user_phrases.txt`, the user responses); the cell they draw in comes from the opponent strategy
+(a SPEC §5 callable), checked with `checked_move`. The robot hears it through a speech
+recogniser model with noise level `asr_noise` = n: each word is dropped with probability n/4,
+replaced by a random word of the phrasings (confidence uniform in [0.1, 0.6]) with probability
+n/4, and otherwise heard with a confidence uniform in [1-n, 1]; then understands it with the
+real `UserActClassifier`, in the context of what the robot just said.
 """
 
 from __future__ import annotations
@@ -28,18 +31,30 @@ import numpy as np
 
 from oxbot.dialogue.domain import (
     ACCEPT,
+    ASK_AGAIN,
     DECLINE,
+    GAME_MOVE_TEMPLATE,
     GREETING,
     INTRODUCTION,
     INVITATION,
     MOVE_REQUEST,
+    NEW_GAME,
+    POSTPONE,
     SILENCE,
+    STOP,
+    UNKNOWN,
     Domain,
-    DomainLine,
+    draw_tag,
     game_move,
+    is_feedback,
+    is_game_move,
+    words_of,
 )
-from oxbot.game.board import CELL_NAMES, Board
+from oxbot.dialogue.understanding import UserActClassifier
+from oxbot.game.board import Board
 from oxbot.game.opponents import Opponent, checked_move, random_opponent
+
+Heard = tuple[tuple[str, float], ...]
 
 
 @dataclass(frozen=True)
@@ -47,13 +62,19 @@ class UserTurn:
     """What the person did in answer to one system act."""
 
     act: str
-    """The user act, e.g. `Confirm(playGame=yes)` or `GameMove(gridloc=middle)`; `Silence`."""
+    """What the person meant, e.g. `Confirm(playGame=yes)` or `GameMove(gridloc=middle)`;
+    `Silence`."""
     text: str
     """What the person said, with the drawing in brackets; empty when silent."""
-    heard: tuple[tuple[str, float], ...]
+    heard: Heard
     """The recogniser's words with their confidences."""
     cell: int | None = None
     """The cell the person drew on, or None."""
+    understood: tuple[str, float] = (SILENCE, 0.0)
+    """The act the robot's understanding read in what it heard, with its score."""
+
+
+SILENT = UserTurn(SILENCE, "", ())
 
 
 class UserSimulator:
@@ -67,15 +88,31 @@ class UserSimulator:
         asr_noise: float = 0.2,
         decline_probability: float = 0.1,
         out_of_turn_probability: float = 0.05,
+        refuse_probability: float = 0.0,
+        stop_probability: float = 0.0,
+        nonsense_probability: float = 0.0,
+        silence_probability: float = 0.0,
+        rematch_probability: float = 0.0,
+        cooperative: bool = False,
+        understanding: UserActClassifier | None = None,
     ) -> None:
         self.domain = domain
         self.rng = rng if rng is not None else np.random.default_rng()
         self.opponent = opponent if opponent is not None else random_opponent(self.rng)
         self.asr_noise = asr_noise
-        self.decline_probability = decline_probability
+        self.cooperative = cooperative
+        off = 0.0 if cooperative else 1.0
+        self.decline_probability = decline_probability * off
+        self.refuse_probability = refuse_probability * off
+        self.stop_probability = stop_probability * off
+        self.nonsense_probability = nonsense_probability * off
+        self.silence_probability = silence_probability * off
+        self.rematch_probability = rematch_probability * off
         self.out_of_turn_probability = out_of_turn_probability
-        self._accept = tuple(u for u in domain.responses_to(INVITATION) if u.act == ACCEPT)
-        self._decline = tuple(u for u in domain.responses_to(INVITATION) if u.act == DECLINE)
+        self.understanding = (
+            understanding if understanding is not None else UserActClassifier(domain)
+        )
+        self._phrasings, self._words = _phrasings(domain)
         self._small_talk = tuple(
             u
             for act in (GREETING, INTRODUCTION)
@@ -85,48 +122,112 @@ class UserSimulator:
         self.reset()
 
     def reset(self) -> None:
-        """Start a new dialogue with a person who has not yet agreed to play."""
-        self.accepted = False
-        self.asked = False
+        """Start a new dialogue with a new person, who has not yet been asked to play."""
+        roll = self.rng.random()
+        self.refuses = roll < self.refuse_probability
+        self.declines_once = not self.refuses and roll < (
+            self.refuse_probability + self.decline_probability
+        )
+        self.stops_after = (
+            int(self.rng.integers(1, 4)) if self.rng.random() < self.stop_probability else None
+        )
+        self.asked = 0
+        self.agreed = False
+        self.refused = False
+        self.asked_to_stop = False
+        self.moves = 0
+
+    @property
+    def kind(self) -> str:
+        """What this person wanted: "agrees", "declines once", "refuses" or "stops"."""
+        if self.refuses:
+            return "refuses"
+        if self.asked_to_stop and self.agreed:
+            return "stops"
+        return "declines once" if self.declines_once else "agrees"
+
+    # --- answers ------------------------------------------------------------------------------
 
     def respond(self, system_act: str, board: Board, person_to_move: bool) -> UserTurn:
         """The person's answer to `system_act`, given the board and whether they may draw."""
         rng = self.rng
-        if system_act == INVITATION and self._accept:
-            first = not self.asked
-            self.asked = True
-            if first and self._decline and rng.random() < self.decline_probability:
-                return self._say(self._decline[rng.integers(len(self._decline))])
-            self.accepted = True
-            return self._say(self._accept[rng.integers(len(self._accept))])
-        alternatives = self.domain.responses_to(system_act)
+        if system_act in (INVITATION, ASK_AGAIN):
+            return self._asked_to_play(system_act)
         if system_act == MOVE_REQUEST:
-            if self._small_talk and rng.random() < self.out_of_turn_probability:
-                return self._say(self._small_talk[rng.integers(len(self._small_talk))])
-            if not person_to_move:
-                return UserTurn(SILENCE, "", ())
-            cell = checked_move(self.opponent, board)
-            choice = alternatives[rng.integers(len(alternatives))]
-            return self._say(choice, cell)
+            return self._asked_to_move(board, person_to_move)
+        if is_feedback(system_act) and rng.random() < self.rematch_probability:
+            return self._say(NEW_GAME, system_act)
+        alternatives = self.domain.responses_to(system_act)
         if not alternatives:
-            return UserTurn(SILENCE, "", ())
-        return self._say(alternatives[rng.integers(len(alternatives))])
+            return SILENT
+        choice = alternatives[rng.integers(len(alternatives))]
+        if choice.act == SILENCE:
+            return SILENT
+        return self._say(choice.act, system_act)
 
-    def _say(self, utterance: DomainLine, cell: int | None = None) -> UserTurn:
-        act, text = utterance.act, utterance.text
-        if act == SILENCE:
-            return UserTurn(SILENCE, "", ())
-        if cell is not None:  # a drawing: the template's $loc is the cell drawn in
-            act, text = game_move(cell), text.replace("$loc", CELL_NAMES[cell])
-        return UserTurn(act, text, self.recognize(utterance.words), cell)
+    def _asked_to_play(self, system_act: str) -> UserTurn:
+        rng = self.rng
+        self.asked += 1
+        if rng.random() < self.silence_probability:
+            return SILENT
+        if rng.random() < self.nonsense_probability:
+            return self._say(UNKNOWN, system_act)
+        if self.refuses or (self.declines_once and self.asked == 1):
+            self.refused = True
+            return self._say(POSTPONE if rng.random() < 0.3 else DECLINE, system_act)
+        self.agreed = True
+        return self._say(ACCEPT, system_act)
 
-    def recognize(self, words: list[str]) -> tuple[tuple[str, float], ...]:
+    def _asked_to_move(self, board: Board, person_to_move: bool) -> UserTurn:
+        rng = self.rng
+        if not self.agreed or self.asked_to_stop or self.moves == self.stops_after:
+            self.asked_to_stop = True  # nobody asked them, or they have had enough
+            return self._say(STOP, MOVE_REQUEST)
+        if self._small_talk and rng.random() < self.out_of_turn_probability:
+            line = self._small_talk[rng.integers(len(self._small_talk))]
+            return self._say(line.act, MOVE_REQUEST)
+        if not person_to_move:
+            return SILENT
+        if rng.random() < self.nonsense_probability:
+            return self._say(UNKNOWN, MOVE_REQUEST)
+        cell = checked_move(self.opponent, board)
+        self.moves += 1
+        return self._say(GAME_MOVE_TEMPLATE, MOVE_REQUEST, cell)
+
+    def _say(self, act: str, system_act: str, cell: int | None = None) -> UserTurn:
+        """`act` said in one of its phrasings (a drawing in `cell`), heard and understood."""
+        phrasings = self._phrasings[act]
+        text = phrasings[int(self.rng.integers(len(phrasings)))]
+        if cell is not None:
+            act = game_move(cell)
+            text = f"{text} {draw_tag('usr', cell)}".strip()
+        heard, understood = self.hear(text, system_act)
+        return UserTurn(act, text, heard, cell, understood)
+
+    def hear(
+        self, text: str, system_act: str, noisy: bool = True
+    ) -> tuple[Heard, tuple[str, float]]:
+        """What the robot hears of `text` (through the noisy recogniser, unless not `noisy`)
+        and understands it as, in answer to `system_act`: the act and its score."""
+        words = words_of(text)
+        heard = self.recognize(words) if noisy else tuple((w, 1.0) for w in words)
+        if not heard:
+            return (), (SILENCE, 0.0)
+        reading = self.understanding.read(" ".join(w for w, _ in heard), system_act)
+        score = 1.0 if reading.act == UNKNOWN else reading.score * _mean(heard)
+        return heard, (reading.act, score)
+
+    def phrasings(self, act: str) -> tuple[str, ...]:
+        """The texts the person may say `act` with."""
+        return self._phrasings[act]
+
+    def recognize(self, words: list[str]) -> Heard:
         """The words as the noisy recogniser hears them: (word, confidence) pairs."""
         n = self.asr_noise
         if n <= 0.0:
             return tuple((w, 1.0) for w in words)
         rng = self.rng
-        vocabulary = self.domain.vocabulary
+        vocabulary = self._words
         heard = []
         for word, (u, v, c) in zip(words, rng.random((len(words), 3)), strict=True):
             if u < n / 4:
@@ -136,3 +237,31 @@ class UserSimulator:
             else:
                 heard.append((word, float(1.0 - n * c)))
         return tuple(heard)
+
+
+_PHRASINGS: dict[int, tuple[Domain, dict[str, tuple[str, ...]], tuple[str, ...]]] = {}
+
+
+def _phrasings(domain: Domain) -> tuple[dict[str, tuple[str, ...]], tuple[str, ...]]:
+    """User act -> the texts the person may say it with (its phrasings and user responses; a
+    drawing: its response texts without the tag, "" for a silent drawing), and every word of
+    them; worked out once per domain."""
+    cached = _PHRASINGS.get(id(domain))
+    if cached is not None and cached[0] is domain:
+        return cached[1], cached[2]
+    found: dict[str, dict[str, None]] = {}
+    for text, act in domain.user_phrases():
+        found.setdefault(act, {})[text] = None
+    for utterance in domain.responses_to(MOVE_REQUEST):
+        if is_game_move(utterance.act):
+            found.setdefault(GAME_MOVE_TEMPLATE, {})[" ".join(utterance.words)] = None
+    phrasings = {act: tuple(texts) for act, texts in found.items()}
+    words = tuple(
+        dict.fromkeys(w for texts in phrasings.values() for t in texts for w in t.split())
+    )
+    _PHRASINGS[id(domain)] = (domain, phrasings, words)
+    return phrasings, words
+
+
+def _mean(heard: Heard) -> float:
+    return sum(c for _, c in heard) / len(heard)

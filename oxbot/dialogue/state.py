@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from oxbot.dialogue.domain import game_move_cell, words_of
+from oxbot.dialogue.domain import ASK_AGAIN, INVITATION, game_move_cell, words_of
 from oxbot.errors import IllegalMoveError
 from oxbot.game.board import (
     EMPTY,
@@ -46,6 +46,7 @@ Heard = tuple[tuple[str, float], ...]
 """Words as the recogniser heard them, each with its confidence in [0, 1]."""
 Turn = dict[str, str]
 """One transcript entry (SPEC §5): `{"speaker": "sys" | "usr", "act": ..., "text": ...}`."""
+ASKING_TO_PLAY = frozenset({INVITATION, ASK_AGAIN})
 
 
 class DialogueState:
@@ -73,7 +74,17 @@ class DialogueState:
         """The words of the robot's last act (none after a turn it could not take)."""
         self.heard: Heard = ()
         """The person's words since the robot's last act, as heard."""
+        self.understood: tuple[str, float] | None = None
+        """The act the person's words since the robot's last act were understood as, with the
+        understanding's score (None: nothing said)."""
+        self.person_acts: list[str] = []
+        """Every act the person's turns were understood as, in order."""
+        self.invitations = 0
+        """How many times the robot has asked to play (invited, or asked again)."""
         self.transcript: list[Turn] = []
+        self.understood_turns: list[str] = []
+        """For each turn of the transcript, the act it was understood as (the robot's own turns
+        and drawings: their act)."""
         self._features: np.ndarray | None = None
 
     # --- the game ---------------------------------------------------------------------------
@@ -109,31 +120,45 @@ class DialogueState:
             self.board = play(self.board, cell, ROBOT)
         self.said.add(act)
         self.last_act = act
+        self.invitations += act in ASKING_TO_PLAY
         self.system_words = _words(text)
-        self.heard = ()
-        self.transcript.append({"speaker": "sys", "act": act, "text": text})
-        self._features = None
+        self.heard, self.understood = (), None
+        self._turn("sys", act, text)
 
     def robot_informs(self, act: str, text: str) -> None:
         """The robot says something outside the policy's acts (about an impossible drawing):
         in the transcript, not in what the policy sees."""
-        self.transcript.append({"speaker": "sys", "act": act, "text": text})
+        self._turn("sys", act, text)
 
     def robot_skips(self) -> None:
         """The robot's act could not be done (a GameMove out of turn): nothing said or heard."""
-        self.system_words, self.heard = (), ()
+        self.system_words, self.heard, self.understood = (), (), None
         self._features = None
 
-    def person_says(self, act: str, text: str, heard: Heard | None = None) -> None:
-        """The person's turn: `text` understood as `act`, heard as `heard` when they spoke
-        (None keeps what was heard before: a drawing makes no sound). A GameMove act on a
-        cell also puts the person's mark there."""
+    def person_says(
+        self,
+        act: str,
+        text: str,
+        heard: Heard | None = None,
+        understood: tuple[str, float] | None = None,
+    ) -> None:
+        """The person's turn: they meant `act` and said `text`, heard as `heard` and
+        understood as `understood` (an act and its score) when they spoke; None keeps what was
+        heard and understood before (a drawing makes no sound). A GameMove act on a cell also
+        puts the person's mark there. The transcript keeps `act`."""
         cell = game_move_cell(act)
         if cell is not None:
             self.board = play(self.board, cell, USER)
         if heard is not None:
             self.heard = tuple(heard)
-        self.transcript.append({"speaker": "usr", "act": act, "text": text})
+        if understood is not None:
+            self.understood = understood
+            self.person_acts.append(understood[0])
+        self._turn("usr", act, text, understood[0] if understood is not None else act)
+
+    def _turn(self, speaker: str, act: str, text: str, understood: str = "") -> None:
+        self.transcript.append({"speaker": speaker, "act": act, "text": text})
+        self.understood_turns.append(understood or act)
         self._features = None
 
     # --- how the policy sees it -------------------------------------------------------------
@@ -141,9 +166,7 @@ class DialogueState:
     def encode(self) -> np.ndarray:
         """The state's feature vector (`FeatureLayout`); do not modify it in place."""
         if self._features is None:
-            self._features = self.layout.encode(
-                self.system_words, self.heard, self.board, self.robot_starts, self.said
-            )
+            self._features = self.layout.encode(self)
         return self._features
 
     def offered(self) -> tuple[np.ndarray, np.ndarray]:
@@ -162,7 +185,9 @@ class DialogueState:
         """An independent copy (the layout and action model are shared)."""
         twin = copy.copy(self)
         twin.said = set(self.said)
+        twin.person_acts = list(self.person_acts)
         twin.transcript = list(self.transcript)
+        twin.understood_turns = list(self.understood_turns)
         twin._features = None
         return twin
 

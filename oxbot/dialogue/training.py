@@ -37,7 +37,13 @@ from oxbot.config import AgentConfig, OxbotConfig, opponent_mix, who_starts
 from oxbot.dialogue.agent import DQNPolicy, QNetwork, greedy_batch_policy, masked_argmax
 from oxbot.dialogue.domain import N_ACTIONS
 from oxbot.dialogue.env import InteractiveGameEnv
-from oxbot.dialogue.evaluation import CONDITIONS, condition_key, evaluate, losing_positions
+from oxbot.dialogue.evaluation import (
+    CONDITIONS,
+    Policy,
+    condition_key,
+    evaluate,
+    losing_positions,
+)
 from oxbot.errors import ModelFileError
 from oxbot.game.opponents import make_opponent
 
@@ -221,15 +227,16 @@ def learn_from(batch: Batch, learner: _Learner, step: int, config: AgentConfig) 
     learner.optimizer.step()
 
 
-def evaluation_score(results: dict[str, Any]) -> tuple[float, float]:
-    """Order policies: fewest losing boards and lost or badly formed games, then most wins."""
-    faults = results["losing_positions"] + sum(
+def evaluation_score(results: dict[str, Any]) -> tuple[float, float, float]:
+    """Order policies: fewest losing boards (a person who finds one beats the robot every
+    time), then fewest lost or badly formed dialogues, then most wins against random people."""
+    faults = sum(
         round(r["games"] * (r["loss_rate"] + 1 - r["well_formed"]))
         for r in results.values()
         if isinstance(r, dict)
     )
     wins = sum(r["win_rate"] for k, r in results.items() if k.startswith("random"))
-    return (-faults, wins)
+    return (-results["losing_positions"], -faults, wins)
 
 
 def train_agent(
@@ -245,6 +252,9 @@ def train_agent(
     out_dir = Path(out_dir)
     cfg = config.agent
     torch.set_num_threads(1)  # a 60-unit MLP trains fastest on one thread
+    # the same seed gives the same weights here; on another CPU, BLAS kernels may still sum in
+    # another order (docs/dialogue.md says what differs)
+    torch.use_deterministic_algorithms(True)
     started_at = time.perf_counter()
 
     # --- set-up: environment, networks, replay memory, opponents -------------------------------
@@ -320,7 +330,12 @@ def train_agent(
 def _new_learner(env: InteractiveGameEnv, cfg: AgentConfig) -> _Learner:
     rng = np.random.default_rng(cfg.seed)
     torch.manual_seed(cfg.seed)
-    q_network = QNetwork(env.layout.n_features, cfg.hidden_sizes)
+    board = env.layout.board
+    q_network = QNetwork(
+        env.layout.n_features,
+        cfg.hidden_sizes,
+        board_features=(board.start, board.stop) if cfg.board_head else None,
+    )
     return _Learner(
         q_network=q_network,
         target_network=copy.deepcopy(q_network),
@@ -397,11 +412,14 @@ def _finish(
     return TrainingResult(policy, metrics, out_dir)
 
 
-def _evaluate_and_keep_best(
-    config: OxbotConfig, q_network: QNetwork, run: TrainingState, step: int, elapsed: float
-) -> None:
+def evaluate_checkpoint(
+    config: OxbotConfig, policy: Policy, step: int
+) -> tuple[dict[str, Any], tuple[float, float]]:
+    """How a checkpoint of any learner is judged while it trains (the same for every learner):
+    `eval_games` dialogues per opponent and who-starts condition, and the game-tree check,
+    looked at harder when nothing else was wrong. The record for the metrics, and the score
+    checkpoints are ranked by (`evaluation_score`)."""
     cfg = config.agent
-    policy = greedy_batch_policy(q_network)
     results: dict[str, Any] = {
         condition_key(name, robot_starts): evaluate(
             policy, name, robot_starts, cfg.eval_games, config, seed=10_000 + step, n_envs=100
@@ -417,17 +435,23 @@ def _evaluate_and_keep_best(
             losing_positions(policy, s, config, noisy_variants=TREE_NOISE_VARIANTS[1], seed=step)
             for s in (True, False)
         )
-    score = evaluation_score(results)
     games = {k: r for k, r in results.items() if isinstance(r, dict)}
+    record = {
+        "step": step,
+        "losing_positions": results["losing_positions"],
+        **{k: [r["win_rate"], r["draw_rate"], r["loss_rate"]] for k, r in games.items()},
+        "well_formed": min(r["well_formed"] for r in games.values()),
+        "task_success": min(r["task_success"] for r in games.values()),
+    }
+    return record, evaluation_score(results)
+
+
+def _evaluate_and_keep_best(
+    config: OxbotConfig, q_network: QNetwork, run: TrainingState, step: int, elapsed: float
+) -> None:
+    record, score = evaluate_checkpoint(config, greedy_batch_policy(q_network), step)
     run.evaluations.append(
-        {
-            "step": step,
-            "episodes": run.episodes,
-            "elapsed_s": round(elapsed, 1),
-            "losing_positions": results["losing_positions"],
-            **{k: [r["win_rate"], r["draw_rate"], r["loss_rate"]] for k, r in games.items()},
-            "well_formed": min(r["well_formed"] for r in games.values()),
-        }
+        {"step": step, "episodes": run.episodes, "elapsed_s": round(elapsed, 1), **record}
     )
     if run.best_score is None or tuple(score) >= tuple(run.best_score):
         run.best_score = list(score)

@@ -8,6 +8,7 @@ Which *symbol* a mark is drawn with depends on who started: the starter draws ci
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Sequence
 from typing import Literal
@@ -37,6 +38,7 @@ the centre is `middle`)."""
 
 LABELS: tuple[str, ...] = ("circle", "cross", "nothing")
 """SPEC §1: the perceiver's labels, in this order when indexed 0, 1, 2."""
+PLURALS = {"circle": "circles", "cross": "crosses"}
 
 _ROWS = tuple(tuple(range(r * SIZE, (r + 1) * SIZE)) for r in range(SIZE))
 LINES: tuple[tuple[int, ...], ...] = (
@@ -92,6 +94,7 @@ def play(board: Board, cell: int, player: int) -> Board:
     return (*board[:cell], player, *board[cell + 1 :])
 
 
+@functools.lru_cache(maxsize=1 << 16)  # 3^9 boards at most; asked every turn of every dialogue
 def winner(board: Board) -> int:
     """ROBOT or USER if that player has three in a row, else EMPTY."""
     for line in LINES:
@@ -106,6 +109,7 @@ def is_full(board: Board) -> bool:
     return EMPTY not in board
 
 
+@functools.lru_cache(maxsize=1 << 16)
 def outcome(board: Board) -> Outcome | None:
     """The finished game's result from the robot's side, or None while it goes on."""
     w = winner(board)

@@ -35,6 +35,7 @@ from oxbot.game.board import (
     EMPTY,
     LABELS,
     N_CELLS,
+    PLURALS,
     ROBOT,
     USER,
     cell_index,
@@ -43,8 +44,6 @@ from oxbot.game.board import (
     to_move,
 )
 from oxbot.perception.sources import FrameSource
-
-PLURAL = {"circle": "circles", "cross": "crosses"}
 
 
 @dataclass(frozen=True)
@@ -229,7 +228,7 @@ class MoveTracker:
                 cells,
                 symbols,
                 f"a {symbol} appeared in {CELL_NAMES[cell]}, but the person draws "
-                f"{PLURAL[self.user_symbol]} ({starter} started, and the starter draws circles)",
+                f"{PLURALS[self.user_symbol]} ({starter} started, and the starter draws circles)",
             )
         self._board[cell] = symbol
         self._candidate, self._count = (), 0

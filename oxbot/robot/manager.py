@@ -36,6 +36,7 @@ from oxbot.dialogue.agent import DQNPolicy, load_policy, masked_argmax
 from oxbot.dialogue.domain import (
     CLOSING,
     MOVE_REQUEST,
+    NEW_GAME,
     PROBLEM,
     SILENCE,
     SYSTEM_ACTS,
@@ -47,7 +48,17 @@ from oxbot.dialogue.domain import (
 )
 from oxbot.dialogue.model import build_dialogue_model
 from oxbot.dialogue.state import DialogueState, Turn
-from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, Board, cell_index, symbol_of
+from oxbot.dialogue.understanding import UserAct
+from oxbot.game.board import (
+    CELL_NAMES,
+    EMPTY,
+    PLURALS,
+    ROBOT,
+    USER,
+    Board,
+    cell_index,
+    symbol_of,
+)
 from oxbot.robot.bus import Bus, Component
 from oxbot.robot.messages import (
     ArmCommand,
@@ -70,14 +81,15 @@ log = logging.getLogger(__name__)
 PROBLEM_SENTENCES = {
     "occupied_cell": "That cell is already taken. Please draw in an empty one.",
     "two_new_symbols": "I see two new symbols at once. Please draw one at a time.",
-    "wrong_symbol": "You draw {person}s and I draw {robot}s.",
+    "wrong_symbol": "You draw {person} and I draw {robot}.",
     "out_of_turn": "Please wait, it is my turn.",
     "game_over": "The game is over.",
 }
 """What the robot says (as the act PROBLEM, not one the policy chooses) about an impossible
 drawing, by the tracker's or the manager's problem kind."""
-Understand = Callable[[Sequence[tuple[str, float]]], str]
-"""Maps what the person said (an N-best list) to their dialogue act, for the log."""
+Understand = Callable[[Sequence[tuple[str, float]], str], UserAct]
+"""Reads what the person said (an N-best list) in the context of the robot's last act as
+their dialogue act with a score (`UserActClassifier.intent_of`)."""
 
 
 class Phase(enum.Enum):
@@ -119,7 +131,7 @@ class InteractionManagerComponent(Component):
         self.model = build_dialogue_model(self.config)
         self.policy = policy if policy is not None else load_policy()
         self.rng = rng if rng is not None else np.random.default_rng()
-        self._understand = understand
+        self._understand = understand or self.model.understanding.intent_of
         domain = self.model.domain
         answers = {act: {u.act for u in domain.responses_to(act)} for act in SYSTEM_ACTS}
         self._unanswered = {act for act, a in answers.items() if a <= {SILENCE}}
@@ -153,6 +165,8 @@ class InteractionManagerComponent(Component):
         if isinstance(message, NewGame):
             self._reset(message.robot_starts)
             self._decide()
+        elif self.phase is Phase.DONE and isinstance(message, SpeechHypotheses):
+            self._heard_after_goodbye(message)
         elif self.phase in (Phase.IDLE, Phase.DONE):
             return
         elif isinstance(message, SpeechHypotheses):
@@ -184,6 +198,7 @@ class InteractionManagerComponent(Component):
         self._spoke_since = False
         self._speaking = ""
         self._arm_cell: int | None = None
+        self._rematch = False
         self._deferred: list[str] = []
         self._deadline = 0.0
         self._publish_game()
@@ -215,6 +230,10 @@ class InteractionManagerComponent(Component):
         self.phase = Phase.SPEAKING
         self.bus.publish(Utterance(text=self._speaking, act=act))
 
+    def _last_sentence(self) -> str:
+        robot = [t["text"] for t in self.state.transcript if t["speaker"] == "sys"]
+        return robot[-1] if robot else ""
+
     def _spoke(self) -> None:
         if self._arm_cell is None:
             self._listen()
@@ -229,6 +248,8 @@ class InteractionManagerComponent(Component):
         if last_act == CLOSING:
             self.phase = Phase.DONE
             self.bus.publish(DialogueEnded(outcome=self.state.outcome))
+            if self._rematch:
+                self.bus.publish(NewGame(robot_starts=self.state.robot_starts))
             return
         self.phase = Phase.LISTENING
         for sentence in self._deferred:
@@ -261,12 +282,21 @@ class InteractionManagerComponent(Component):
         text, confidence = message.nbest[0]
         # per-word confidences when the recogniser gives them (paper §2.2), else the utterance's
         words = message.words or tuple((w, confidence) for w in words_of(text))
-        act = self._user_act(message.nbest)
-        self.state.person_says(act, text, words)
-        self._publish_turn("usr", act, text)
+        reading = self._understand(message.nbest, self.state.last_act)
+        self.state.person_says(reading.act, text, words, (reading.act, reading.score))
+        self._publish_turn("usr", reading.act, text)
         self._spoke_since = True
-        if self.phase is Phase.LISTENING and not (self._expects_move() and is_game_move(act)):
+        if reading.act == NEW_GAME and self.state.outcome is not None:
+            self._rematch = True  # after this dialogue's goodbye, another game
+        if self.phase is Phase.LISTENING and not (
+            self._expects_move() and is_game_move(reading.act)
+        ):
             self._decide()
+
+    def _heard_after_goodbye(self, message: SpeechHypotheses) -> None:
+        """After the goodbye the robot only listens for a new game ("again!", "new game")."""
+        if message.nbest and self._understand(message.nbest, "").act == NEW_GAME:
+            self.bus.publish(NewGame(robot_starts=self.state.robot_starts))
 
     def _moved(self, message: GameMove) -> None:
         if message.who != "usr":
@@ -299,7 +329,7 @@ class InteractionManagerComponent(Component):
     def _problem(self, kind: str) -> None:
         starts = self.state.robot_starts
         sentence = PROBLEM_SENTENCES.get(kind, "Something is wrong on the sheet.").format(
-            person=symbol_of(USER, starts), robot=symbol_of(ROBOT, starts)
+            person=PLURALS[symbol_of(USER, starts)], robot=PLURALS[symbol_of(ROBOT, starts)]
         )
         if self.phase is Phase.LISTENING:
             self._tell(sentence)
@@ -310,14 +340,6 @@ class InteractionManagerComponent(Component):
         self.state.robot_informs(PROBLEM, sentence)
         self._publish_turn("sys", PROBLEM, sentence)
         self.bus.publish(Utterance(text=sentence, act=PROBLEM))
-
-    def _user_act(self, nbest: Sequence[tuple[str, float]]) -> str:
-        if self._understand is None:
-            from oxbot.dialogue.understanding import UserActClassifier
-
-            classifier = UserActClassifier(self.model.domain)
-            self._understand = lambda heard: classifier.intent_of(heard).act
-        return self._understand(nbest)
 
     def _publish_turn(self, speaker: str, act: str, text: str) -> None:
         self.bus.publish(DialogueAct(speaker=speaker, act=act, text=text))

@@ -1,7 +1,8 @@
 """The whole robot in a terminal: `oxbot play --terminal`.
 
-The person types answers, or says them (`talk`, with a microphone), and types cells to draw
-in — or draws on real paper under a webcam (`--camera 0`). The robot's turns are printed the
+The person types answers, or says them (`talk`: push-to-talk until Enter; `listen`: hands-free,
+each utterance cut by the VAD, until an empty line), and types cells to draw in — or draws on
+real paper under a webcam (`--camera 0`). The robot's turns are printed the
 way the paper's Figure 1 prints them, `Rob: Your turn. [Request(userGameMove)]`, and spoken
 through the speakers when there are any. Without a microphone, speakers, espeak-ng or a camera
 the game goes on in text, after one clear warning each.
@@ -9,11 +10,16 @@ the game goes on in text, after one clear warning each.
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import queue
 import shutil
 import subprocess
 import threading
+import time
+from collections.abc import Iterator, Sequence
 
+import numpy as np
 from rich.console import Console
 from rich.markup import escape
 
@@ -29,6 +35,7 @@ from oxbot.game.terminal import (
     print_game_over,
     print_turn,
 )
+from oxbot.robot.listening import HandsFreeListener
 from oxbot.robot.messages import (
     BoardProblem,
     ComponentFailed,
@@ -39,13 +46,20 @@ from oxbot.robot.messages import (
     SpeakingStarted,
 )
 from oxbot.robot.session import Robot, warm_up
+from oxbot.speech.audio import RATE, Audio, to_wav_bytes
+from oxbot.speech.vad import first_speech
 
 log = logging.getLogger(__name__)
 
 HELP = (
-    f"Answer by typing (Enter sends), 'talk' to speak into the microphone, {CELL_HELP} to draw "
-    "in it, 'new' for a new game, 'quit' to leave."
+    f"Answer by typing (Enter sends), 'talk' to speak into the microphone (until Enter), "
+    f"'listen' to talk hands-free, {CELL_HELP} to draw in it, 'new' for a new game, 'quit' to "
+    "leave."
 )
+
+
+class _Quit(Exception):
+    """The person quit while the robot listened hands-free."""
 
 
 class Speakers:
@@ -82,36 +96,116 @@ class Speakers:
 
 
 class Microphone:
-    """Push-to-talk recordings with sox's `rec`: `start()`, then `stop()` returns the WAV."""
+    """The person's microphone through sox's `rec`: 16 kHz mono 16-bit PCM on a pipe.
 
-    def __init__(self) -> None:
-        self.available = shutil.which("rec") is not None
+    `opened()` starts `rec` and returns only once its first samples arrive (the device is
+    really open), so nobody is told to speak before anything records; `read` and `take` then
+    give the samples recorded since. `rec` failing, or giving nothing within `open_timeout`
+    seconds, is an InvalidInputError saying so, and the microphone is off from then on.
+    """
+
+    COMMAND = ("rec", "-q", "-t", "raw", "-r", str(RATE), "-e", "signed-integer", "-b", "16")
+    COMMAND += ("-L", "-c", "1", "-")
+
+    def __init__(self, command: Sequence[str] = COMMAND, open_timeout: float = 5.0) -> None:
+        self.command = tuple(command)
+        self.open_timeout = open_timeout
+        self.available = shutil.which(self.command[0]) is not None
         self._process: subprocess.Popen[bytes] | None = None
+        self._samples: queue.SimpleQueue[np.ndarray] = queue.SimpleQueue()
+        self._receiving = threading.Event()
+        self._reader: threading.Thread | None = None
 
-    def start(self) -> None:
+    @property
+    def receiving(self) -> bool:
+        """Whether samples have arrived since the microphone was opened."""
+        return self._receiving.is_set()
+
+    @contextlib.contextmanager
+    def opened(self) -> Iterator[Microphone]:
+        """The microphone open, samples arriving; closed on leaving."""
+        self.open()
+        try:
+            yield self
+        finally:
+            self.close()
+
+    def open(self) -> None:
         if not self.available:
-            raise InvalidInputError("there is no microphone recorder (sox's `rec`); type instead")
+            raise InvalidInputError(
+                f"there is no microphone recorder (sox's `{self.command[0]}`); type instead"
+            )
+        self._samples = queue.SimpleQueue()
+        self._receiving.clear()
         self._process = subprocess.Popen(
-            ["rec", "-q", "-r", "16000", "-c", "1", "-b", "16", "-t", "wav", "-"],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
+            self.command, stdout=subprocess.PIPE, stderr=subprocess.PIPE
+        )
+        self._reader = threading.Thread(
+            target=self._read_all, args=(self._process,), name="oxbot-microphone", daemon=True
+        )
+        self._reader.start()
+        deadline = time.monotonic() + self.open_timeout
+        while not self._receiving.wait(0.02):
+            if self._process.poll() is not None or time.monotonic() > deadline:
+                self._fail()
+
+    def _fail(self) -> None:
+        process = self._stop()
+        err = process.stderr.read().decode(errors="replace") if process and process.stderr else ""
+        lines = err.strip().splitlines()
+        self.available = False
+        raise InvalidInputError(
+            f"no microphone could be opened ({lines[-1] if lines else 'no audio'}); "
+            "type your answers instead"
         )
 
-    def stop(self) -> bytes:
+    def _read_all(self, process: subprocess.Popen[bytes]) -> None:
+        assert process.stdout is not None
+        odd = b""
+        while chunk := process.stdout.read1(3200):  # 0.1 s at most
+            data, odd = odd + chunk, b""
+            if len(data) % 2:
+                data, odd = data[:-1], data[-1:]
+            if data:
+                self._samples.put(np.frombuffer(data, dtype="<i2").astype(np.int16))
+                self._receiving.set()
+
+    def read(self, timeout: float = 0.1) -> np.ndarray | None:
+        """The next samples, or None after `timeout` seconds without any."""
+        try:
+            return self._samples.get(timeout=timeout)
+        except queue.Empty:
+            return None
+
+    def take(self) -> np.ndarray:
+        """Every sample waiting now."""
+        chunks = []
+        while (chunk := self.read(timeout=0)) is not None:
+            chunks.append(chunk)
+        return np.concatenate(chunks) if chunks else np.zeros(0, np.int16)
+
+    @property
+    def running(self) -> bool:
+        return self._process is not None and self._process.poll() is None
+
+    def close(self) -> None:
+        """Stop recording; what was recorded stays for `take`."""
+        self._stop()
+
+    def _stop(self) -> subprocess.Popen[bytes] | None:
         process, self._process = self._process, None
         if process is None:
-            return b""
+            return None
         if process.poll() is None:
             process.terminate()
-        wav, err = process.communicate(timeout=5)
-        if len(wav) <= 44:
-            self.available = False
-            message = err.decode(errors="replace").strip().splitlines()
-            raise InvalidInputError(
-                f"no microphone could be opened ({message[-1] if message else 'no audio'}); "
-                "type your answers instead"
-            )
-        return wav
+            try:
+                process.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+        if self._reader is not None:
+            self._reader.join(2)
+        return process
 
 
 class TerminalRobot:
@@ -152,6 +246,8 @@ class TerminalRobot:
                 if line.lower() in QUIT_WORDS:
                     return
                 self._take(line)
+        except _Quit:
+            return
         finally:
             self._stopping.set()
             self.robot.stop()
@@ -165,6 +261,8 @@ class TerminalRobot:
                 self.robot.new_game()
             elif line.lower() == "talk":
                 self._talk()
+            elif line.lower() == "listen":
+                self._listen()
             elif self.typed_moves and is_cell(line):
                 self.robot.draw(line)
             else:
@@ -178,9 +276,51 @@ class TerminalRobot:
         return not self.robot.watching_sheet
 
     def _talk(self) -> None:
-        self.microphone.start()
-        self.read_line("recording... press Enter to stop ")
-        self.robot.hear(self.microphone.stop())
+        """Push-to-talk: from the moment `rec` really records until Enter."""
+        with self.microphone.opened():
+            self.read_line("recording... press Enter to stop ")
+        samples = self.microphone.take()
+        if len(samples) < RATE // 10:
+            raise InvalidInputError("the recording is shorter than 0.1 s; talk, then press Enter")
+        listening = self.robot.config.speech.listening
+        start = first_speech(samples, listening)  # None: no speech found, keep it all
+        self.robot.hear(to_wav_bytes(Audio(samples[start or 0 :], RATE)))
+
+    def _listen(self) -> None:
+        """Hands-free: the robot hears each utterance (not its own voice) until an empty line;
+        typed lines are taken as usual meanwhile."""
+        stop = threading.Event()
+        with self.microphone.opened():
+            listener = HandsFreeListener(self.robot, self.robot.config.speech.listening)
+            feeder = threading.Thread(
+                target=self._feed, args=(listener, stop), name="oxbot-terminal-listen", daemon=True
+            )
+            feeder.start()
+            self.console.print("[dim]Listening: just speak. An empty line stops listening.[/]")
+            try:
+                while line := self.read_line("").strip():
+                    if line.lower() in QUIT_WORDS:
+                        raise _Quit
+                    if line.lower() in ("talk", "listen"):
+                        self.console.print("[dim]Already listening: just speak.[/]")
+                        continue
+                    self._take(line)
+            except EOFError:
+                raise _Quit from None
+            finally:
+                stop.set()
+                feeder.join(2)
+                listener.close()
+        self.console.print("[dim]Stopped listening.[/]")
+
+    def _feed(self, listener: HandsFreeListener, stop: threading.Event) -> None:
+        while not stop.is_set():
+            samples = self.microphone.read(timeout=0.1)
+            if samples is not None:
+                listener.feed(samples)
+            elif not self.microphone.running:
+                log.warning("the microphone stopped; press Enter, then type your answers")
+                return
 
     def _print_events(self) -> None:
         while not self._stopping.is_set():

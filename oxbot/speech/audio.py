@@ -110,3 +110,86 @@ def add_noise(samples: np.ndarray, snr_db: float, rng: np.random.Generator) -> n
     power = float(np.mean(x**2)) if len(x) else 0.0
     noise = rng.normal(0.0, np.sqrt(power / 10 ** (snr_db / 10)), len(x))
     return np.clip(np.round(x + noise), -32768, 32767).astype(np.int16)
+
+
+PEAK_DBFS = -6.0
+"""The level `normalise_level` brings a recording's peak to: about espeak-ng's own (its 99.9th
+percentile of |sample| lies at -7 to -3 dBFS), so quiet and loud microphones sound alike."""
+MAX_GAIN_DB = 36.0
+"""The most `normalise_level` amplifies: a quiet microphone (-30 dBFS peak) is brought up in
+full, a recording of nothing but hiss is not made into a loud one."""
+
+
+def level_dbfs(samples: np.ndarray) -> float:
+    """The recording's peak in dB below full scale (its 99.9th percentile of |sample|, so that a
+    single click does not count); -inf for silence."""
+    if len(samples) == 0:
+        return float("-inf")
+    peak = float(np.percentile(np.abs(samples.astype(np.float64)), 99.9))
+    return 20 * np.log10(peak / 32768) if peak > 0 else float("-inf")
+
+
+def normalise_level(
+    samples: np.ndarray, peak_dbfs: float = PEAK_DBFS, max_gain_db: float = MAX_GAIN_DB
+) -> np.ndarray:
+    """`samples` scaled so that their peak (`level_dbfs`) lies at `peak_dbfs`, amplified by at
+    most `max_gain_db`; silence stays silence."""
+    level = level_dbfs(samples)
+    if not np.isfinite(level):
+        return samples.copy()
+    gain = 10 ** (min(peak_dbfs - level, max_gain_db) / 20)
+    x = samples.astype(np.float64) * gain
+    return np.clip(np.round(x), -32768, 32767).astype(np.int16)
+
+
+SILENT_DBFS = -70.0
+"""A recording whose loudest frame's RMS lies below this holds nothing (exact zeros, a muted
+microphone)."""
+FRAME, HOP = RATE * 25 // 1000, RATE // 100
+"""Frames of 25 ms every 10 ms, as the recogniser's own front end reads them."""
+DYNAMIC_RANGE_DB = 35.0
+"""A frame this far below the loudest one is silence (and one within 10 dB of the quietest tenth
+of the frames, the background, unless that is within 10 dB of the loudest: all sound)."""
+
+
+def speech_span(samples: np.ndarray) -> tuple[int, int] | None:
+    """The first and one past the last sample of the frames that hold sound, or None when the
+    recording is silent: a frame counts when its energy lies within `DYNAMIC_RANGE_DB` of the
+    loudest frame and 10 dB above the quietest tenth (the background), so exact zeros, faint
+    hiss and a steady background all count as silence; a recording without a pause is sound
+    from end to end."""
+    if len(samples) < FRAME:
+        return None
+    x = samples.astype(np.float64)
+    starts = np.arange(0, len(x) - FRAME + 1, HOP)
+    frames = x[starts[:, None] + np.arange(FRAME)[None, :]]
+    energy = 10 * np.log10(np.mean(frames**2, axis=1) + 1e-3)
+    loudest = energy.max()
+    if loudest < 20 * np.log10(32768) + SILENT_DBFS:
+        return None
+    background = min(float(np.percentile(energy, 10)) + 10, loudest - 10)
+    threshold = max(loudest - DYNAMIC_RANGE_DB, background)
+    loud = np.flatnonzero(energy > threshold)
+    if len(loud) == 0:
+        return None
+    last = len(samples) if loud[-1] == len(starts) - 1 else int(starts[loud[-1]] + FRAME)
+    return int(starts[loud[0]]), last
+
+
+def trim_silence(samples: np.ndarray, margin: float = 0.2) -> np.ndarray | None:
+    """The recording from `margin` seconds before its sound to `margin` seconds after, padded
+    with zeros where the recording holds less: however much silence surrounds the words, the
+    recogniser hears the same. None when the recording is silent (`speech_span`)."""
+    span = speech_span(samples)
+    if span is None:
+        return None
+    first, last = span
+    pad = round(margin * RATE)
+    start, end = max(0, first - pad), min(len(samples), last + pad)
+    return np.concatenate(
+        [
+            np.zeros(pad - (first - start), np.int16),
+            samples[start:end].astype(np.int16),
+            np.zeros(pad - (end - last), np.int16),
+        ]
+    )

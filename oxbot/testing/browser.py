@@ -8,7 +8,9 @@ Playwright's own browser download does not work on these machines; the system's 
 
 from __future__ import annotations
 
+import base64
 import itertools
+import json
 import time
 from typing import Any
 
@@ -61,3 +63,49 @@ def draw(
         touch.send("Input.dispatchTouchEvent", {"type": "touchEnd", "touchPoints": []})
     if touch is not None:
         touch.detach()
+
+
+ROOM = """
+(() => {
+  const voice = Uint8Array.from(atob(%s), (c) => c.charCodeAt(0)).buffer, openMs = %d;
+  const room = { ctx: null, dest: null, buffer: null, spoken: [], listening: false };
+  window.__room = room;
+  async function ready() {
+    if (room.ctx) return;
+    room.ctx = new AudioContext();
+    room.dest = room.ctx.createMediaStreamDestination();
+    room.buffer = await room.ctx.decodeAudioData(voice.slice(0));
+  }
+  const real = navigator.mediaDevices.getUserMedia.bind(navigator.mediaDevices);
+  navigator.mediaDevices.getUserMedia = async (constraints) => {
+    if (!constraints || !constraints.audio) return real(constraints);
+    await ready();
+    await new Promise((r) => setTimeout(r, openMs));   // a device takes time to open
+    return new MediaStream([room.dest.stream.getAudioTracks()[0].clone()]);
+  };
+  addEventListener("DOMContentLoaded", () => {
+    ready();
+    const button = document.getElementById("talk");
+    new MutationObserver(() => {
+      const now = /Listening/.test(button.textContent);
+      if (now && !room.listening) {   // the person starts talking at once
+        const src = room.ctx.createBufferSource();
+        src.buffer = room.buffer; src.connect(room.dest); src.start();
+        room.spoken.push(performance.now());
+      }
+      room.listening = now;
+    }).observe(button, { childList: true, characterData: true, subtree: true });
+  });
+})();
+"""
+
+
+def room_script(wav: bytes, open_ms: int = 0) -> str:
+    """A page init script (Playwright's `add_init_script`) that stands in for a person and a
+    real microphone: the person says `wav` the moment the talk button says "Listening", in a
+    "room" (an AudioContext) that the page's getUserMedia hears through a
+    MediaStreamAudioDestinationNode, opened `open_ms` after it is asked for. Unlike
+    Chromium's fake microphone, which starts its file when the page opens it, a real
+    microphone hears the room whether the page listens yet or not: what the page misses, a
+    person loses. `window.__room.spoken` holds when each sentence began (performance.now)."""
+    return ROOM % (json.dumps(base64.b64encode(wav).decode()), open_ms)

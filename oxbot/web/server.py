@@ -11,11 +11,22 @@ client → server (JSON text messages)::
     {"type": "look", "image": "data:image/jpeg;base64,..."}   a webcam frame, head tracking
     {"type": "say", "text": "yes let's play"}                  typed answer
     {"type": "talk", "rate": 16000, "pcm": "<base64 int16>"}   push-to-talk, 16 kHz mono
+    {"type": "listen", "rate": 16000, "pcm": "<base64 int16>"} hands-free: the stream's next
+                                                               piece (at most 1 s; the page
+                                                               sends 0.1 s)
+    {"type": "listen_off"}                                     hands-free ends or pauses
     {"type": "new_game", "image": "data:..."}                  a fresh sheet and game
+
+Hands-free: the server cuts the stream of `listen` pieces into utterances with the VAD
+(oxbot.speech.vad, `[speech.listening]`) and hands each to the robot exactly as a push-to-talk
+recording. While the robot speaks (SpeakingStarted until `echo_seconds` after
+SpeakingFinished) the stream is not listened to, and `listen_off` drops an utterance under
+way. `listen` pieces after the robot's goodbye are checked, then dropped without an Error (a
+stream cannot stop at the goodbye's instant).
 
 server → client: {"type": "Hello", "data": {...}} first (the session's symbols, the cell
 names and the system acts), then every bus message, and {"type": "Error", "data": {"message",
-"about", "code"}} for anything the server refused (`code` is "game_over" for game messages
+"about", "code"}} for anything the server refused (`code` is "game_over" for a drawing
 after the robot's goodbye, else empty). A bad message never closes the socket and never
 reaches another session. The limits are `[web]` in the config (`oxbot config`).
 """
@@ -41,8 +52,9 @@ from fastapi import FastAPI, WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 from PIL import Image, UnidentifiedImageError
 
-from oxbot.config import OxbotConfig, WebConfig
+from oxbot.config import ListeningConfig, OxbotConfig, WebConfig
 from oxbot.errors import ConfigError, InvalidInputError, OxbotError
+from oxbot.robot.listening import HandsFreeListener
 from oxbot.robot.messages import to_json
 from oxbot.speech.audio import Audio, to_wav_bytes
 
@@ -116,11 +128,12 @@ def decode_image(payload: object, limits: WebConfig) -> np.ndarray:
         raise InvalidInputError(f"'image' is not a readable PNG or JPEG image ({exc})") from None
 
 
-def pcm_to_wav(payload: object, rate: object, limits: WebConfig) -> bytes:
-    """Base64 little-endian int16 mono PCM at `limits.audio_rate` as WAV bytes."""
+def decode_pcm(payload: object, rate: object, limits: WebConfig, what: str) -> np.ndarray:
+    """Base64 little-endian int16 mono PCM at `limits.audio_rate` as samples (`what` names
+    the audio in errors)."""
     if rate != limits.audio_rate:
         raise InvalidInputError(
-            f"push-to-talk audio must be {limits.audio_rate} Hz mono 16-bit PCM; got rate "
+            f"{what} must be {limits.audio_rate} Hz mono 16-bit PCM; got rate "
             f"{rate!r} (the page resamples with AudioContext({{sampleRate: "
             f"{limits.audio_rate}}}))"
         )
@@ -132,7 +145,13 @@ def pcm_to_wav(payload: object, rate: object, limits: WebConfig) -> bytes:
         raise InvalidInputError("'pcm' is not valid base64") from None
     if len(raw) % 2:
         raise InvalidInputError("'pcm' holds an odd number of bytes; samples are 16-bit")
-    seconds = len(raw) / 2 / limits.audio_rate
+    return np.frombuffer(raw, dtype="<i2").astype(np.int16)
+
+
+def pcm_to_wav(payload: object, rate: object, limits: WebConfig) -> bytes:
+    """Base64 little-endian int16 mono PCM at `limits.audio_rate` as WAV bytes."""
+    samples = decode_pcm(payload, rate, limits, "push-to-talk audio")
+    seconds = len(samples) / limits.audio_rate
     if seconds > limits.max_audio_seconds:
         raise InvalidInputError(
             f"recording is {seconds:.1f} s; push-to-talk takes at most "
@@ -140,7 +159,26 @@ def pcm_to_wav(payload: object, rate: object, limits: WebConfig) -> bytes:
         )
     if seconds < 0.1:
         raise InvalidInputError("recording is shorter than 0.1 s; hold the button while talking")
-    return to_wav_bytes(Audio(np.frombuffer(raw, dtype="<i2"), limits.audio_rate))
+    return to_wav_bytes(Audio(samples, limits.audio_rate))
+
+
+def stream_piece(payload: object, rate: object, limits: WebConfig) -> np.ndarray:
+    """A hands-free stream's next piece: base64 int16 PCM at `limits.audio_rate`, at most
+    `limits.max_stream_piece_seconds` long, as samples."""
+    samples = decode_pcm(payload, rate, limits, "hands-free audio")
+    if not len(samples):
+        raise InvalidInputError("'pcm' is empty; send the stream's next samples")
+    seconds = len(samples) / limits.audio_rate
+    if seconds > limits.max_stream_piece_seconds:
+        raise InvalidInputError(
+            f"a hands-free piece is {seconds:.2f} s; send at most "
+            f"{limits.max_stream_piece_seconds:g} s at a time"
+        )
+    return samples
+
+
+STREAM_PIECE_SECONDS = 0.1
+"""How much of the hands-free stream the page sends at a time (told in Hello)."""
 
 
 # --- one session per tab ---
@@ -152,10 +190,14 @@ class Session:
 
     ids = itertools.count(1)
 
-    def __init__(self, robot: RobotLike, limits: WebConfig) -> None:
+    def __init__(
+        self, robot: RobotLike, limits: WebConfig, listening: ListeningConfig | None = None
+    ) -> None:
         self.id = next(self.ids)
         self.robot = robot
         self.limits = limits
+        self.listening = listening if listening is not None else ListeningConfig()
+        self.listener: HandsFreeListener | None = None  # made at the first hands-free piece
         self.outbox: asyncio.Queue[str | None] = asyncio.Queue()
         self._loop = asyncio.get_running_loop()
         self._subscription = robot.bus.subscribe()
@@ -176,6 +218,8 @@ class Session:
             self.robot.stop()
         finally:
             self._subscription.close()
+            if self.listener is not None:
+                self.listener.close()
             self._bridge.join(2.0)
 
     def _forward(self) -> None:
@@ -239,6 +283,19 @@ class Session:
     def _on_talk(self, message: dict) -> None:
         self.robot.hear(pcm_to_wav(message.get("pcm"), message.get("rate"), self.limits))
 
+    def _on_listen(self, message: dict) -> None:
+        samples = stream_piece(message.get("pcm"), message.get("rate"), self.limits)
+        if self.listener is None:
+            self.listener = HandsFreeListener(self.robot, self.listening)  # loads the VAD
+        if self.robot.finished:  # the goodbye: nothing more to hear until a new game
+            self.listener.stop_listening()
+            return
+        self.listener.feed(samples)
+
+    def _on_listen_off(self, message: dict) -> None:
+        if self.listener is not None:
+            self.listener.stop_listening()
+
     def _on_new_game(self, message: dict) -> None:
         image = message.get("image")
         frame = decode_image(image, self.limits) if image is not None else None
@@ -255,10 +312,13 @@ class GameOver(InvalidInputError):
     code = "game_over"
 
 
-CLIENT_TYPES = ("frame", "look", "say", "talk", "new_game")
+CLIENT_TYPES = ("frame", "look", "say", "talk", "listen", "listen_off", "new_game")
 """The message types a tab may send."""
-GAME_TYPES = ("frame", "say", "talk")
-"""The ones refused once the robot has said goodbye (until a new game)."""
+GAME_TYPES = ("frame",)
+"""The ones refused once the robot has said goodbye (until a new game). Words still reach the
+robot, which listens for "new game", "again!" after its goodbye."""
+OFF_LOOP_TYPES = ("listen", "listen_off")
+"""The ones handled off the event loop: the VAD (loaded at the first piece) runs on each."""
 
 
 # --- the app ---
@@ -304,6 +364,7 @@ def create_app(
     sessions: dict[int, Session] = {}
     app.state.sessions = sessions
     app.state.limits = limits
+    app.state.listening = config.speech.listening
 
     @app.get("/", response_class=HTMLResponse)
     def page() -> HTMLResponse:
@@ -352,7 +413,7 @@ async def _game_session(
         await websocket.send_text(_error_text(f"the robot cannot start: {exc}"))
         await websocket.close(code=1011)
         return
-    session = Session(robot, limits)
+    session = Session(robot, limits, app.state.listening)
     sessions[session.id] = session
     log.info("session %d opened (%d running)", session.id, len(sessions))
     sender = None
@@ -402,6 +463,8 @@ def _hello(session: Session, app: FastAPI) -> dict:
         "stable_readings": app.state.stable_readings,
         "speed_factor": app.state.speed_factor,
         "audio_rate": session.limits.audio_rate,
+        "pre_roll_seconds": session.listening.pre_roll_seconds,
+        "stream_piece_seconds": STREAM_PIECE_SECONDS,
     }
 
 
@@ -452,8 +515,9 @@ async def _receive_all(websocket: WebSocket, session: Session) -> None:
 
 
 def _heavy(text: str) -> bool:
-    """Messages whose decoding takes long enough to keep off the event loop."""
-    return len(text) > 20_000
+    """Messages whose decoding (a sheet image) or handling (the VAD) takes long enough to
+    keep off the event loop."""
+    return len(text) > 20_000 or _kind(text) in OFF_LOOP_TYPES
 
 
 def _kind(text: str) -> str:
@@ -537,7 +601,9 @@ __all__ = [
     "check_port_free",
     "create_app",
     "decode_image",
+    "decode_pcm",
     "pcm_to_wav",
     "serve",
     "serving_in_background",
+    "stream_piece",
 ]

@@ -3,28 +3,39 @@ from collections import Counter
 
 import pytest
 
-from oxbot.dialogue.domain import FEEDBACK_ACTS, GAME_MOVES, SYSTEM_ACTS, load_domain, words_of
+from oxbot.dialogue.domain import (
+    FEEDBACK_ACTS,
+    GAME_MOVES,
+    PAPER_ACTS,
+    SYSTEM_ACTS,
+    load_domain,
+    words_of,
+)
 from oxbot.errors import DataError
 from tests.dialogue.conftest import replace_line
 
 
-def test_shipped_domain_has_ten_varied_seed_dialogues():
+def test_shipped_domain_has_varied_seed_dialogues_games_and_refusals():
     domain = load_domain()
-    assert len(domain.dialogues) == 10
+    assert len(domain.dialogues) == 18
     feedback = Counter(
         u.act for d in domain.dialogues for u in d if u.act.startswith("Provide(feedback=")
     )
     assert set(feedback) == set(FEEDBACK_ACTS.values())  # robot wins, draws and losses
-    starters = Counter(next(u.speaker for u in d if u.cell is not None) for d in domain.dialogues)
-    assert starters == {"SYS": 5, "USR": 5}
-    moves = {sum(u.cell is not None for u in d) for d in domain.dialogues}
+    games = [d for d in domain.dialogues if any(u.cell is not None for u in d)]
+    starters = Counter(next(u.speaker for u in d if u.cell is not None) for d in games)
+    assert starters == {"SYS": 8, "USR": 7}
+    refusals = [d for d in domain.dialogues if d not in games]
+    assert len(refusals) == 3  # no thanks; no twice; maybe later
+    assert all("Acknowledge(playGame=no)" in [u.act for u in d] for d in refusals)
+    moves = {sum(u.cell is not None for u in d) for d in games}
     assert len(moves) >= 3  # games of different lengths
     openings = {tuple(u.act for u in d[:3]) for d in domain.dialogues}
     acceptances = {u.text for d in domain.dialogues for u in d if u.act == "Confirm(playGame=yes)"}
     assert len(openings) >= 3 and len(acceptances) >= 3
 
 
-def test_every_act_has_a_template_and_the_vocabulary_is_about_forty_words():
+def test_every_act_has_templates_and_the_vocabulary_is_under_a_hundred_words():
     domain = load_domain()
     for act in SYSTEM_ACTS:
         assert domain.templates_for(act), act
@@ -32,8 +43,10 @@ def test_every_act_has_a_template_and_the_vocabulary_is_about_forty_words():
         "GameMove(gridloc=middle)"
     )
     assert "Provide(feedback=loose)" in SYSTEM_ACTS  # the paper's spelling
-    assert len(SYSTEM_ACTS) == 18 and SYSTEM_ACTS[:9] == GAME_MOVES
-    assert 30 <= len(domain.vocabulary) <= 45
+    assert len(PAPER_ACTS) == 18 and SYSTEM_ACTS[:18] == PAPER_ACTS
+    assert SYSTEM_ACTS[:9] == GAME_MOVES
+    assert all(len(domain.templates_for(act)) >= 2 for act in SYSTEM_ACTS)  # varied
+    assert 60 <= len(domain.vocabulary) <= 100
     assert {"hello", "oxbot", "turn", "won", "draw", "bye", "pick"} <= set(domain.vocabulary)
 
 
@@ -81,7 +94,6 @@ def test_words_leave_out_the_drawing():
             'SYS:[Provide(feedback=draw)]"It is a draw."',
             "does not match the game (win)",
         ),
-        ("templates.txt", 'SYS:[Provide(name)]"I am oxbot."', "", "no template for Provide(name)"),
         (
             "templates.txt",
             'SYS:[Salutation(greeting)]"Hi!"',
@@ -135,4 +147,34 @@ def test_an_empty_vocabulary_is_refused(domain_dir):
 def test_a_missing_file_is_named(domain_dir):
     (domain_dir / "dialogues.txt").unlink()
     with pytest.raises(DataError, match=r"dialogues\.txt does not exist"):
+        load_domain(domain_dir)
+
+
+def test_an_act_without_a_template_is_reported(domain_dir):
+    templates = domain_dir / "templates.txt"
+    lines = templates.read_text(encoding="utf-8").splitlines()
+    kept = [line for line in lines if not line.startswith("SYS:[Request(repeat)]")]
+    templates.write_text("\n".join(kept) + "\n", encoding="utf-8")
+    with pytest.raises(DataError, match=re.escape("no template for Request(repeat)")):
+        load_domain(domain_dir)
+
+
+def test_an_act_no_seed_dialogue_shows_is_refused(domain_dir):
+    dialogues = domain_dir / "dialogues.txt"
+    text = dialogues.read_text(encoding="utf-8").replace(
+        "Acknowledge(stop)", "Acknowledge(playGame=no)"
+    )
+    dialogues.write_text(text, encoding="utf-8")
+    with pytest.raises(DataError, match=re.escape("shows the robot's Acknowledge(stop)")):
+        load_domain(domain_dir)
+
+
+def test_phrasings_are_read_by_act_and_checked(domain_dir):
+    domain = load_domain(domain_dir)
+    assert {"sure why not", "yes please"} <= set(domain.phrasings["Confirm(playGame=yes)"])
+    assert "no thanks" in domain.phrasings["Reject(playGame=no)"]
+    assert sum(len(p) for p in domain.phrasings.values()) >= 400  # hundreds of phrasings
+    phrases = domain_dir / "user_phrases.txt"
+    phrases.write_text(phrases.read_text(encoding="utf-8") + "\n[Dance]\ncha cha\n")
+    with pytest.raises(DataError, match=r"user_phrases.txt:\d+: unknown user act \[Dance\]"):
         load_domain(domain_dir)

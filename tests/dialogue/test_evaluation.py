@@ -2,8 +2,9 @@ import time
 
 import pytest
 
+from oxbot.config import load_config
 from oxbot.dialogue.agent import load_policy
-from oxbot.dialogue.evaluation import check_dialogue, evaluate, losing_positions
+from oxbot.dialogue.evaluation import OUTCOMES, check_dialogue, evaluate, losing_positions
 from oxbot.game import win_probability_vs_random
 from oxbot.game.board import EMPTY_BOARD, ROBOT
 
@@ -54,18 +55,160 @@ def test_each_broken_rule_is_caught(edit, outcome, problem):
     assert problem in check_dialogue(edit(FIGURE_1), outcome)
 
 
+GREETED = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playGame)")]
+
+
+@pytest.mark.parametrize(
+    "transcript,outcome,problem",
+    [
+        # let a no go: acknowledge it, say goodbye, play nothing
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=no)"),
+                sys("Acknowledge(playGame=no)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
+            None,
+        ),
+        (
+            [*GREETED, usr("Reject(playGame=no)"), sys("Salutation(closing)")],
+            "declined",
+            "says goodbye to a no without acknowledging it",
+        ),
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=later)"),
+                sys("Reply(playGame=yes)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
+            "starts a game nobody agreed to",
+        ),
+        # ask once more after a no, never twice
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=no)"),
+                sys("Request(playGame)"),
+                usr("Reject(playGame=no)"),
+                sys("Request(repeat)"),
+                usr("Reject(playGame=no)"),
+                sys("Acknowledge(playGame=no)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
+            "asks to play again after being told no twice",
+        ),
+        # a game nobody agreed to: the answer was not understood
+        (
+            [*GREETED, usr("Unknown"), sys("Reply(playGame=yes)"), sys("Salutation(closing)")],
+            "loss",
+            "starts a game nobody agreed to",
+        ),
+        # a stop is a stop
+        (
+            [
+                *FIGURE_1[:8],
+                usr("Request(stop)"),
+                sys("Acknowledge(stop)"),
+                sys("Salutation(closing)"),
+            ],
+            "stopped",
+            None,
+        ),
+        (
+            [
+                *FIGURE_1[:8],
+                usr("Request(stop)"),
+                sys("Request(userGameMove)"),
+                usr("Request(stop)"),
+                sys("Request(userGameMove)"),
+                sys("Salutation(closing)"),
+            ],
+            "stopped",
+            "asks for a move again after being asked to stop twice",
+        ),
+        # never walk away from a person who wanted to play
+        (
+            [*GREETED, usr("Confirm(playGame=yes)"), sys("Salutation(closing)")],
+            "abandoned",
+            "walks away from a person who wanted to play",
+        ),
+        (
+            [*FIGURE_1[:8], sys("Salutation(closing)")],
+            "abandoned",
+            "walks away from an unfinished game",
+        ),
+    ],
+)
+def test_the_rules_for_people_who_say_no_stop_or_are_not_understood(transcript, outcome, problem):
+    found = check_dialogue(transcript, outcome)
+    if problem is None:
+        assert found is None
+    else:
+        assert found is not None and problem in found, found
+
+
 def test_the_shipped_policy_never_loses_and_wins_near_the_optimum():
-    """A quick version of the acceptance check; the full 10,000 games are in the slow test."""
+    """A quick version of the acceptance check; the full 10,000 games are in the slow test.
+    Game play, against people who always play a whole game, heard through the noisy ASR."""
     policy = load_policy()
     for opponent, games in (("random", 1000), ("blocker", 300), ("minimax", 300)):
         for robot_starts in (True, False):
-            r = evaluate(policy.act_batch, opponent, robot_starts, games, seed=123)
+            r = evaluate(
+                policy.act_batch, opponent, robot_starts, games, seed=123, cooperative=True
+            )
             assert r.loss_rate == 0, (opponent, robot_starts, r.summary())
-            assert r.well_formed == 1.0, r.problems
+            # Misheard, "well done" can sound like a stop and "oh no" after the game like a
+            # refusal to acknowledge: measured 99.5-99.9% well formed.
+            assert r.well_formed >= 0.98, r.problems
             assert r.truncated == 0
             if opponent == "random":
                 optimum = win_probability_vs_random(EMPTY_BOARD, ROBOT, robot_starts)
                 assert r.win_rate >= optimum - 0.02  # 1,000 games: 2 points of slack
+
+
+@pytest.mark.parametrize("cooperative", [True, False])
+def test_the_shipped_policy_is_well_formed_when_it_hears_right(cooperative):
+    """Every rule kept, with every kind of person, when nothing is misheard."""
+    config = load_config(None, ["dialogue.asr_noise=0"])
+    policy = load_policy()
+    for opponent in ("random", "blocker", "minimax"):
+        for robot_starts in (True, False):
+            r = evaluate(
+                policy.act_batch, opponent, robot_starts, 300, config, 7, cooperative=cooperative
+            )
+            assert r.loss_rate == 0, (opponent, robot_starts, r.summary())
+            assert r.well_formed == 1.0, r.problems
+
+
+PERSON_KINDS = ("decline", "refuse", "stop", "nonsense", "silence", "out_of_turn", "rematch")
+ONLY = {
+    kind: [f"dialogue.{k}_probability={int(k == kind)}" for k in PERSON_KINDS]
+    for kind in ("refuse", "stop", "decline")
+}
+
+
+@pytest.mark.parametrize(
+    ("kind", "outcomes"),
+    [("refuse", {"declined"}), ("stop", {"stopped"}), ("decline", {"win", "draw", "declined"})],
+)
+def test_the_shipped_policy_does_what_the_person_wants(kind, outcomes):
+    """Heard cleanly: a person who says no every time is let go, never made to play; one who
+    asks to stop is let go; one who says no once and yes when asked again gets a game."""
+    config = load_config(None, ["dialogue.asr_noise=0", *ONLY[kind]])
+    policy = load_policy()
+    for robot_starts in (True, False):
+        r = evaluate(policy.act_batch, "minimax", robot_starts, 200, config, seed=11)
+        assert r.well_formed == 1.0, r.problems
+        # Saying no once or for good sound the same: asking once more is the policy's bet,
+        # measured 97% for the person who then says yes.
+        assert r.task_success >= (0.94 if kind == "decline" else 1.0)
+        got = {k for k in OUTCOMES if getattr(r, f"{k}_rate") > 0}
+        assert got <= outcomes, got
 
 
 @pytest.mark.slow
@@ -74,13 +217,15 @@ def test_acceptance_ten_thousand_games_per_condition():
     started = time.perf_counter()
     for opponent in ("random", "blocker", "minimax"):
         for robot_starts in (True, False):
-            r = evaluate(policy.act_batch, opponent, robot_starts, 10_000, seed=2026)
+            r = evaluate(
+                policy.act_batch, opponent, robot_starts, 10_000, seed=2026, cooperative=True
+            )
             assert r.games == 10_000
             assert r.loss_rate == 0, (opponent, robot_starts, r.summary())
-            assert r.well_formed == 1.0, r.problems
+            assert r.well_formed >= 0.99, r.problems
             if opponent == "random":
                 optimum = win_probability_vs_random(EMPTY_BOARD, ROBOT, robot_starts)
-                assert r.win_rate >= optimum - 0.01, r.summary()
+                assert r.win_rate >= optimum - 0.003, r.summary()
     assert time.perf_counter() - started < 240
 
 

@@ -48,5 +48,6 @@ def test_length_penalty_is_charged_every_step():
 
 def test_end_of_dialogue_reward_is_zero_for_a_loss_else_five():
     assert end_reward("loss", CFG) == 0.0
+    assert end_reward("abandoned", CFG) == 0.0  # walking away from a person who wanted to play
     assert end_reward("draw", CFG) == 5.0
     assert end_reward("win", CFG) == 5.0

@@ -1,13 +1,37 @@
+"""The language understanding: hundreds of phrasings, Unknown rather than a guess, no flips.
+
+The tests here use the domain's own phrasings and sentences written for them; the held-out
+listening sets (bench/data/held_out_answers.txt, bench/bench_speech.py) measure it on answers
+it was never tuned on.
+"""
+
+from collections import Counter
 from dataclasses import replace
 
+import numpy as np
 import pytest
+from sklearn.model_selection import StratifiedKFold
 
-from oxbot.dialogue.domain import GAME_MOVE_TEMPLATE, game_move_cell, load_domain
-from oxbot.dialogue.understanding import UserAct, UserActClassifier, similarity
+from oxbot.dialogue.domain import (
+    ACCEPT,
+    ACKNOWLEDGE,
+    DECLINE,
+    FEEDBACK_WIN,
+    GAME_MOVE_TEMPLATE,
+    INVITATION,
+    MOVE_REQUEST,
+    NEW_GAME,
+    POSTPONE,
+    REFUSALS,
+    SILENCE,
+    STOP,
+    UNKNOWN,
+    Domain,
+    load_domain,
+)
+from oxbot.dialogue.understanding import UserAct, UserActClassifier
 from oxbot.errors import DataError, InvalidInputError
 from oxbot.speech.recognition import Hypothesis
-
-CONFIRM, REJECT = "Confirm(playGame=yes)", "Reject(playGame=no)"
 
 
 @pytest.fixture(scope="module")
@@ -20,91 +44,115 @@ def classifier(domain):
     return UserActClassifier(domain)
 
 
-def test_every_user_line_of_the_domain_gets_its_own_act(domain, classifier):
-    lines = [u for alternatives in domain.responses.values() for u in alternatives]
-    lines += [u for dialogue in domain.dialogues for u in dialogue if u.speaker == "USR"]
-    for utterance in lines:
-        heard = classifier.classify(utterance.text)
-        if not utterance.words:  # a silent drawing or no answer
-            assert heard == UserAct("Silence", 0.0)
-            continue
-        is_move = game_move_cell(utterance.act) is not None
-        expected = GAME_MOVE_TEMPLATE if is_move else utterance.act
-        assert (heard.act, heard.score) == (expected, 1.0), utterance.text
-
-
-def test_the_papers_figure_1_answer(classifier):
-    assert classifier.classify("Yes, let's play.") == UserAct(CONFIRM, 1.0, "yes let's play")
-    assert classifier.classify("I take this one").act == GAME_MOVE_TEMPLATE
+def test_every_phrasing_of_the_domain_is_read_as_its_act(domain, classifier):
+    wrong = [
+        (text, act, classifier.classify(text).act)
+        for text, act in domain.user_phrases()
+        if classifier.classify(text).act not in (act, UNKNOWN)
+    ]
+    assert len(wrong) <= 2, wrong  # (a phrasing can be ambiguous; none is read as another)
 
 
 @pytest.mark.parametrize(
     ("text", "act"),
     [
-        ("yes play", CONFIRM),  # the recogniser lost a word
-        ("yes", CONFIRM),
-        ("no not", REJECT),
-        ("not", REJECT),
-        ("i pick", GAME_MOVE_TEMPLATE),
-        ("yes let's play please", CONFIRM),  # extra words
-        ("well no not now thank you", REJECT),
-        ("okay then let's go", CONFIRM),
-        ("lets play", CONFIRM),  # a typed spelling
+        ("Yes, let's play.", ACCEPT),
+        ("sure why not", ACCEPT),
+        ("of course", ACCEPT),
+        ("yeah go on", ACCEPT),
+        ("yes please", ACCEPT),
+        ("no thanks", DECLINE),
+        ("nah", DECLINE),
+        ("I'd rather not", DECLINE),
+        ("maybe later", POSTPONE),
+        ("not right now", POSTPONE),
+        ("again!", NEW_GAME),
+        ("one more", NEW_GAME),
+        ("I'm done", STOP),
+        ("I take this one", GAME_MOVE_TEMPLATE),
     ],
 )
-def test_fragments_extra_words_and_spellings_find_the_nearest_phrase(classifier, text, act):
+def test_how_people_answer_is_understood(classifier, text, act):
     heard = classifier.classify(text)
-    assert heard.act == act
-    assert 0.3 <= heard.score < 1.0
-    assert classifier.phrases[heard.phrase] == act
+    assert heard.act == act and 0.4 <= heard.score <= 1.0
+    assert classifier.phrases[heard.phrase] == act  # the nearest known phrasing, for the log
 
 
-@pytest.mark.parametrize(
-    ("text", "act"),
-    [("ok", CONFIRM), ("Yeah!", CONFIRM), ("nope", REJECT), ("Goodbye.", "Salutation(closing)")],
-)
-def test_common_typed_words_are_read_as_the_domains(classifier, text, act):
-    assert classifier.classify(text).act == act
+def test_nonsense_and_undecided_answers_are_unknown_never_a_guess(classifier):
+    for text in ("asdf qwerty", "purple elephants", "the cat sat on the mat", "I'm not sure"):
+        assert classifier.classify(text) == UserAct(UNKNOWN, 0.0), text
+    assert classifier.classify("") == UserAct(SILENCE, 0.0)
+    assert classifier.classify("  ?! ") == UserAct(SILENCE, 0.0)
 
 
-def test_more_of_the_phrase_scores_higher(classifier):
-    scores = [classifier.classify(t).score for t in ("yes", "yes play", "yes let's play")]
-    assert scores == sorted(scores) and scores[-1] == 1.0 and scores[0] < scores[1]
+def test_a_yes_that_says_no_is_not_understood_and_the_reverse(classifier):
+    # the words contradict the act they look most like: ask again rather than flip
+    assert classifier.classify("of course not").act in (DECLINE, UNKNOWN)
+    assert classifier.classify("okay thanks but no").act != ACCEPT
+    assert classifier.classify("yes not now").act != ACCEPT
 
 
-def test_empty_and_unmatched_text(classifier):
-    assert classifier.classify("") == UserAct("Silence", 0.0)
-    assert classifier.classify("  ?! ") == UserAct("Silence", 0.0)
-    assert classifier.classify("the cat sat on the mat") == UserAct("Unknown", 0.0)
-    assert classifier.classify("purple elephants").act == "Unknown"
+def test_an_answer_is_read_in_the_context_of_the_question(classifier):
+    assert classifier.classify("okay then", INVITATION).act == ACCEPT
+    assert classifier.classify("one game", INVITATION).act == ACCEPT
+    assert classifier.classify("yes", FEEDBACK_WIN).act == ACKNOWLEDGE  # yes, you won
+    assert classifier.classify("no", MOVE_REQUEST).act == STOP  # no more, mid-game
 
 
-def test_similarity_is_a_dice_coefficient_of_the_aligned_words():
-    assert similarity(["no", "not", "now"], ["no", "not", "now"]) == 1.0
-    assert similarity(["not", "now"], ["now", "not"]) == pytest.approx(0.5)  # order counts
-    assert similarity([], ["no"]) == similarity(["no"], []) == 0.0
-    assert similarity(["no", "thank"], ["no", "thanks"]) > 0.9
+def test_cross_validation_on_the_domains_phrasings_flips_nothing(domain):
+    """Train on four fifths of the phrasings, read the rest: right, unknown, never flipped."""
+    pairs = domain.user_phrases()
+    texts = np.array([t for t, _ in pairs])
+    acts = np.array([a for _, a in pairs])
+    counts, flips = Counter(), 0
+    for train, test in StratifiedKFold(5, shuffle=True, random_state=0).split(texts, acts):
+        phrasings: dict[str, list[str]] = {}
+        for text, act in zip(texts[train], acts[train], strict=True):
+            phrasings.setdefault(str(act), []).append(str(text))
+        part = Domain((), {}, {}, ("x",), {a: tuple(t) for a, t in phrasings.items()})
+        classifier = UserActClassifier(part)
+        for text, act in zip(texts[test], acts[test], strict=True):
+            got = classifier.classify(str(text)).act
+            counts["right" if got == act else "unknown" if got == UNKNOWN else "wrong"] += 1
+            flips += (act == ACCEPT and got in REFUSALS) or (act in REFUSALS and got == ACCEPT)
+    share = {k: v / len(texts) for k, v in counts.items()}
+    assert flips == 0 and share["right"] >= 0.7 and share["wrong"] <= 0.15, share
 
 
 def test_intent_of_lets_agreeing_hypotheses_outvote_a_near_tie(classifier):
-    nbest = [("hello", 0.66), ("no", 0.65), ("not now", 0.64)]
+    nbest = [("hello", 0.66), ("no", 0.65), ("no thanks", 0.64)]
     assert classifier.classify(nbest[0][0]).act == "Salutation(greeting)"
     voted = classifier.intent_of(nbest)
-    assert voted.act == REJECT and 0.0 < voted.score < 1.0
+    assert voted.act == DECLINE and 0.0 < voted.score < 1.0
     hypotheses = [Hypothesis(text, confidence) for text, confidence in nbest]
     assert classifier.intent_of(hypotheses) == voted
     assert classifier.intent_of([list(pair) for pair in nbest]) == voted  # as JSON gives it
 
 
 def test_intent_of_nothing_heard_or_nothing_matched(classifier):
-    assert classifier.intent_of([]) == UserAct("Silence", 0.0)
-    assert classifier.intent_of([("purple elephants", 0.9)]) == UserAct("Unknown", 0.0)
-    assert classifier.intent_of([("okay", 0.0)]).act == "Unknown"
+    assert classifier.intent_of([]) == UserAct(SILENCE, 0.0)
+    assert classifier.intent_of([("purple elephants", 0.9)]) == UserAct(UNKNOWN, 0.0)
+    assert classifier.intent_of([("okay", 0.0)]).act == UNKNOWN
     with pytest.raises(InvalidInputError, match=r"not in \[0, 1\]"):
         classifier.intent_of([("okay", 1.5)])
 
 
-def test_a_domain_without_user_phrases_is_refused(domain):
-    silent = replace(domain, dialogues=(), responses={})
-    with pytest.raises(DataError, match="no user phrase"):
+def test_a_yes_the_recogniser_is_unsure_of_is_asked_again_a_no_is_not(classifier):
+    sure, unsure = classifier.min_yes_confidence + 0.05, classifier.min_yes_confidence - 0.05
+    assert classifier.intent_of([("sure why not", sure)], INVITATION).act == ACCEPT
+    assert classifier.intent_of([("sure why not", unsure)], INVITATION) == UserAct(UNKNOWN, 0.0)
+    assert classifier.intent_of([("no thanks", unsure)], INVITATION).act == DECLINE
+    assert classifier.read("sure why not", INVITATION).act == ACCEPT  # the simulator's path
+
+
+def test_the_fast_path_gives_scikit_learns_probabilities(classifier):
+    texts = [*classifier.texts[:200], "asdf qwerty", "sure why nt", "yes yes no"]
+    ours = np.stack([classifier.probabilities(t) for t in texts])
+    theirs = classifier.model.predict_proba(classifier.vectorizer.transform(texts))
+    assert np.allclose(ours, theirs, atol=1e-9)
+
+
+def test_a_domain_without_two_user_acts_is_refused(domain):
+    silent = replace(domain, dialogues=(), responses={}, phrasings={})
+    with pytest.raises(DataError, match="fewer than two user acts"):
         UserActClassifier(silent)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from oxbot.config import load_config
+from oxbot.dialogue.domain import N_ACTIONS
 from oxbot.errors import IllegalMoveError, InvalidInputError
 from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, outcome
 from oxbot.robot.messages import (
@@ -102,7 +103,7 @@ def test_a_typed_game_runs_to_the_goodbye_with_a_well_formed_dialogue(robot):
     decisions = [m for m in person.log if isinstance(m, Decision)]
     assert len(decisions) == len(acts)
     for d in decisions:
-        assert d.chosen in d.offered and len(d.q_values) == 18
+        assert d.chosen in d.offered and len(d.q_values) == N_ACTIONS
 
 
 def test_the_robot_never_speaks_while_its_arm_moves(robot):
@@ -215,3 +216,64 @@ def test_the_recognisers_word_confidences_reach_the_managers_state():
     features = manager.state.encode()
     # each word's own confidence (paper §2.2), not the utterance's 0.8 for all
     assert [round(float(features[layout.word_index[w]]), 2) for w, _ in words] == [0.95, 0.4, 0.7]
+
+
+def talk_until_goodbye(robot: Robot, answers: dict[str, list[str]], seconds: float = 30.0):
+    """Answer the robot's acts by typing, in turn, the texts listed for each; every turn."""
+    events = robot.bus.subscribe(DialogueAct, DialogueEnded)
+    turns: list[DialogueAct] = []
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        message = events.get(0.5)
+        if isinstance(message, DialogueEnded):
+            return turns, message
+        if isinstance(message, DialogueAct):
+            turns.append(message)
+            queue = answers.get(message.act) if message.speaker == "sys" else None
+            if queue:
+                robot.say(queue.pop(0))
+    raise AssertionError(f"no goodbye within {seconds} s: {[(t.act, t.text) for t in turns]}")
+
+
+def test_no_thanks_is_acknowledged_and_the_robot_says_goodbye():
+    with Robot(FAST, seed=11) as robot:
+        turns, ended = talk_until_goodbye(robot, {"Request(playGame)": ["No thanks."] * 3})
+    acts = [t.act for t in turns if t.speaker == "sys"]
+    heard = [t.act for t in turns if t.speaker == "usr"]
+    assert heard and set(heard) == {"Reject(playGame=no)"}
+    assert "Acknowledge(playGame=no)" in acts and acts[-1] == "Salutation(closing)"
+    assert acts.index("Acknowledge(playGame=no)") == len(acts) - 2
+    assert not any(a.startswith("GameMove") or a == "Reply(playGame=yes)" for a in acts)
+    assert acts.count("Request(playGame)") + acts.count("Request(repeat)") <= 2
+    assert ended.outcome is None
+
+
+def test_stop_mid_game_is_confirmed_or_acknowledged_and_the_robot_lets_go():
+    with Robot(FAST, seed=12) as robot:
+        answers = {
+            "Request(playGame)": ["Yes, let's play."],
+            "Request(userGameMove)": ["I want to stop."] * 3,
+        }
+        turns, ended = talk_until_goodbye(robot, answers)
+    acts = [t.act for t in turns if t.speaker == "sys"]
+    first_stop = next(i for i, t in enumerate(turns) if t.act == "Request(stop)")
+    after = [t.act for t in turns[first_stop:] if t.speaker == "sys"]
+    assert after[-2:] == ["Acknowledge(stop)", "Salutation(closing)"]
+    assert after.count("Request(userGameMove)") <= 1  # asked once more at most, then let go
+    assert not any(a.startswith("GameMove") for a in after)
+    assert ended.outcome is None and "Request(playGame)" in acts
+
+
+def test_new_game_after_the_goodbye_starts_another():
+    with Robot(FAST, seed=13) as robot:
+        talk_until_goodbye(robot, {"Request(playGame)": ["No thanks."] * 3})
+        greetings = robot.bus.subscribe(DialogueAct)
+        robot.say("new game")
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline:
+            message = greetings.get(0.5)
+            if message is not None and message.act == "Salutation(greeting)":
+                break
+        else:
+            raise AssertionError("no new game after 'new game'")
+        assert not robot.finished

@@ -1,8 +1,11 @@
 """`oxbot play --terminal`: the whole robot with a keyboard for ears and a screen for a face."""
 
 import logging
+import os
+import sys
 import time
 
+import numpy as np
 from rich.console import Console
 
 from oxbot.config import load_config
@@ -10,6 +13,8 @@ from oxbot.game.board import EMPTY
 from oxbot.perception.sources import CameraSource
 from oxbot.robot.session import Robot
 from oxbot.robot.terminal import Microphone, Speakers, TerminalRobot
+from oxbot.speech import Voice, pcm16, synthesize
+from oxbot.testing.sounds import in_noise
 
 FAST = load_config(
     None, ["robot.speed_factor=25", "robot.answer_timeout=2", "robot.move_timeout=10"]
@@ -73,3 +78,112 @@ def test_a_camera_that_cannot_be_opened_falls_back_to_typed_moves(caplog):
     warnings = [r for r in caplog.records if "game-move recognition is off" in r.message]
     assert len(warnings) == 1
     assert "Game over:" in out and "[who=usr what=draw" in out
+
+
+FAKE_REC = """#!{python}
+# sox's rec as these tests need it: the microphone takes {open_s} s to open, then the room
+# is heard in real time, 0.1 s at a time, as raw 16 kHz 16-bit mono PCM: {raw}, then silence
+import sys, time
+time.sleep({open_s})
+out, room = sys.stdout.buffer, open({raw!r}, "rb").read()
+for at in range(0, 10**9, 3200):
+    out.write(room[at : at + 3200] or bytes(3200))
+    out.flush()
+    time.sleep(0.1)
+"""
+
+BROKEN_REC = """#!/bin/sh
+echo "rec FAIL formats: can't open input \\`default': snd_pcm_open error: No such file" >&2
+exit 2
+"""
+
+
+def fake_rec(tmp_path, monkeypatch, script: str) -> None:
+    """Put a `rec` running `script` first on the PATH."""
+    folder = tmp_path / "bin"
+    folder.mkdir()
+    rec = folder / "rec"
+    rec.write_text(script)
+    rec.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{folder}{os.pathsep}{os.environ['PATH']}")
+
+
+def room_with_an_answer(tmp_path, lead: float) -> str:
+    speech = pcm16(synthesize("yes let's play", Voice("en-us")))
+    room, _ = in_noise(speech, np.random.default_rng(0), before=lead, after=0.5)
+    path = tmp_path / "room.raw"
+    path.write_bytes(room.astype("<i2").tobytes())
+    return str(path)
+
+
+SPOKEN = load_config(
+    None, ["robot.speed_factor=25", "robot.answer_timeout=2", "robot.question_timeout=200"]
+)
+"""As FAST, but 8 s to answer a question: time to open a microphone and speak."""
+
+
+def speaker(
+    robot: Robot, microphone: Microphone, lines: list[str], hold: float, timeout: float = 30.0
+):
+    """A read_line that types `lines` one per call once the robot asks to play, holds
+    "recording..." prompts for `hold` seconds (the person talks) before Enter, then waits
+    until the robot has heard words, and quits. Returns it, the words heard, and the
+    recording prompts with whether the microphone was receiving when each was shown."""
+    said: list[str] = []
+    recording: list[tuple[str, bool]] = []
+    to_type = iter(lines)
+
+    def read_line(prompt: str) -> str:
+        if prompt.startswith("recording"):
+            recording.append((prompt, microphone.receiving))
+            time.sleep(hold)
+            return ""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            heard = [t["text"] for t in robot.transcript if t["speaker"] == "usr"]
+            if heard:
+                said.extend(heard)
+                return "quit"
+            if any(t["act"] == "Request(playGame)" for t in robot.transcript):
+                line = next(to_type, None)
+                if line is not None:
+                    return line
+            time.sleep(0.01)
+        raise EOFError
+
+    return read_line, said, recording
+
+
+def play_by_voice(lines: list[str], hold: float = 0.0) -> tuple[str, list[str], list]:
+    robot, microphone = Robot(SPOKEN, seed=4), Microphone()
+    read_line, said, recording = speaker(robot, microphone, lines, hold)
+    console = Console(record=True, width=120, force_terminal=False)
+    TerminalRobot(robot, read_line, console, Speakers(enabled=False), microphone).run()
+    return console.export_text(), said, recording
+
+
+def test_talk_records_only_once_rec_has_started_and_the_robot_hears_the_first_word(
+    tmp_path, monkeypatch
+):
+    room = room_with_an_answer(tmp_path, lead=0.3)
+    fake_rec(tmp_path, monkeypatch, FAKE_REC.format(python=sys.executable, open_s=0.4, raw=room))
+    out, said, recording = play_by_voice(["talk"], hold=2.3)
+    # "recording..." was shown only once samples arrived, not while rec was opening
+    assert recording == [("recording... press Enter to stop ", True)]
+    assert said and said[0].startswith("yes"), out
+
+
+def test_listen_hears_an_answer_hands_free(tmp_path, monkeypatch):
+    room = room_with_an_answer(tmp_path, lead=0.8)
+    fake_rec(tmp_path, monkeypatch, FAKE_REC.format(python=sys.executable, open_s=0.2, raw=room))
+    out, said, _ = play_by_voice(["listen"])
+    assert "Listening: just speak" in out
+    assert said and said[0].startswith("yes"), out
+
+
+def test_without_a_microphone_one_clear_warning_and_the_game_goes_on_in_text(tmp_path, monkeypatch):
+    fake_rec(tmp_path, monkeypatch, BROKEN_REC)
+    out, said, recording = play_by_voice(["talk", "listen", "yes let's play"])
+    assert out.count("no microphone could be opened (rec FAIL formats") == 1, out
+    assert "there is no microphone" in out  # a second try says so at once
+    assert said == ["yes let's play"] and recording == []

@@ -5,7 +5,19 @@ import numpy as np
 import pytest
 
 from oxbot.errors import InvalidInputError
-from oxbot.speech.audio import Audio, add_noise, pcm16, read_wav, resample, to_wav_bytes
+from oxbot.speech.audio import (
+    RATE,
+    Audio,
+    add_noise,
+    level_dbfs,
+    normalise_level,
+    pcm16,
+    read_wav,
+    resample,
+    speech_span,
+    to_wav_bytes,
+    trim_silence,
+)
 
 
 def tone(freq: float, rate: int, seconds: float = 0.5) -> np.ndarray:
@@ -81,3 +93,37 @@ def test_noise_at_20_db_has_the_right_power():
     noise = noisy.astype(float) - samples
     ratio = 10 * np.log10(np.mean(samples.astype(float) ** 2) / np.mean(noise**2))
     assert ratio == pytest.approx(20.0, abs=0.3)
+
+
+def burst(seconds: float = 0.5, level: float = 8000) -> np.ndarray:
+    """A tone that starts and stops like a word, for the silence and level tests."""
+    samples = tone(300, RATE, seconds).astype(float) * level / 8000
+    return samples.astype(np.int16)
+
+
+def test_the_level_is_brought_to_the_same_peak_whatever_the_microphone():
+    loud, quiet = burst(level=20000), burst(level=20000 * 10 ** (-30 / 20))
+    assert level_dbfs(quiet) == pytest.approx(level_dbfs(loud) - 30, abs=0.1)
+    for samples in (loud, quiet):
+        assert level_dbfs(normalise_level(samples)) == pytest.approx(-6.0, abs=0.1)
+    silence = np.zeros(RATE, np.int16)
+    assert np.array_equal(normalise_level(silence), silence)
+    hiss = np.random.default_rng(0).normal(0, 3, RATE).astype(np.int16)  # about -75 dBFS
+    assert level_dbfs(normalise_level(hiss)) < level_dbfs(hiss) + 36.1  # not made loud
+
+
+def test_silence_around_the_sound_is_trimmed_to_the_same_margin():
+    word = burst()
+    zeros = np.zeros(RATE, np.int16)
+    hiss = np.random.default_rng(1).normal(0, 32, RATE).astype(np.int16)  # -60 dBFS
+    bare = trim_silence(word)
+    assert bare is not None and len(bare) == len(word) + 2 * round(0.2 * RATE)
+    for padded in (
+        np.concatenate([zeros, word, zeros]),
+        np.concatenate([word, zeros[:4000]]),
+        np.concatenate([hiss, word, hiss]),
+    ):
+        trimmed = trim_silence(padded)
+        # the same length within a frame at either end (25 ms, where the frames fall)
+        assert trimmed is not None and abs(len(trimmed) - len(bare)) <= 2 * RATE * 25 // 1000
+    assert trim_silence(zeros) is None and speech_span(zeros[:100]) is None

@@ -239,7 +239,7 @@ const handlers = {
   Decision(d) { showDecision(d); },
   HeadMove(d) { lookTowards(d.direction); },
   DialogueEnded(d) {
-    state.ended = true; enableAnswers(false);
+    state.ended = true;   // drawings stop; words still go: "new game", "again!" start another
     const text = { win: "The robot won.", loss: "You won!", draw: "A draw." }[d.outcome] || "The game ended.";
     $("turn").textContent = `${text} Press New game to play again.`;
     addNote(`Game over: ${d.outcome || "unfinished"}.`);
@@ -295,43 +295,131 @@ $("say").addEventListener("keydown", (e) => {
   if (text && send({ type: "say", text })) e.target.value = "";
 });
 
-const talk = { stream: null, ctx: null, node: null, chunks: [], busy: false };
+// The microphone is opened once, at the first press of push-to-talk or when hands-free is
+// turned on, and kept open (opened again if the device goes away): opening it takes long
+// enough to clip a first word. The last pre_roll_seconds of audio are always kept, so a
+// recording starts a little before the press, and the button says "Listening" only once
+// samples really arrive. Hands-free streams the audio to the server in small pieces; the
+// server cuts it into utterances with its VAD and does not listen while the robot speaks.
+const mic = {
+  stream: null, ctx: null, opening: null, live: false,
+  ring: [], ringLength: 0,   // the pre-roll: the latest audio blocks (Float32), newest last
+  recording: null, held: 0,  // push-to-talk: the blocks since the press, pre-roll first
+  handsFree: false, piece: [], pieceLength: 0,   // hands-free: the stream's next piece
+  stats: { opened: 0, firstSampleAt: 0, pressedAt: 0, listeningAt: 0, sent: [], pieces: 0 },
+};
+state.mic = mic;
 
-async function startTalking(e) {
-  if (talk.busy || !state.ws) return;
-  talk.busy = true; talk.chunks = [];
-  $("talk").classList.add("recording"); $("talk").textContent = "Listening… release to send";
+function audioRate() { return state.hello ? state.hello.audio_rate : 16000; }
+
+function micOpen() {
+  return !!mic.stream && mic.stream.getAudioTracks().some((t) => t.readyState === "live");
+}
+
+function openMicrophone() {
+  if (micOpen()) return Promise.resolve();
+  if (!mic.opening) mic.opening = reallyOpen().finally(() => { mic.opening = null; });
+  return mic.opening;
+}
+
+async function reallyOpen() {
+  closeMicrophone();
+  // the context and its worklet first, so that the stream's first samples have a home
+  const ctx = new AudioContext({ sampleRate: audioRate() });
+  mic.ctx = ctx;
   try {
-    // the microphone is opened at each press (a fake test microphone restarts its file then)
-    talk.stream = await navigator.mediaDevices.getUserMedia({
+    await ctx.audioWorklet.addModule("/static/tap.js");
+    const node = new AudioWorkletNode(ctx, "tap");
+    node.port.onmessage = (m) => { if (mic.ctx === ctx) onSamples(m.data); };
+    const stream = await navigator.mediaDevices.getUserMedia({
       audio: { echoCancellation: false, noiseSuppression: false, autoGainControl: false } });
-    talk.ctx = new AudioContext({ sampleRate: state.hello ? state.hello.audio_rate : 16000 });
-    await talk.ctx.audioWorklet.addModule("/static/tap.js");
-    talk.node = new AudioWorkletNode(talk.ctx, "tap");
-    talk.node.port.onmessage = (m) => talk.chunks.push(m.data);
-    talk.ctx.createMediaStreamSource(talk.stream).connect(talk.node);
-    if (!talk.pressed) await stopTalking();   // released while the microphone opened
+    if (mic.ctx !== ctx) { stream.getTracks().forEach((t) => t.stop()); return; }
+    ctx.createMediaStreamSource(stream).connect(node);
+    if (ctx.state === "suspended") await ctx.resume();
+    mic.stream = stream; mic.stats.opened++;
+    stream.getAudioTracks().forEach((t) => t.addEventListener("ended", () => microphoneLost(stream)));
   } catch (err) {
-    addNote(`the microphone cannot be used: ${err}`); resetTalk();
+    if (mic.ctx === ctx) closeMicrophone();
+    throw err;
   }
 }
 
-function resetTalk() {
-  if (talk.stream) talk.stream.getTracks().forEach((t) => t.stop());
-  if (talk.ctx) talk.ctx.close();
-  talk.stream = talk.ctx = talk.node = null; talk.busy = false;
-  $("talk").classList.remove("recording"); $("talk").textContent = "Hold to talk";
+function closeMicrophone() {
+  if (mic.stream) mic.stream.getTracks().forEach((t) => t.stop());
+  if (mic.ctx) mic.ctx.close();
+  mic.stream = mic.ctx = null; mic.live = false;
+  mic.ring = []; mic.ringLength = 0; mic.piece = []; mic.pieceLength = 0;
 }
 
-async function stopTalking() {
-  if (!talk.ctx) return;
-  const rate = talk.ctx.sampleRate, chunks = talk.chunks;
-  resetTalk();
-  let samples = concat(chunks);
-  const wanted = state.hello ? state.hello.audio_rate : 16000;
+function microphoneLost(stream) {
+  if (mic.stream !== stream) return;
+  closeMicrophone();
+  if (mic.recording) { mic.recording = null; addNote("the microphone went away: hold to talk again"); }
+  if (mic.handsFree) {
+    send({ type: "listen_off" });
+    openMicrophone().catch((err) => {
+      setHandsFree(false); addNote(`the microphone went away and cannot be opened again: ${err}`);
+    });
+  }
+  showTalk();
+}
+
+function onSamples(block) {
+  if (!mic.live) { mic.live = true; mic.stats.firstSampleAt = performance.now(); showTalk(); }
+  if (mic.recording) {
+    mic.recording.push(block); mic.held += block.length;
+    return;     // hands-free pauses while push-to-talk is held
+  }
+  mic.ring.push(block); mic.ringLength += block.length;
+  const keep = (state.hello ? state.hello.pre_roll_seconds : 0.3) * mic.ctx.sampleRate;
+  while (mic.ringLength - mic.ring[0].length >= keep) mic.ringLength -= mic.ring.shift().length;
+  if (mic.handsFree && !state.ended) streamPiece(block);
+}
+
+function streamPiece(block) {
+  mic.piece.push(block); mic.pieceLength += block.length;
+  const rate = mic.ctx.sampleRate, seconds = state.hello ? state.hello.stream_piece_seconds : 0.1;
+  if (mic.pieceLength < rate * seconds) return;
+  const samples = concat(mic.piece);
+  mic.piece = []; mic.pieceLength = 0;
+  if (send({ type: "listen", rate, pcm: toBase64(toInt16(samples).buffer) })) mic.stats.pieces++;
+}
+
+function showTalk() {
+  const b = $("talk"), listening = !!mic.recording && mic.live;
+  b.classList.toggle("recording", !!mic.recording);
+  b.textContent = !mic.recording ? "Hold to talk"
+    : listening ? "Listening… release to send" : "Opening the microphone…";
+  if (listening && !mic.stats.listeningAt) mic.stats.listeningAt = performance.now();
+}
+
+function pressTalk() {
+  if (!state.ws || mic.recording) return;
+  mic.stats.pressedAt = performance.now(); mic.stats.listeningAt = 0;
+  mic.recording = mic.ring; mic.held = 0;   // the pre-roll first: the audio just before the press
+  mic.ring = []; mic.ringLength = 0;
+  if (mic.handsFree) { send({ type: "listen_off" }); mic.piece = []; mic.pieceLength = 0; }
+  showTalk();
+  openMicrophone().catch((err) => {
+    addNote(`the microphone cannot be used: ${err}`); mic.recording = null; showTalk();
+  });
+}
+
+async function releaseTalk() {
+  const blocks = mic.recording;
+  if (!blocks) return;
+  mic.recording = null; showTalk();
+  const rate = mic.ctx ? mic.ctx.sampleRate : audioRate(), wanted = audioRate();
+  if (mic.held < rate * 0.1) {
+    addNote(mic.live ? "too short: hold the button while you talk"
+      : "the microphone was still opening: hold the button until it says Listening");
+    return;
+  }
+  let samples = concat(blocks);
   if (rate !== wanted) samples = await resample(samples, rate, wanted);
-  if (samples.length < wanted * 0.1) { addNote("too short: hold the button while you talk"); return; }
-  send({ type: "talk", rate: wanted, pcm: toBase64(toInt16(samples).buffer) });
+  if (send({ type: "talk", rate: wanted, pcm: toBase64(toInt16(samples).buffer) })) {
+    mic.stats.sent.push(samples.length / wanted);
+  }
 }
 
 function concat(chunks) {
@@ -360,11 +448,26 @@ function toBase64(buffer) {
 }
 
 const talkButton = $("talk");
-talkButton.addEventListener("pointerdown", (e) => {
-  talkButton.setPointerCapture(e.pointerId); talk.pressed = true; startTalking(e);
-});
-talkButton.addEventListener("pointerup", () => { talk.pressed = false; stopTalking(); });
-talkButton.addEventListener("pointercancel", () => { talk.pressed = false; stopTalking(); });
+talkButton.addEventListener("pointerdown", (e) => { talkButton.setPointerCapture(e.pointerId); pressTalk(); });
+talkButton.addEventListener("pointerup", releaseTalk);
+talkButton.addEventListener("pointercancel", releaseTalk);
+
+async function setHandsFree(on) {
+  if (on) {
+    try {
+      await openMicrophone();
+      if (mic.ctx.sampleRate !== audioRate()) {
+        throw new Error(`this browser records at ${mic.ctx.sampleRate} Hz, not ${audioRate()} Hz; hold to talk instead`);
+      }
+    } catch (err) { addNote(`hands-free cannot listen: ${err.message || err}`); on = false; }
+  } else if (mic.handsFree) {
+    send({ type: "listen_off" });
+  }
+  mic.handsFree = on; mic.piece = []; mic.pieceLength = 0;
+  $("hands-free").textContent = `Hands-free: ${on ? "on" : "off"}`;
+  $("hands-free").setAttribute("aria-pressed", String(on));
+}
+$("hands-free").addEventListener("click", () => setHandsFree(!mic.handsFree));
 
 // --- the face: speech audio, the mouth, the eyes --------------------------------------------
 
