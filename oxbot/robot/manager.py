@@ -35,6 +35,7 @@ from oxbot.config import OxbotConfig, RobotConfig
 from oxbot.dialogue.agent import DQNPolicy, load_policy, masked_argmax
 from oxbot.dialogue.domain import (
     CLOSING,
+    LETS_PLAY,
     MOVE_REQUEST,
     NEW_GAME,
     PROBLEM,
@@ -83,6 +84,7 @@ PROBLEM_SENTENCES = {
     "two_new_symbols": "I see two new symbols at once. Please draw one at a time.",
     "wrong_symbol": "You draw {person} and I draw {robot}.",
     "out_of_turn": "Please wait, it is my turn.",
+    "not_started": "We have not started a game yet.",
     "game_over": "The game is over.",
 }
 """What the robot says (as the act PROBLEM, not one the policy chooses) about an impossible
@@ -327,6 +329,8 @@ class InteractionManagerComponent(Component):
         return None
 
     def _problem(self, kind: str) -> None:
+        if kind == "out_of_turn" and not self._game_started():
+            kind = "not_started"  # "it is my turn" is wrong before anyone agreed to play
         starts = self.state.robot_starts
         sentence = PROBLEM_SENTENCES.get(kind, "Something is wrong on the sheet.").format(
             person=PLURALS[symbol_of(USER, starts)], robot=PLURALS[symbol_of(ROBOT, starts)]
@@ -335,6 +339,10 @@ class InteractionManagerComponent(Component):
             self._tell(sentence)
         else:
             self._deferred.append(sentence)  # never over the robot's own words or arm
+
+    def _game_started(self) -> bool:
+        said = self.state.said
+        return LETS_PLAY in said or any(is_game_move(act) for act in said)
 
     def _tell(self, sentence: str) -> None:
         self.state.robot_informs(PROBLEM, sentence)

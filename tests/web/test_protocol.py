@@ -262,7 +262,7 @@ def test_impossible_drawings_are_refused_in_words_and_never_change_the_board(ws_
     assert [p["kind"] for p in problems] == ["out_of_turn", "two_new_symbols"]
     told = [text for speaker, act, text in record.transcript if act == "Inform(problem)"]
     assert told == [
-        "Please wait, it is my turn.",
+        "We have not started a game yet.",  # drawn before anyone agreed to play
         "I see two new symbols at once. Please draw one at a time.",
     ]
     # the refused drawings never became moves: the board is the legal moves alone
