@@ -1,0 +1,155 @@
+"""Benchmark of the board reader on real photos of hand-drawn boards, per split (dev / test).
+
+    .venv/bin/python bench/bench_real_boards.py
+    .venv/bin/python bench/bench_real_boards.py --split dev
+    .venv/bin/python bench/bench_real_boards.py --labels other/labels.csv --images other/images
+
+Reads `bench/data/real_boards/labels.csv` (one row per photo: file, board, split, paper, ink,
+grid fraction, the 9 cell labels row by row from the upper left, notes; see
+`bench/data/real_boards/SOURCES.md`), runs `oxbot.read_board` once on every photo found in
+`bench/data/real_boards/images/`, and prints per split: boards fully right, refusals
+(NoGridFound and any other error), cells right, empty cells read as empty, symbols right, and
+one line per photo not fully right. The photos are not in git: a missing one is skipped with a
+message saying how to restore it. A cell labelled `unreadable` (a human cannot tell what it is)
+is left out of the cell counts, and a photo with such a cell out of "fully right" (it is
+counted apart). Measurement only: nothing here tunes anything, and nobody tunes on `test`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import time
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from oxbot.errors import NoGridFound
+from oxbot.perception.board import read_board
+from oxbot.perception.sources import load_image
+
+DATA = Path(__file__).resolve().parent / "data" / "real_boards"
+CELLS = tuple(f"c{r}{c}" for r in range(3) for c in range(3))
+SHORT = {"circle": "O", "cross": "X", "nothing": ".", "unreadable": "?"}
+
+
+@dataclass
+class Tally:
+    """Counts of one split."""
+
+    photos: int = 0
+    boards: set[str] = field(default_factory=set)
+    missing: int = 0
+    scorable: int = 0  # photos whose 9 cells a human can all read
+    fully_right: int = 0
+    no_grid: int = 0
+    other_refusals: int = 0
+    cells: int = 0
+    cells_right: int = 0
+    empty: int = 0
+    empty_right: int = 0
+    symbols: int = 0
+    symbols_right: int = 0
+    seconds: float = 0.0
+    failures: list[str] = field(default_factory=list)
+
+
+def short(labels: list[str]) -> str:
+    """The 9 labels as `XO.|...|..O`, row by row."""
+    marks = "".join(SHORT.get(label, "!") for label in labels)
+    return "|".join(marks[i : i + 3] for i in (0, 3, 6))
+
+
+def pct(part: int, whole: int) -> str:
+    return f"{part}/{whole} ({100 * part / whole:.1f}%)" if whole else f"{part}/0"
+
+
+def measure(row: dict[str, str], image_dir: Path, tally: Tally) -> None:
+    """Read one photo and add its outcome to `tally`."""
+    path = image_dir / row["file"]
+    if not path.is_file():
+        tally.missing += 1
+        print(f"  missing: {path} (restore it as SOURCES.md says); skipped")
+        return
+    truth = [row[c] for c in CELLS]
+    readable = [i for i, label in enumerate(truth) if label != "unreadable"]
+    tally.photos += 1
+    tally.boards.add(row["board"])
+    whole = len(readable) == 9
+    tally.scorable += whole
+    frame = load_image(path)
+    started = time.perf_counter()
+    try:
+        got = read_board(frame)
+    except NoGridFound as err:
+        tally.seconds += time.perf_counter() - started
+        tally.no_grid += 1
+        tally.failures.append(f"{row['file']:<26} NoGridFound: {err}")
+        got = None
+    except Exception as err:  # any other refusal is counted, not raised
+        tally.seconds += time.perf_counter() - started
+        tally.other_refusals += 1
+        tally.failures.append(f"{row['file']:<26} {type(err).__name__}: {err}")
+        got = None
+    else:
+        tally.seconds += time.perf_counter() - started
+    for i in readable:
+        right = got is not None and got[i] == truth[i]
+        tally.cells += 1
+        tally.cells_right += right
+        if truth[i] == "nothing":
+            tally.empty += 1
+            tally.empty_right += right
+        else:
+            tally.symbols += 1
+            tally.symbols_right += right
+    if got is None:
+        return
+    if all(got[i] == truth[i] for i in readable):
+        if whole:
+            tally.fully_right += 1
+        return
+    wrong = [f"{CELLS[i][1:]}:{truth[i]}->{got[i]}" for i in readable if got[i] != truth[i]]
+    tally.failures.append(
+        f"{row['file']:<26} truth {short(truth)}  read {short(got)}  ({', '.join(wrong)})"
+    )
+
+
+def report(split: str, tally: Tally) -> None:
+    print(f"\n{split}: {tally.photos} photos of {len(tally.boards)} boards", end="")
+    print(f" ({tally.missing} missing)" if tally.missing else "")
+    if not tally.photos:
+        return
+    print(f"  boards fully right     {pct(tally.fully_right, tally.scorable)}", end="")
+    unscorable = tally.photos - tally.scorable
+    print(f"  ({unscorable} photo(s) with an unreadable cell left out)" if unscorable else "")
+    print(f"  NoGridFound            {pct(tally.no_grid, tally.photos)}")
+    print(f"  other refusals         {pct(tally.other_refusals, tally.photos)}")
+    print(f"  cells right            {pct(tally.cells_right, tally.cells)}  (refused: wrong)")
+    print(f"  empty cells as empty   {pct(tally.empty_right, tally.empty)}")
+    print(f"  symbols right          {pct(tally.symbols_right, tally.symbols)}")
+    print(f"  mean read time         {1000 * tally.seconds / tally.photos:.1f} ms")
+    for line in tally.failures:
+        print(f"  FAIL {line}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--labels", type=Path, default=DATA / "labels.csv")
+    parser.add_argument("--images", type=Path, default=DATA / "images")
+    parser.add_argument("--split", choices=("dev", "test"), default=None, help="one split only")
+    args = parser.parse_args()
+    with args.labels.open(newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    tallies: dict[str, Tally] = defaultdict(Tally)
+    print(f"{len(rows)} labelled photos in {args.labels}")
+    for row in rows:
+        if args.split is None or row["split"] == args.split:
+            measure(row, args.images, tallies[row["split"]])
+    for split in ("dev", "test"):
+        if split in tallies:
+            report(split, tallies[split])
+
+
+if __name__ == "__main__":
+    main()
