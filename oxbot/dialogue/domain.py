@@ -152,6 +152,11 @@ def game_move_cell(act: str) -> int | None:
     return None
 
 
+def plays(act: str) -> bool:
+    """True for a system act that starts or plays a game: "let's play" or a drawing."""
+    return act == LETS_PLAY or is_game_move(act)
+
+
 def is_game_move(act: str | int) -> bool:
     """True for a drawing, given as an act (any cell, or `$loc`) or as an index of SYSTEM_ACTS."""
     if isinstance(act, str):

@@ -225,9 +225,10 @@ class UserActClassifier:
             weight += confidence
         if weight <= 0.0:
             return UserAct(UNKNOWN if best_text else SILENCE, 0.0)
-        act = self._with_phrase(self._decide(total / weight, best_text, context), best_text)
-        if act.act == ACCEPT and best_confidence < self.min_yes_confidence:
+        decided = self._decide(total / weight, best_text, context)
+        if decided.act == ACCEPT and best_confidence < self.min_yes_confidence:
             return UserAct(UNKNOWN, 0.0)
+        act = self._with_phrase(decided, best_text)
         return UserAct(act.act, round(act.score * best_confidence, 6), act.phrase)
 
     def _decide(self, probabilities: np.ndarray, text: str, context: str) -> UserAct:

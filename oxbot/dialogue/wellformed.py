@@ -19,13 +19,13 @@ from oxbot.dialogue.domain import (
     GREETING,
     INTRODUCTION,
     INVITATION,
-    LETS_PLAY,
     MOVE_REQUEST,
     REFUSALS,
     STOP,
     game_move_cell,
     is_feedback,
     is_game_move,
+    plays,
 )
 from oxbot.dialogue.state import Turn
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, play
@@ -82,7 +82,7 @@ def _agreed_before_playing(transcript: list[Turn]) -> str | None:
     for turn in transcript:
         if turn["speaker"] == "usr":
             agreed = agreed or turn["act"] == ACCEPT
-        elif (turn["act"] == LETS_PLAY or is_game_move(turn["act"])) and not agreed:
+        elif plays(turn["act"]) and not agreed:
             return f"starts a game nobody agreed to ({turn['act']})"
     return None
 
@@ -100,7 +100,7 @@ def _lets_a_no_go(transcript: list[Turn], heard: list[str]) -> str | None:
             if asked_after > 1:
                 return "asks to play again after being told no twice"
         elif turn["speaker"] == "sys" and last_answer in REFUSALS:
-            if is_game_move(act) or act == LETS_PLAY:
+            if plays(act):
                 return "plays with a person who said no"
             if act == CLOSING:
                 return "says goodbye to a no without acknowledging it"

@@ -35,7 +35,6 @@ from oxbot.config import OxbotConfig, RobotConfig
 from oxbot.dialogue.agent import DQNPolicy, load_policy, masked_argmax
 from oxbot.dialogue.domain import (
     CLOSING,
-    LETS_PLAY,
     MOVE_REQUEST,
     NEW_GAME,
     PROBLEM,
@@ -45,6 +44,7 @@ from oxbot.dialogue.domain import (
     game_move,
     game_move_cell,
     is_game_move,
+    plays,
     words_of,
 )
 from oxbot.dialogue.model import build_dialogue_model
@@ -341,8 +341,7 @@ class InteractionManagerComponent(Component):
             self._deferred.append(sentence)  # never over the robot's own words or arm
 
     def _game_started(self) -> bool:
-        said = self.state.said
-        return LETS_PLAY in said or any(is_game_move(act) for act in said)
+        return any(plays(act) for act in self.state.said)
 
     def _tell(self, sentence: str) -> None:
         self.state.robot_informs(PROBLEM, sentence)
