@@ -223,3 +223,19 @@ def test_a_file_from_before_checksums_loads_with_a_warning(policy_file, tmp_path
     assert "before oxbot checksummed its files" in caplog.text and "re-save it" in caplog.text
     policy.save(old)  # re-saving adds the header
     assert old.read_bytes().startswith(artifacts.MAGIC)
+
+
+def test_a_flipped_byte_of_the_shipped_perceiver_is_refused_and_says_what_to_do(tmp_path):
+    data = shipped_model_path().read_bytes()
+    bad = tmp_path / "perceiver.pt"
+    bad.write_bytes(_flip(data, 1, len(data) // 2))
+    with pytest.raises(ModelFileError, match=r"corrupt.*re-download oxbot/data/models/perceiver"):
+        load_classifier(bad)
+
+
+def test_the_shipped_files_carry_the_header():
+    from oxbot.dialogue.agent import shipped_policy_path
+
+    for path in (shipped_model_path(), shipped_policy_path()):
+        assert path.read_bytes().startswith(artifacts.MAGIC), path
+    assert load_classifier().fitted and load_policy().feature_names == NAMES
