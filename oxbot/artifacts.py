@@ -163,7 +163,7 @@ def _load_legacy(
     payload = _unpickle(data) if legacy is not None else None
     if payload is None or not legacy(payload):  # type: ignore[misc]
         raise ModelFileError(
-            f"{what} {path} is truncated or not an oxbot file (no oxbot header); {remedy}"
+            f"{what} {path} is truncated or not a model file (no oxbot header); {remedy}"
         )
     log.warning(
         "%s %s was saved before oxbot checksummed its files, so it cannot be checked for "

@@ -94,9 +94,9 @@ def test_truncated_files_are_refused(policy_file, tmp_path, keep):
 def test_garbage_is_refused(tmp_path, garbage):
     path = tmp_path / "garbage.pt"
     path.write_bytes(garbage)
-    with pytest.raises(ModelFileError, match="not an oxbot file"):
+    with pytest.raises(ModelFileError, match="truncated or not a model file"):
         load_policy(path)
-    with pytest.raises(ModelFileError, match="not an oxbot file"):
+    with pytest.raises(ModelFileError, match="truncated or not a model file"):
         load_classifier(path)
 
 

@@ -71,7 +71,7 @@ def test_a_missing_truncated_or_foreign_file_is_refused(tmp_path):
     with pytest.raises(ModelFileError, match="is truncated"):
         load_policy(tmp_path / "cut.pt")
     torch.save({"weights": torch.zeros(3)}, tmp_path / "foreign.pt")
-    with pytest.raises(ModelFileError, match="not an oxbot file"):
+    with pytest.raises(ModelFileError, match="truncated or not a model file"):
         load_policy(tmp_path / "foreign.pt")
 
 

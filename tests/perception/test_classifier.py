@@ -120,7 +120,7 @@ def test_truncated_model_file_is_refused(tmp_path):
 def test_model_of_another_architecture_is_refused(tmp_path):
     other = tmp_path / "other.pt"
     torch.save(nn.Linear(57, 18).state_dict(), other)
-    with pytest.raises(ModelFileError, match="not an oxbot"):
+    with pytest.raises(ModelFileError, match="not a model file"):
         load_classifier(other)
     payload = artifacts.load(shipped_model_path(), "perceiver", 2, "model", "", lambda p: True)
     payload["architecture"]["conv2_filters"] = 32
