@@ -239,3 +239,50 @@ def test_the_shipped_files_carry_the_header():
     for path in (shipped_model_path(), shipped_policy_path()):
         assert path.read_bytes().startswith(artifacts.MAGIC), path
     assert load_classifier().fitted and load_policy().feature_names == NAMES
+
+
+def test_a_damaged_or_incomplete_agent_checkpoint_is_refused(tmp_path):
+    from oxbot.config import load_config
+    from oxbot.dialogue.env import InteractiveGameEnv
+    from oxbot.dialogue.training import (
+        TrainingState,
+        _load_checkpoint,
+        _new_learner,
+        _save_checkpoint,
+    )
+
+    config = load_config(None, ["agent.replay_size=100"])
+    env = InteractiveGameEnv(config=config)
+    path = tmp_path / "checkpoint.pt"
+    _save_checkpoint(path, config, _new_learner(env, config.agent), TrainingState(step=5))
+    assert _load_checkpoint(path, config, _new_learner(env, config.agent)).step == 5
+    data = path.read_bytes()
+    path.write_bytes(_flip(data, 40, _payload_start(data)))
+    with pytest.raises(ModelFileError, match=r"checkpoint .* is corrupt.*--no-resume"):
+        _load_checkpoint(path, config, _new_learner(env, config.agent))
+    path.write_bytes(data)
+    payload = artifacts.load(path, "agent-checkpoint", 2, "checkpoint", "")
+    for key, value in (("replay", None), ("state", {"step": "five", "nonsense": 1})):
+        odd = dict(payload)
+        if value is None:
+            del odd[key]
+        else:
+            odd[key] = value
+        artifacts.save(path, "agent-checkpoint", 2, odd)
+        with pytest.raises(ModelFileError, match=r"checkpoint.*--no-resume"):
+            _load_checkpoint(path, config, _new_learner(env, config.agent))
+
+
+def test_a_perceiver_checkpoint_from_other_settings_is_refused(tmp_path):
+    from oxbot.perception.training import _load_checkpoint, _save_checkpoint
+
+    settings = {"config": {"epochs": 3}, "images": 1500, "seeds": "s", "sizes": [100, 1500]}
+    path = tmp_path / "perceiver.checkpoint.pt"
+    point = {"images": 100, "accuracy": 0.5, "fit_seconds": 0.1}
+    _save_checkpoint(path, settings, [point])
+    assert _load_checkpoint(path, settings) == [point]
+    with pytest.raises(ModelFileError, match=r"other settings \(images\).*--no-resume"):
+        _load_checkpoint(path, {**settings, "images": 2000})
+    _save_checkpoint(path, settings, [{"images": 100}])
+    with pytest.raises(ModelFileError, match=r"is malformed \(missing 'accuracy'\)"):
+        _load_checkpoint(path, settings)
