@@ -18,6 +18,7 @@ from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from oxbot.config import OxbotConfig, load_config, to_toml, who_starts, with_overrides
 from oxbot.errors import OxbotError, TrainingInterrupted
@@ -268,7 +269,6 @@ def see(
     ] = None,
 ) -> None:
     """Print the board read from each photo of the game sheet (O circles, X crosses)."""
-    from rich.markup import escape
 
     from oxbot.game.board import render_labels
     from oxbot.perception.board import default_reader, save_debug
@@ -515,7 +515,8 @@ def main() -> None:
     try:
         app()
     except OxbotError as exc:
-        err_console.print(f"[bold red]error:[/] {exc}")
+        # escaped: messages name TOML sections like [agent], which rich would take for markup
+        err_console.print(f"[bold red]error:[/] {escape(str(exc))}", soft_wrap=True)
         sys.exit(2)
     except KeyboardInterrupt:
         sys.exit(130)
