@@ -30,7 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from oxbot.atomic import atomic_write
-from oxbot.errors import ModelFileError
+from oxbot.errors import DataError, ModelFileError
 
 log = logging.getLogger(__name__)
 
@@ -120,6 +120,22 @@ def checked(path: str | Path, what: str, remedy: str) -> Iterator[None]:
         detail = f"missing {exc}" if isinstance(exc, KeyError) else str(exc).strip()
         first = detail.splitlines()[0] if detail else type(exc).__name__
         raise ModelFileError(f"{what} {path} is malformed ({first}); {remedy}") from None
+
+
+def load_json(path: str | Path, what: str, remedy: str) -> Any:
+    """The JSON file beside a model (its metrics); a `DataError` saying what is wrong with it,
+    deep nesting included, rather than a traceback."""
+    path = Path(path)
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise DataError(f"{what} {path} does not exist; {remedy}") from None
+    except OSError as exc:
+        raise DataError(f"{what} {path} cannot be read ({exc.strerror or exc}); {remedy}") from None
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise DataError(f"{what} {path} is not valid JSON ({exc}); {remedy}") from None
+    except RecursionError:
+        raise DataError(f"{what} {path} nests its JSON too deeply; {remedy}") from None
 
 
 def _read(path: Path, what: str, remedy: str) -> bytes:

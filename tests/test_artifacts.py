@@ -286,3 +286,23 @@ def test_a_perceiver_checkpoint_from_other_settings_is_refused(tmp_path):
     _save_checkpoint(path, settings, [{"images": 100}])
     with pytest.raises(ModelFileError, match=r"is malformed \(missing 'accuracy'\)"):
         _load_checkpoint(path, settings)
+
+
+@pytest.mark.parametrize(
+    "content,message",
+    [
+        ("[" * 100_000 + "]" * 100_000, "nests its JSON too deeply"),
+        ('{"accuracy": ', "is not valid JSON"),
+        ("\udcff", "is not valid JSON"),
+    ],
+    ids=["deep", "cut", "not utf-8"],
+)
+def test_a_metrics_file_that_is_not_json_is_a_data_error(tmp_path, content, message):
+    from oxbot.errors import DataError
+
+    path = tmp_path / "perceiver.metrics.json"
+    path.write_bytes(content.encode("utf-8", "surrogateescape"))
+    with pytest.raises(DataError, match=rf"metrics {tmp_path}/perceiver\.metrics\.json {message}"):
+        artifacts.load_json(path, "metrics", "re-download it")
+    with pytest.raises(DataError, match="does not exist; re-download it"):
+        artifacts.load_json(tmp_path / "none.json", "metrics", "re-download it")
