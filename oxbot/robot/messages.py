@@ -271,7 +271,7 @@ def from_json(text: str | bytes) -> Message:
         envelope = json.loads(text)
         cls = MESSAGE_TYPES[envelope["type"]]
         data = dict(envelope["data"])
-    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError) as exc:
+    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError, RecursionError) as exc:
         raise InvalidInputError(
             f"not a message of oxbot's bus ({type(exc).__name__}: {exc}); "
             f"known types: {', '.join(sorted(MESSAGE_TYPES))}"
@@ -287,6 +287,10 @@ def from_json(text: str | bytes) -> Message:
                 data[f.name] = tuple(base64.b64decode(v, validate=True) for v in data[f.name])
             elif isinstance(data[f.name], list):
                 data[f.name] = _tuples(data[f.name])
+        except RecursionError:
+            raise InvalidInputError(
+                f"field {f.name!r} of a {cls.__name__} message is nested too deeply"
+            ) from None
         except (binascii.Error, TypeError, ValueError):
             raise InvalidInputError(
                 f"field {f.name!r} of a {cls.__name__} message is not base64 bytes"

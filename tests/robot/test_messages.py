@@ -56,7 +56,10 @@ def test_messages_are_immutable():
         '{"type": "GameMove", "data": {"who": "usr"}}',
         '{"type": "Frame", "data": {"image": "not base64!"}}',
         '{"type": "BoardSeen", "data": {"labels": [], "cells": [42]}}',
+        "[" * 100_000 + "]" * 100_000,
+        '{"type": "BoardSeen", "data": {"labels": ' + "[" * 5_000 + "]" * 5_000 + "}}",
     ],
+    ids=["not json", "unknown type", "missing field", "not base64", "cells", "deep", "deep field"],
 )
 def test_malformed_messages_are_refused_clearly(text):
     with pytest.raises(InvalidInputError, match="message"):
