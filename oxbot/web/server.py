@@ -54,6 +54,7 @@ from PIL import Image, UnidentifiedImageError
 
 from oxbot.config import ListeningConfig, OxbotConfig, WebConfig
 from oxbot.errors import ConfigError, InvalidInputError, OxbotError
+from oxbot.image_size import check_pixels
 from oxbot.robot.listening import HandsFreeListener
 from oxbot.robot.messages import to_json
 from oxbot.speech.audio import Audio, to_wav_bytes
@@ -106,11 +107,15 @@ def decode_image(payload: object, limits: WebConfig) -> np.ndarray:
         raw = base64.b64decode(payload, validate=True)
     except (binascii.Error, ValueError):
         raise InvalidInputError("'image' is not valid base64") from None
+    # the header's size first: a small PNG can declare gigabytes of pixels
+    size = check_pixels(raw, "'image'", limits.max_image_side**2)
+    if size is None:
+        raise InvalidInputError("'image' is not a readable PNG or JPEG image")
     try:
         with Image.open(io.BytesIO(raw)) as image:
             if image.format not in ("PNG", "JPEG", "WEBP"):
                 raise InvalidInputError(f"images must be PNG, JPEG or WebP, not {image.format}")
-            width, height = image.size  # read from the header, before decoding any pixels
+            width, height = size
             if max(width, height) > limits.max_image_side:
                 raise InvalidInputError(
                     f"image is {width}x{height}; the largest side accepted is "
