@@ -11,8 +11,9 @@ Runs `oxbot play` in its own process (real robots, 8x speed) and, from this one:
    another session; /health is asked again and again meanwhile (its answer times); how many
    got a robot and how many the busy close (1013); RSS while they are open, and once they
    have closed;
-3. hostile clients: a tab that never reads while its robot talks, a flood of messages, a
-   decompression-bomb PNG, 100,000-deep JSON; RSS after them.
+3. hostile clients: a decompression-bomb PNG, 100,000-deep JSON, a 4 MB type, a flood of
+   messages, and a tab that draws and answers for 30 s but never reads; RSS around it and
+   after them all.
 
 Issue 16's acceptance: /health within 1 s during a burst, the game finishes, at most
 `max_sessions` robots, and RSS back within 50 MB of its baseline once the connections close.
@@ -42,6 +43,7 @@ from websockets.exceptions import ConnectionClosed
 
 from oxbot.testing.hostile import decompression_bomb, nested_json
 from oxbot.testing.player import data_url, play_game
+from oxbot.testing.sheet import Sheet
 
 
 def rss_mb(pid: int) -> float:
@@ -161,7 +163,7 @@ async def burst(url: str, pid: int, connections: int, seed: int) -> dict:
     }
 
 
-async def hostile(url: str) -> list[str]:
+async def hostile(url: str, pid: int) -> list[str]:
     """The issue's probes, one socket each; how each ended."""
     ws_url = url.replace("http://", "ws://") + "/ws"
     bomb = json.dumps({"type": "frame", "image": data_url(decompression_bomb(20_000))})
@@ -188,12 +190,18 @@ async def hostile(url: str) -> list[str]:
                 f"{name}: {len(replies)} Error(s) of at most {max(replies, default=0)} "
                 f"characters; close {ws.close_code} {ws.close_reason or ''}".rstrip()
             )
-    # a tab that never reads while its robot talks and it keeps answering
+    # a tab that never reads while it draws (a sheet every 100 ms) and keeps answering
+    before = rss_mb(pid)
+    sheet = json.dumps({"type": "frame", "image": data_url(Sheet(3).png())})
     async with websockets.connect(ws_url, proxy=None, max_queue=1) as ws:
-        for _ in range(200):
-            await ws.send(json.dumps({"type": "say", "text": "yes let's play"}))
+        for i in range(300):
+            await ws.send(sheet if i % 10 else json.dumps({"type": "say", "text": "yes"}))
             await asyncio.sleep(0.1)
-        ended.append(f"never reads, 20 s: close {ws.close_code} {ws.close_reason or ''}")
+        during = rss_mb(pid)
+        ended.append(
+            f"never reads, 30 s of sheets and answers: RSS {before:.0f} MB before, "
+            f"{during:.0f} MB after ({during - before:+.0f} MB); close {ws.close_code}"
+        )
     return ended
 
 
@@ -222,7 +230,7 @@ def main() -> None:
                 f"({result['open_threads']} threads); after they closed {after:.0f} MB "
                 f"({after - baseline:+.0f} MB from baseline, {threads(pid)} threads)"
             )
-        for line in asyncio.run(hostile(url)):
+        for line in asyncio.run(hostile(url, pid)):
             print(f"hostile: {line}")
         after = settle(url, pid)
         print(f"RSS after the hostile clients: {after:.0f} MB ({after - baseline:+.0f} MB)")
