@@ -2,8 +2,8 @@
 
 Each browser tab opens `/ws` and gets its own `Robot` (oxbot.robot.session): its own bus,
 components, tracker and dialogue. Everything the robot publishes goes to the tab as the bus's
-JSON (`oxbot.robot.messages.to_json`), in publish order; what the tab sends is checked here
-and handed to the robot:
+JSON (`oxbot.robot.messages.to_json`), in publish order, but for the tab's own frames and
+recordings (`ECHOES`); what the tab sends is checked here and handed to the robot:
 
 client → server (JSON text messages)::
 
