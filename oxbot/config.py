@@ -425,14 +425,39 @@ class WebConfig:
     """oxbot: longest typed answer."""
     max_sessions: int = 32
     """oxbot: sessions (tabs) served at once; more are refused with a message."""
+    idle_timeout: float = 600.0
+    """oxbot: seconds a tab may send nothing before its session is closed (the page sends
+    frames while the person draws, so only a forgotten tab is this quiet)."""
+    max_session_seconds: float = 3600.0
+    """oxbot: longest a session lasts, however busy (a game takes a few minutes)."""
+    max_outbox_bytes: int = 8_000_000
+    """oxbot: bytes of messages waiting for a tab that does not read them; more closes its
+    session (a spoken sentence's audio is 100-200 KB)."""
+    max_messages_per_second: float = 50.0
+    """oxbot: messages a tab may send a second, in bursts of as many; more closes its session
+    (the page sends about 25: sheet frames, audio pieces and webcam frames)."""
+    max_json_depth: int = 16
+    """oxbot: deepest nesting of a message's JSON, checked before parsing (messages are 1 deep)."""
+    allowed_origins: str = ""
+    """oxbot: other origins whose pages may open the game socket, comma-separated, e.g.
+    "https://oxbot.example.org" behind a reverse proxy or "http://mylaptop.local:8000" on a
+    LAN; pages this server serves by IP address or as localhost always may."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "max_message_bytes", "max_image_side", "min_image_side")
         _require_positive(self, "audio_rate", "max_audio_seconds", "max_text_chars")
         _require_positive(self, "max_stream_piece_seconds")
-        _require_positive(self, "max_sessions")
+        _require_positive(self, "max_sessions", "idle_timeout", "max_session_seconds")
+        _require_positive(self, "max_outbox_bytes", "max_messages_per_second", "max_json_depth")
         _require_range(self, "port", "[1, 65535]")
         _require_finite(self)
+        for origin in filter(None, (o.strip() for o in self.allowed_origins.split(","))):
+            scheme, _, rest = origin.partition("://")
+            if scheme not in ("http", "https") or not rest or "/" in rest:
+                raise ConfigError(
+                    f"{_where(self, 'allowed_origins')} has {origin!r}; write each origin as "
+                    f"scheme://host[:port], e.g. https://oxbot.example.org"
+                )
         if self.min_image_side > self.max_image_side:
             raise ConfigError("web.min_image_side is larger than web.max_image_side")
 
