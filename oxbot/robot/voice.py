@@ -42,6 +42,8 @@ class SpeechSynthesisComponent(Component):
     """
 
     listens_to = (Utterance,)
+    retries = (Utterance,)  # the manager waits for SpeakingFinished
+    part = "voice"
 
     def __init__(
         self,
@@ -66,6 +68,8 @@ class SpeechSynthesisComponent(Component):
         self.speaking = True
         try:
             self.bus.publish(SpeakingStarted(text=message.text, audio=audio, seconds=seconds))
+            if self.realtime:
+                self.expect(seconds / self.speed_factor)  # a long sentence is not a hang
             if self.realtime and self._stop.wait(seconds / self.speed_factor):
                 return  # stopped while speaking: the sentence is cut off
         finally:
@@ -105,6 +109,8 @@ class SpeechRecognitionComponent(Component):
     """
 
     listens_to = (SpeechAudio,)
+    part = "hearing"
+    essential = False  # the person can type
 
     def __init__(
         self,
