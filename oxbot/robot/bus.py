@@ -272,7 +272,8 @@ class Component:
 
     @property
     def running(self) -> bool:
-        return self._thread is not None and self._thread.is_alive()
+        """True while its thread runs for the robot (an abandoned thread does not)."""
+        return self._thread is not None and self._thread.is_alive() and not self.abandoned
 
     @property
     def thread(self) -> threading.Thread | None:

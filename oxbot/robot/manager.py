@@ -29,7 +29,7 @@ When a part fails (see `oxbot.robot.bus`), the game goes on if it can:
 - the voice and the arm handle again the sentence or the drawing they failed on, since the
   manager waits for them;
 - a part the game needs (voice, arm, eyes) that is lost for good (its restart budget spent) makes
-  the robot say so in words ("Sorry, my arm has stopped working, so we have to stop here.
+  the robot say so in words ("Sorry, my arm stopped working, so we have to stop here.
   Goodbye.") and end the dialogue at once, without waiting for a voice or arm that may be gone;
   when the manager is the lost part, `oxbot.robot.session.Robot` says it instead;
 - lost hearing is told ("please type your answers"), and the game goes on; a lost head goes
@@ -106,7 +106,7 @@ PROBLEM_SENTENCES = {
 }
 """What the robot says (as the act PROBLEM, not one the policy chooses) about an impossible
 drawing, by the tracker's or the manager's problem kind."""
-STOPPED_SENTENCE = "Sorry, my {part} has stopped working, so we have to stop here. Goodbye."
+STOPPED_SENTENCE = "Sorry, my {part} stopped working, so we have to stop here. Goodbye."
 """The robot's goodbye when a part the game needs is lost for good (as the act CLOSING)."""
 LOST_SENTENCES = {"hearing": "Sorry, my hearing has stopped working. Please type your answers."}
 """What the robot tells the person when a part the game can do without is lost, by part."""
