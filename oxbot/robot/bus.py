@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from oxbot.config import RobotConfig
+from oxbot.errors import OxbotError
 from oxbot.robot.messages import ComponentFailed, ComponentLost, Message
 
 log = logging.getLogger(__name__)
@@ -164,7 +165,8 @@ class Component:
     set. An exception in `handle` or `tick` is reported on the bus as ComponentFailed, `restart`
     resets the component, and after a backoff it goes on (messages wait meanwhile): with the
     same message again if it is one of `retries` (its sender waits for the outcome: a sentence
-    to say, a symbol to draw), else with the next one. A call that takes longer than it should
+    to say, a symbol to draw) and the error is not an OxbotError (which says the message itself
+    is wrong), else with the next one. A call that takes longer than it should
     is for the `Supervisor` to notice.
 
     `part` names the component for a person ("my voice"); `essential` says whether a game can
@@ -323,6 +325,10 @@ class Component:
             try:
                 function() if message is None else function(message)
                 return
+            except OxbotError as exc:  # the message itself is wrong: again would not help
+                self._call = None
+                self._failed(exc)
+                return
             except Exception as exc:
                 self._call = None
                 self._failed(exc)
@@ -404,6 +410,7 @@ class Supervisor:
         self.lost: list[Component] = []
         self.abandoned: list[Component] = []
         """Components whose hung thread was left behind (a daemon, told to stop)."""
+        self._lock = threading.Lock()  # the watchdog and `revive` both replace components
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
@@ -428,14 +435,31 @@ class Supervisor:
         stop_all(self.components, timeout)
         self.abandoned.extend(c for c in self.components if c.abandoned and c not in self.abandoned)
 
+    def revive(self) -> list[str]:
+        """Start afresh, with a full restart budget, every component that was lost (for a new
+        game); their names."""
+        revived = []
+        with self._lock:
+            for old in list(self.lost):
+                if old not in self.components:
+                    continue
+                fresh = old.replacement()
+                fresh._failure_times = deque()
+                old.abandon()  # its inbox holds the old game's messages
+                self.components[self.components.index(old)] = fresh.start()
+                self.lost.remove(old)
+                revived.append(old.name)
+        return revived
+
     def _watch(self) -> None:
         while not self._stop.wait(self.WATCH_PERIOD):
             now = time.monotonic()
-            for i, component in enumerate(list(self.components)):
-                if component.lost is not None and component not in self.lost:
-                    self._give_up(component)
-                elif (call := component.hung(now)) is not None:
-                    self._replace(i, component, call, now)
+            with self._lock:
+                for i, component in enumerate(list(self.components)):
+                    if component.lost is not None and component not in self.lost:
+                        self._give_up(component)
+                    elif (call := component.hung(now)) is not None:
+                        self._replace(i, component, call, now)
 
     def _replace(self, i: int, old: Component, call: Call, now: float) -> None:
         error = f"hung for {now - call.started:.1f} s in {call.describe()}"

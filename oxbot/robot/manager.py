@@ -248,6 +248,7 @@ class InteractionManagerComponent(Component):
         self._rematch = False
         self._deferred: list[str] = []
         self._deadline = 0.0
+        self._broken = False  # a part was lost: only Robot.new_game, which revives it, replays
         if publish:
             self._publish_game()
 
@@ -343,7 +344,11 @@ class InteractionManagerComponent(Component):
 
     def _heard_after_goodbye(self, message: SpeechHypotheses) -> None:
         """After the goodbye the robot only listens for a new game ("again!", "new game")."""
-        if message.nbest and self._understand(message.nbest, "").act == NEW_GAME:
+        if (
+            message.nbest
+            and not self._broken
+            and self._understand(message.nbest, "").act == NEW_GAME
+        ):
             self.bus.publish(NewGame(robot_starts=self.state.robot_starts))
 
     def _moved(self, message: GameMove) -> None:
@@ -402,7 +407,7 @@ class InteractionManagerComponent(Component):
         self._publish_turn("sys", CLOSING, sentence)
         self.bus.publish(Utterance(text=sentence, act=CLOSING))
         # no waiting for the voice or the arm to finish: either may be the part that is gone
-        self.phase = Phase.DONE
+        self.phase, self._broken, self._rematch = Phase.DONE, True, False
         self.bus.publish(DialogueEnded(outcome=self.state.outcome))
 
     def _game_started(self) -> bool:

@@ -200,6 +200,11 @@ class Robot:
     def new_game(self, robot_starts: bool | None = None) -> None:
         """A clean sheet and a new dialogue; who starts is the config's unless given."""
         starts = self.config.game.robot_starts if robot_starts is None else robot_starts
+        if self._started:
+            # parts lost for good in the last game get another chance; before NewGame, so the
+            # fresh ones hear it
+            for name in self.supervisor.revive():
+                log.info("%s starts afresh for the new game", name)
         self.bus.publish(NewGame(robot_starts=starts))
 
     # --- the person ---

@@ -15,7 +15,14 @@ import pytest
 from oxbot.config import load_config
 from oxbot.robot.bus import Component, LocalBus, Supervisor
 from oxbot.robot.manager import LOST_SENTENCES, STOPPED_SENTENCE
-from oxbot.robot.messages import ComponentFailed, ComponentLost, DialogueAct, Utterance
+from oxbot.robot.messages import (
+    ArmDone,
+    ComponentFailed,
+    ComponentLost,
+    DialogueAct,
+    NewGame,
+    Utterance,
+)
 from oxbot.robot.session import Robot
 from oxbot.speech.synthesis import Voice, synthesize
 from oxbot.testing.faults import MODES, TARGETS, Fault, injected, play
@@ -186,3 +193,22 @@ def test_a_robot_stops_within_its_timeout_with_a_hung_part():
         robot.stop(timeout=1.0)
         assert time.monotonic() - started < 1.5
         assert not any(c.running for c in robot.components)
+
+
+def test_a_new_game_after_a_part_was_lost_gets_a_fresh_part():
+    fault = Fault("raises always")
+    robot = Robot(CONFIG, seed=4).start()
+    try:
+        with injected(TARGETS["arm"], fault):
+            run = play(robot, fault)
+        assert run.last_words == STOPPED_SENTENCE.format(part="arm")
+        # "again!" by voice is not enough: the lost part comes back only with Robot.new_game
+        events = robot.bus.subscribe(NewGame)
+        robot.say("new game")
+        assert events.get(timeout=0.5) is None
+        robot.new_game()
+        again = play(robot, Fault("raises once"))  # not injected: nothing fails
+    finally:
+        robot.stop(timeout=0.5)
+    assert again.outcome in ("win", "draw", "loss"), robot.transcript
+    assert len(again.of(ArmDone)) >= 2
