@@ -166,8 +166,8 @@ class Component:
     resets the component, and after a backoff it goes on (messages wait meanwhile): with the
     same message again if it is one of `retries` (its sender waits for the outcome: a sentence
     to say, a symbol to draw) and the error is not an OxbotError (which says the message itself
-    is wrong), else with the next one. A call that takes longer than it should
-    is for the `Supervisor` to notice.
+    is wrong), else with the next one. A call that takes longer than it should is for the
+    `Supervisor` to notice.
 
     `part` names the component for a person ("my voice"); `essential` says whether a game can
     go on without it.

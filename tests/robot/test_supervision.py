@@ -31,7 +31,7 @@ LIMIT = 2
 CONFIG = load_config(
     None,
     [
-        "robot.speed_factor=20",
+        "robot.speed_factor=30",
         "robot.answer_timeout=2",
         "robot.question_timeout=10",
         "robot.move_timeout=10",
