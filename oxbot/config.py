@@ -354,9 +354,12 @@ class RobotConfig:
     as long as the one before (exponential backoff, like ROS 2 launch's respawn delay)."""
     restart_backoff_max: float = 5.0
     """oxbot: the longest wait before a restart."""
-    hang_seconds: float = 5.0
+    hang_seconds: float = 3.0
     """oxbot: a component's call that runs this much longer than it said it would is hung: its
     thread is abandoned and a fresh copy of the component takes over."""
+    hang_limit: int = 1
+    """oxbot: hangs a component may recover from within `restart_window` (each costs the person
+    `hang_seconds` and leaves a thread behind); one more and it stays off."""
     arm: ArmConfig = field(default_factory=ArmConfig)
     """Paper §3.1: Baxter's arm drew the robot's symbol; oxbot's is simulated, as fast as a pen."""
     head: HeadConfig = field(default_factory=HeadConfig)
@@ -364,10 +367,10 @@ class RobotConfig:
 
     def __post_init__(self) -> None:
         _require_positive(self, "speed_factor", "restart_window", "hang_seconds")
-        if not (isinstance(self.restart_limit, int) and self.restart_limit >= 0):
-            raise ConfigError(
-                f"robot.restart_limit is {self.restart_limit}; use a whole number, 0 or more"
-            )
+        for name in ("restart_limit", "hang_limit"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 0):
+                raise ConfigError(f"robot.{name} is {value}; use a whole number, 0 or more")
         if not 0 <= self.restart_backoff <= self.restart_backoff_max:
             raise ConfigError(
                 f"robot.restart_backoff is {self.restart_backoff}; use 0 up to "

@@ -195,6 +195,7 @@ class Component:
         """Why the component gave up (its restart budget spent), else None."""
         self.abandoned = False
         self._failure_times: deque[float] = deque()
+        self._hang_times: deque[float] = deque()
         self._call: Call | None = None
         self._first: Message | None = None  # handled before the inbox, by a replacement
         self._backlog: list[Message] = []  # what its predecessor had not read yet
@@ -362,16 +363,22 @@ class Component:
             log.error("%s could not restart: %s: %s", self.name, type(again).__name__, again)
         self._stop.wait(delay)
 
-    def spend_restart(self, now: float) -> float | None:
-        """Count a failure at `now`: the wait before the restart, or None when more than
-        `restart_limit` failures fell within `restart_window` seconds."""
-        config, times = self.supervision, self._failure_times
-        while times and now - times[0] > config.restart_window:
-            times.popleft()
-        times.append(now)
-        if len(times) > config.restart_limit:
+    def spend_restart(self, now: float, hung: bool = False) -> float | None:
+        """Count a failure (a hang) at `now`: the wait before the restart, or None when more
+        than `restart_limit` failures (`hang_limit` hangs) fell within `restart_window` s."""
+        config = self.supervision
+        for times in (self._failure_times, self._hang_times):
+            while times and now - times[0] > config.restart_window:
+                times.popleft()
+        self._failure_times.append(now)
+        if hung:
+            self._hang_times.append(now)
+        if len(self._failure_times) > config.restart_limit:
             return None
-        return min(config.restart_backoff * 2 ** (len(times) - 1), config.restart_backoff_max)
+        if len(self._hang_times) > config.hang_limit:
+            return None
+        exponent = len(self._failure_times) - 1
+        return min(config.restart_backoff * 2**exponent, config.restart_backoff_max)
 
     def replacement(self) -> Component:
         """A fresh copy, built as this one was, sharing its failure count."""
@@ -379,7 +386,7 @@ class Component:
         fresh = type(self)(*args, **kwargs)
         fresh.supervision = self.supervision
         fresh.failures = self.failures
-        fresh._failure_times = self._failure_times
+        fresh._failure_times, fresh._hang_times = self._failure_times, self._hang_times
         return fresh
 
 
@@ -444,7 +451,7 @@ class Supervisor:
                 if old not in self.components:
                     continue
                 fresh = old.replacement()
-                fresh._failure_times = deque()
+                fresh._failure_times, fresh._hang_times = deque(), deque()
                 old.abandon()  # its inbox holds the old game's messages
                 self.components[self.components.index(old)] = fresh.start()
                 self.lost.remove(old)
@@ -463,7 +470,7 @@ class Supervisor:
 
     def _replace(self, i: int, old: Component, call: Call, now: float) -> None:
         error = f"hung for {now - call.started:.1f} s in {call.describe()}"
-        delay = old.spend_restart(now)
+        delay = old.spend_restart(now, hung=True)
         self.bus.publish(ComponentFailed(component=old.name, error=error))
         fresh = None
         if delay is not None:

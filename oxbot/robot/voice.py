@@ -135,6 +135,7 @@ class SpeechRecognitionComponent(Component):
                 self._unavailable = True
                 log.warning("speech recognition is off, type your answers instead: %s", exc)
                 return
+        self.expect(read_wav(message.audio).seconds)  # a long recording takes longer to hear
         hypotheses = self.recognizer.recognize(message.audio)
         nbest = tuple((h.text, h.confidence) for h in hypotheses)
         words = hypotheses[0].words if hypotheses else ()

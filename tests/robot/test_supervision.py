@@ -212,3 +212,16 @@ def test_a_new_game_after_a_part_was_lost_gets_a_fresh_part():
         robot.stop(timeout=0.5)
     assert again.outcome in ("win", "draw", "loss"), robot.transcript
     assert len(again.of(ArmDone)) >= 2
+
+
+def test_a_part_hanging_at_every_call_is_given_up_in_words_after_its_hang_limit():
+    fault = Fault("hangs always")
+    with injected(TARGETS["synthesis"], fault):
+        robot = Robot(CONFIG, seed=5).start()
+        try:
+            run = play(robot, fault)
+        finally:
+            robot.stop(timeout=0.5)
+    assert run.last_words == STOPPED_SENTENCE.format(part="voice")
+    assert len(fault.fired) == CONFIG.robot.hang_limit + 1  # the sentence tried once again
+    assert run.ended is not None and run.ended < 3 * CONFIG.robot.hang_seconds
