@@ -4,14 +4,15 @@
     .venv/bin/python bench/bench_faults.py --runs 5 --set robot.hang_seconds=0.5
     .venv/bin/python bench/bench_faults.py --kinds manager,arm --modes hangs
 
-For each component and fault (`oxbot.testing.faults`: raises once, raises always, hangs once)
-a typing person plays a whole game against the real robot while the fault strikes, and this
-prints the median over runs of the seconds from the first failing call to the robot's next
-sentence and to its goodbye, the slowest goodbye, and how the game ended: "played" (to a win,
-draw or loss) or "said" (the robot said the part stopped working). The robot runs 20 times
-faster than real time (its waits, speech and arm); the restart settings (`robot.restart_*`,
-`robot.hang_seconds`) are the shipped ones unless `--set` changes them. Issue 16 goal: every
-game goes on or ends in words within 10 s of the fault. Not a test.
+For each component and fault (`oxbot.testing.faults`: raises once, raises always, hangs once;
+`--modes` may add "hangs always") a typing person plays a whole game against the real robot
+while the fault strikes, and this prints the median over runs of the seconds from the first
+failing call to the robot's next sentence and to its goodbye, the slowest goodbye, and how the
+game ended: "played" (to a win, draw or loss) or "said" (the robot said the part stopped
+working). The robot runs 20 times faster than real time (its waits, speech and arm); the
+restart settings (`robot.restart_*`, `robot.hang_*`) are the shipped ones unless `--set`
+changes them. Issue 16 goal: every game goes on or ends in words within 10 s of the fault.
+Not a test.
 """
 
 from __future__ import annotations
