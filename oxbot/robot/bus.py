@@ -516,9 +516,13 @@ class Supervisor:
 
 
 def start_all(
-    components: Iterable[Component], bus: Bus, config: RobotConfig | None = None
+    components: Iterable[Component], bus: Bus | None = None, config: RobotConfig | None = None
 ) -> Supervisor:
-    """Start every component under one supervisor; it, for `stop_all`."""
+    """Start every component under one supervisor (reporting on `bus`, by default the first
+    component's); it, for `stop_all`."""
+    components = list(components)
+    if bus is None:
+        bus = components[0].bus.bus if components else LocalBus()
     return Supervisor(components, bus, config).start()
 
 
