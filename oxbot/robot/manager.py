@@ -201,6 +201,8 @@ class InteractionManagerComponent(Component):
         elif self.phase is Phase.DONE and isinstance(message, SpeechHypotheses):
             self._heard_after_goodbye(message)
         elif self.phase in (Phase.IDLE, Phase.DONE):
+            if isinstance(message, ComponentLost) and message.essential:
+                self._broken = True  # between games: no spoken rematch with the part gone
             return
         elif isinstance(message, SpeechHypotheses):
             self._heard(message)
