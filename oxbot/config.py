@@ -339,15 +339,38 @@ class RobotConfig:
     """oxbot: seconds to wait for the person's drawing after "Your turn"; then it asks again."""
     speed_factor: float = 1.0
     """oxbot: how many times faster than real time speech, the arm and the waits run (tests)."""
+    restart_limit: int = 5
+    """oxbot: restarts a component may use within `restart_window` (an Erlang supervisor's
+    intensity); one more failure and it stays off (the robot says so, and ends the game if it
+    needs the component)."""
+    restart_window: float = 60.0
+    """oxbot: seconds over which a component's failures count against `restart_limit`."""
+    restart_backoff: float = 0.1
+    """oxbot: seconds before the first restart; each further one within the window waits twice
+    as long as the one before (exponential backoff, like ROS 2 launch's respawn delay)."""
+    restart_backoff_max: float = 5.0
+    """oxbot: the longest wait before a restart."""
+    hang_seconds: float = 3.0
+    """oxbot: a component's call that runs this much longer than it said it would is hung: its
+    thread is abandoned and a fresh copy of the component takes over."""
+    hang_limit: int = 1
+    """oxbot: hangs a component may recover from within `restart_window` (each costs the person
+    `hang_seconds` and leaves a thread behind); one more and it stays off."""
     arm: ArmConfig = field(default_factory=ArmConfig)
     """Paper §3.1: Baxter's arm drew the robot's symbol; oxbot's is simulated, as fast as a pen."""
     head: HeadConfig = field(default_factory=HeadConfig)
     """Paper §3.1: head-move recognition from a Kinect; oxbot's from a webcam."""
 
     def __post_init__(self) -> None:
-        _require_positive(self, "speed_factor")
+        _require_positive(self, "speed_factor", "restart_window", "hang_seconds")
         _require_at_least(self, 0, "answer_timeout", "question_timeout", "move_timeout")
+        _require_at_least(self, 0, "restart_limit", "hang_limit", "restart_backoff_max")
         _require_finite(self)
+        if not 0 <= self.restart_backoff <= self.restart_backoff_max:
+            raise ConfigError(
+                f"{_where(self, 'restart_backoff')} must be from 0 up to restart_backoff_max "
+                f"({self.restart_backoff_max}), got {self.restart_backoff}"
+            )
 
 
 @dataclass(frozen=True)

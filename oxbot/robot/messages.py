@@ -240,11 +240,24 @@ class DialogueEnded(Message):
 
 @dataclass(frozen=True)
 class ComponentFailed(Message):
-    """A component raised; the runtime reports it and carries on."""
+    """A component raised or hung; the runtime restarts it (after a wait) and carries on."""
 
     topic: ClassVar[str] = "robot/failure"
     component: str
     error: str
+
+
+@dataclass(frozen=True)
+class ComponentLost(Message):
+    """A component failed or hung more often than its restart budget allows and stays off; if
+    the game needs it (`essential`), the robot says so and ends the game."""
+
+    topic: ClassVar[str] = "robot/lost"
+    component: str
+    part: str
+    """What the component is to the robot, in words: "voice", "arm", "hearing"."""
+    error: str
+    essential: bool
 
 
 MESSAGE_TYPES: dict[str, type[Message]] = {cls.__name__: cls for cls in Message.__subclasses__()}

@@ -7,6 +7,7 @@ from oxbot.robot.messages import (
     MESSAGE_TYPES,
     ArmStroke,
     BoardSeen,
+    ComponentLost,
     Decision,
     DialogueEnded,
     Frame,
@@ -30,6 +31,7 @@ EXAMPLES = [
     DialogueEnded(outcome="draw"),
     DialogueEnded(outcome=None),
     NewGame(robot_starts=False),
+    ComponentLost(component="ArmComponent", part="arm", error="hung for 5.1 s", essential=True),
 ]
 
 
