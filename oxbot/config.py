@@ -258,6 +258,9 @@ class DialogueConfig:
     """oxbot: chance that the simulated person does not answer an invitation at all."""
     rematch_probability: float = 0.1
     """oxbot: chance that the simulated person asks for another game when told who won."""
+    early_refusal_probability: float = 0.25
+    """oxbot: chance that a simulated person who declines (once or for good) says no before
+    being asked, in answer to the greeting or the introduction ("no thanks" to "Hi!")."""
     max_turns: int = 60
     """oxbot: the dialogue length cap in system acts; the episode is truncated there."""
     nb_alpha: float = 0.01
@@ -275,6 +278,7 @@ class DialogueConfig:
             "nonsense_probability",
             "silence_probability",
             "rematch_probability",
+            "early_refusal_probability",
         ):
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
