@@ -205,14 +205,11 @@ class UserActClassifier:
         near ties between a right phrase and a wrong one; two hypotheses that agree outweigh one
         that does not. The score is the weighted probability of the chosen act, scaled by the
         recogniser's confidence in the best hypothesis; a yes from a best hypothesis below
-        `MIN_YES_CONFIDENCE` is Unknown, and so is a yes or a no when any hypothesis, however
-        unlikely, reads as the opposite: the recogniser could not tell them apart, and hearing
-        a no as a yes (or the reverse) is worse than asking again.
+        `MIN_YES_CONFIDENCE` is Unknown.
         """
         total = np.zeros(len(self.classes))
         weight = 0.0
         best_text, best_confidence = "", 0.0
-        readings: list[tuple[np.ndarray, str]] = []
         for entry in nbest:
             if isinstance(entry, tuple | list):
                 text, confidence = entry
@@ -224,16 +221,12 @@ class UserActClassifier:
                 continue
             if not best_text:
                 best_text, best_confidence = normalised(text), confidence
-            probabilities = self.probabilities(text)
-            readings.append((probabilities, normalised(text)))
-            total += confidence * probabilities
+            total += confidence * self.probabilities(text)
             weight += confidence
         if weight <= 0.0:
             return UserAct(UNKNOWN if best_text else SILENCE, 0.0)
         decided = self._decide(total / weight, best_text, context)
         if decided.act == ACCEPT and best_confidence < self.min_yes_confidence:
-            return UserAct(UNKNOWN, 0.0)
-        if any(_opposite(decided.act, self._decide(p, text, context).act) for p, text in readings):
             return UserAct(UNKNOWN, 0.0)
         act = self._with_phrase(decided, best_text)
         return UserAct(act.act, round(act.score * best_confidence, 6), act.phrase)
@@ -263,11 +256,6 @@ class UserActClassifier:
         mine = np.flatnonzero(np.array(self.acts) == self.classes[k])
         similarity = (self._features[mine] @ self.vectorizer.transform([text]).T).toarray()
         return UserAct(reading.act, reading.score, self.texts[mine[int(np.argmax(similarity))]])
-
-
-def _opposite(act: str, other: str) -> bool:
-    """True when one act says yes to playing and the other no."""
-    return (act == ACCEPT and other in REFUSALS) or (act in REFUSALS and other == ACCEPT)
 
 
 def _holds(text: str, cues: tuple[str, ...]) -> bool:

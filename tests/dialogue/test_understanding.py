@@ -145,25 +145,6 @@ def test_a_yes_the_recogniser_is_unsure_of_is_asked_again_a_no_is_not(classifier
     assert classifier.read("sure why not", INVITATION).act == ACCEPT  # the simulator's path
 
 
-@pytest.mark.parametrize(
-    "nbest",
-    [
-        [("absolutely", 0.95), ("absolutely not", 0.02)],
-        [("no not now", 0.9), ("sure why not", 0.01)],
-        [("yes please", 0.9), ("nope", 0.3), ("yes", 0.2)],
-    ],
-)
-def test_a_yes_or_no_some_hypothesis_contradicts_is_asked_again(classifier, nbest):
-    assert classifier.classify(nbest[0][0], INVITATION).act in (ACCEPT, *REFUSALS)
-    assert classifier.intent_of(nbest, INVITATION) == UserAct(UNKNOWN, 0.0)
-
-
-def test_hypotheses_that_agree_on_yes_or_no_are_understood(classifier):
-    assert classifier.intent_of([("yes please", 0.9), ("yes", 0.4)], INVITATION).act == ACCEPT
-    heard = classifier.intent_of([("no thanks", 0.8), ("no", 0.3), ("hello", 0.1)], INVITATION)
-    assert heard.act == DECLINE
-
-
 def test_the_fast_path_gives_scikit_learns_probabilities(classifier):
     texts = [*classifier.texts[:200], "asdf qwerty", "sure why nt", "yes yes no"]
     ours = np.stack([classifier.probabilities(t) for t in texts])

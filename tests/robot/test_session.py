@@ -250,21 +250,6 @@ def test_no_thanks_is_acknowledged_and_the_robot_says_goodbye():
     assert ended.outcome is None
 
 
-@pytest.mark.parametrize("seed", [21, 22])
-def test_no_thanks_before_being_asked_counts_as_a_no(seed):
-    """Said to the greeting, and again when asked: one invitation at most after the first no,
-    then the robot lets the person go."""
-    no = ["No thanks."]
-    answers = {"Salutation(greeting)": list(no), "Request(playGame)": no * 3}
-    with Robot(FAST, seed=seed) as robot:
-        turns, ended = talk_until_goodbye(robot, answers)
-    acts = [t.act for t in turns if t.speaker == "sys"]
-    assert [t.act for t in turns][:2] == ["Salutation(greeting)", "Reject(playGame=no)"]
-    assert acts.count("Request(playGame)") + acts.count("Request(repeat)") <= 1, acts
-    assert acts[-2:] == ["Acknowledge(playGame=no)", "Salutation(closing)"], acts
-    assert ended.outcome is None
-
-
 def test_stop_mid_game_is_confirmed_or_acknowledged_and_the_robot_lets_go():
     with Robot(FAST, seed=12) as robot:
         answers = {
