@@ -257,6 +257,9 @@ class DialogueConfig:
     """oxbot: chance that the simulated person does not answer an invitation at all."""
     rematch_probability: float = 0.1
     """oxbot: chance that the simulated person asks for another game when told who won."""
+    early_refusal_probability: float = 0.25
+    """oxbot: chance that a simulated person who declines (once or for good) says no before
+    being asked, in answer to the greeting or the introduction ("no thanks" to "Hi!")."""
     max_turns: int = 60
     """oxbot: the dialogue length cap in system acts; the episode is truncated there."""
     nb_alpha: float = 0.01
@@ -274,6 +277,7 @@ class DialogueConfig:
             "nonsense_probability",
             "silence_probability",
             "rematch_probability",
+            "early_refusal_probability",
         ):
             _require_range(self, name, "[0, 1]")
         _require_positive(self, "max_turns", "nb_alpha")

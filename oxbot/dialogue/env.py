@@ -140,6 +140,7 @@ class InteractiveGameEnv(gym.Env):
                 nonsense_probability=cfg.nonsense_probability,
                 silence_probability=cfg.silence_probability,
                 rematch_probability=cfg.rematch_probability,
+                early_refusal_probability=cfg.early_refusal_probability,
                 cooperative=self.cooperative,
                 understanding=self.model.understanding,
             )

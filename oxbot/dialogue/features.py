@@ -19,7 +19,8 @@ Layout (SPEC §3, paper §2.2 "State Space") with the shipped vocabulary of 84 w
     141-144  dialogue:greeted, introduced, invited, gave_feedback
                                       1 once the robot has said that act (any feedback act)
     145      dialogue:acknowledged    1 once it has acknowledged a refusal or a stop
-    146      dialogue:asked_twice     1 once it has asked to play (invited, asked again) twice
+    146      dialogue:asked_twice     1 once it has asked to play (invited, asked again) twice,
+                                      a no said before it first asked counting as once
     147-149  person:agreed, refused, stopped
                                       1 once an answer was understood as that (any refusal)
 
@@ -96,7 +97,9 @@ HEARD_FLAGS: dict[str, tuple[str, ...]] = {
 }
 """Context features: 1 once the person's answer was understood as one of the acts."""
 ASKED_TWICE = "dialogue:asked_twice"
-"""1 once the robot has asked to play (invited or asked again) twice or more."""
+"""1 once the robot has asked to play (invited or asked again) twice or more; a no the person
+said before the robot first asked counts as one asking, so that a no to the greeting and a no to
+the invitation look like two noes to two invitations (the rule: ask once more after a no)."""
 DIALOGUE_FLAGS: tuple[str, ...] = (*SAID_FLAGS, ASKED_TWICE, *HEARD_FLAGS)
 _SAID: dict[str, int] = {act: k for k, acts in enumerate(SAID_FLAGS.values()) for act in acts}
 _HEARD: dict[str, int] = {
@@ -169,7 +172,7 @@ class FeatureLayout:
             k = _SAID.get(act)
             if k is not None:
                 flags[k] = 1.0
-        flags[len(SAID_FLAGS)] = state.invitations >= 2
+        flags[len(SAID_FLAGS)] = state.invitations + state.refused_unasked >= 2
         for act in state.person_acts:
             k = _HEARD.get(act)
             if k is not None:

@@ -6,7 +6,9 @@ grid was only allowed if the location was empty."
 
 Each dialogue the person is one of three kinds, drawn at `reset`: one who wants to play, one
 who declines the first invitation and accepts when asked again (`decline_probability`), and one
-who declines every time (`refuse_probability`); and, independently, one who asks to stop in
+who declines every time (`refuse_probability`). Either of the last two may say no before being
+asked, in answer to the greeting or the introduction (`early_refusal_probability`): that no is
+the one of a person who declines once. And, independently, one who asks to stop in
 the middle of the game (`stop_probability`). In any answer the person may say something that
 is none of the game's acts (`nonsense_probability`) or nothing at all (`silence_probability`);
 asked for a move, they may answer out of turn with small talk (`out_of_turn_probability`);
@@ -93,6 +95,7 @@ class UserSimulator:
         nonsense_probability: float = 0.0,
         silence_probability: float = 0.0,
         rematch_probability: float = 0.0,
+        early_refusal_probability: float = 0.0,
         cooperative: bool = False,
         understanding: UserActClassifier | None = None,
     ) -> None:
@@ -108,6 +111,7 @@ class UserSimulator:
         self.nonsense_probability = nonsense_probability * off
         self.silence_probability = silence_probability * off
         self.rematch_probability = rematch_probability * off
+        self.early_refusal_probability = early_refusal_probability * off
         self.out_of_turn_probability = out_of_turn_probability
         self.understanding = (
             understanding if understanding is not None else UserActClassifier(domain)
@@ -131,6 +135,13 @@ class UserSimulator:
         self.stops_after = (
             int(self.rng.integers(1, 4)) if self.rng.random() < self.stop_probability else None
         )
+        # drawn only when it can happen, so that people who never say no early (the cooperative
+        # ones among them) meet the same random stream as before this kind existed
+        self.refuses_early = (
+            (self.refuses or self.declines_once)
+            and self.early_refusal_probability > 0.0
+            and self.rng.random() < self.early_refusal_probability
+        )
         self.asked = 0
         self.agreed = False
         self.refused = False
@@ -153,6 +164,9 @@ class UserSimulator:
         rng = self.rng
         if system_act in (INVITATION, ASK_AGAIN):
             return self._asked_to_play(system_act)
+        if system_act in (GREETING, INTRODUCTION) and self.refuses_early and not self.refused:
+            self.refused = True
+            return self._say(DECLINE, system_act)
         if system_act == MOVE_REQUEST:
             return self._asked_to_move(board, person_to_move)
         if is_feedback(system_act) and rng.random() < self.rematch_probability:
@@ -172,7 +186,8 @@ class UserSimulator:
             return SILENT
         if rng.random() < self.nonsense_probability:
             return self._say(UNKNOWN, system_act)
-        if self.refuses or (self.declines_once and self.asked == 1):
+        first_no = self.declines_once and self.asked == 1 and not self.refuses_early
+        if self.refuses or first_no:
             self.refused = True
             return self._say(POSTPONE if rng.random() < 0.3 else DECLINE, system_act)
         self.agreed = True

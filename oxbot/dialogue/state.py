@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from oxbot.dialogue.domain import ASK_AGAIN, INVITATION, game_move_cell, words_of
+from oxbot.dialogue.domain import ASK_AGAIN, INVITATION, REFUSALS, game_move_cell, words_of
 from oxbot.errors import IllegalMoveError
 from oxbot.game.board import (
     EMPTY,
@@ -81,6 +81,9 @@ class DialogueState:
         """Every act the person's turns were understood as, in order."""
         self.invitations = 0
         """How many times the robot has asked to play (invited, or asked again)."""
+        self.refused_unasked = False
+        """Whether the person said no before the robot first asked to play ("no thanks" to
+        its greeting): the robot may then ask once, as after any no."""
         self.transcript: list[Turn] = []
         self.understood_turns: list[str] = []
         """For each turn of the transcript, the act it was understood as (the robot's own turns
@@ -154,6 +157,8 @@ class DialogueState:
         if understood is not None:
             self.understood = understood
             self.person_acts.append(understood[0])
+            if understood[0] in REFUSALS and self.invitations == 0:
+                self.refused_unasked = True
         self._turn("usr", act, text, understood[0] if understood is not None else act)
 
     def _turn(self, speaker: str, act: str, text: str, understood: str = "") -> None:

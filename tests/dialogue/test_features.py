@@ -95,6 +95,22 @@ def test_the_dialogue_flags_remember_invitations_and_what_the_person_said():
     assert read["dialogue:asked_twice"] == read["person:stopped"] == 1
 
 
+def test_a_no_before_the_first_invitation_counts_as_one_asking():
+    layout = FeatureLayout(("hello",))
+    asked_twice = layout.dialogue_flags.start + DIALOGUE_FLAGS.index("dialogue:asked_twice")
+    state = state_of(layout)
+    state.robot_says(GREETING, "Hello!")
+    state.person_says(DECLINE, "no thanks", (("no", 1.0), ("thanks", 1.0)), (DECLINE, 0.9))
+    assert state.encode()[asked_twice] == 0
+    state.robot_says(INVITATION, "Would you like to play?")
+    assert state.encode()[asked_twice] == 1  # "no thanks", then asked: as after one no
+    answered = state_of(layout)
+    answered.robot_says(GREETING, "Hello!")
+    answered.robot_says(INVITATION, "Would you like to play?")
+    answered.person_says(DECLINE, "no", (("no", 1.0),), (DECLINE, 0.9))
+    assert answered.encode()[asked_twice] == 0  # a no to the invitation is no asking
+
+
 def test_symmetries_move_cells_and_game_moves_together():
     layout = shipped_dialogue_model().layout
     features, actions = layout.symmetry_permutations()

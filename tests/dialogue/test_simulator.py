@@ -7,6 +7,8 @@ from oxbot.dialogue.domain import (
     ACCEPT,
     DECLINE,
     FEEDBACK_WIN,
+    GREETING,
+    INTRODUCTION,
     INVITATION,
     MOVE_REQUEST,
     NEW_GAME,
@@ -90,6 +92,30 @@ def test_the_person_declines_once_or_for_good_as_configured():
     assert firsts[True] == kinds["refuses"] + kinds["declines once"]
 
 
+def test_a_person_who_declines_may_say_no_before_being_asked_and_that_no_counts():
+    early = Counter()
+    for seed in range(300):
+        person = simulator(
+            seed, decline_probability=0.3, refuse_probability=0.2, early_refusal_probability=0.5
+        )
+        greeted = person.respond(GREETING, EMPTY_BOARD, False).act
+        introduced = person.respond(INTRODUCTION, EMPTY_BOARD, False).act
+        asked = person.respond(INVITATION, EMPTY_BOARD, False).act
+        if person.kind == "agrees":
+            assert DECLINE not in (greeted, introduced) and asked == ACCEPT
+            continue
+        said_no_early = DECLINE in (greeted, introduced)
+        assert (greeted, introduced).count(DECLINE) <= 1  # one no before being asked
+        early[said_no_early] += 1
+        if person.kind == "declines once" and said_no_early:
+            assert asked == ACCEPT  # the early no was their one no
+        elif person.kind == "declines once":
+            assert asked in REFUSALS
+        else:
+            assert asked in REFUSALS
+    assert early[True] == pytest.approx(early[False], abs=0.25 * sum(early.values()))
+
+
 def test_a_cooperative_person_always_agrees_and_plays():
     for seed in range(50):
         person = simulator(
@@ -99,8 +125,10 @@ def test_a_cooperative_person_always_agrees_and_plays():
             stop_probability=1.0,
             nonsense_probability=1.0,
             silence_probability=1.0,
+            early_refusal_probability=1.0,
             out_of_turn_probability=0.0,
         )
+        assert person.respond(GREETING, EMPTY_BOARD, False).act != DECLINE
         assert person.respond(INVITATION, EMPTY_BOARD, False).act == ACCEPT
         assert person.respond(MOVE_REQUEST, EMPTY_BOARD, True).cell is not None
 
