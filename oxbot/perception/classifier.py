@@ -5,11 +5,18 @@ max-pool 3x3 stride 3 → SVM output with 3 labels. The paper's toolkit (ConvNet
 uses 5x5 kernels with padding 2 and a multi-class hinge loss for its "svm" layer; here that is
 `nn.MultiMarginLoss`, and the output layer is a linear map to one score per label.
 
+oxbot (issue 15): the output layer has a fourth score, "partial", after the paper's three, for
+ink that is not a whole symbol (an arc, one stroke, a plus, a tick, a scribble). `predict`
+keeps SPEC §5's three labels and says "nothing" for it: a partial cell is no move. `read`
+gives all four with a confidence: the softmax of the hinge scores divided by a temperature
+fitted on held-out images (`fit_temperature`), saved in the model's metadata.
+
 The classifier has scikit-learn's shape: configured in `__init__`, learned by `fit`, and
 `predict` takes a batch:
 
     clf = load_classifier()                  # the shipped model
     clf.predict(cells)                       # uint8 (N, 40, 40) -> ["circle", "nothing", ...]
+    clf.read(cells)                          # -> [CellReading("partial", 0.97), ...]
     clf = SymbolClassifier(PerceptionConfig()).fit(images, labels)
     clf.save("perceiver.pt")                 # atomic; load with load_classifier(path)
 """
@@ -37,7 +44,7 @@ from torch import nn
 from oxbot.atomic import atomic_write
 from oxbot.config import PerceptionConfig
 from oxbot.errors import InvalidInputError, ModelFileError
-from oxbot.perception.synth import LABELS
+from oxbot.perception.synth import LABELS, OUTPUTS, PARTIAL
 
 log = logging.getLogger(__name__)
 
@@ -83,7 +90,7 @@ class SymbolNet(nn.Module):
         side = (image_size // pool1) // pool2
         if side < 1:
             raise InvalidInputError(f"image_size {image_size} is too small for the two poolings")
-        self.svm = nn.Linear(conv2_filters * side * side, len(LABELS))
+        self.svm = nn.Linear(conv2_filters * side * side, len(OUTPUTS))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.svm(self.features(x).flatten(1))
@@ -176,18 +183,60 @@ def to_input(cells: np.ndarray) -> torch.Tensor:
     return torch.from_numpy(x.reshape(len(cells), 1, *cells.shape[1:]))
 
 
+INK_SHARE_LEVEL = 0.35
+"""oxbot: a pixel at least this far from paper to the darkest ink (`to_input`) counts as ink."""
+
+
+def ink_share(cells: np.ndarray) -> np.ndarray:
+    """Share of each uint8 cell's pixels that are ink, float64 (N,), on `to_input`'s scale."""
+    x = to_input(cells).numpy()
+    return (x > INK_SHARE_LEVEL).reshape(len(cells), -1).mean(axis=1).astype(np.float64)
+
+
 def label_indices(labels: Sequence[str] | np.ndarray) -> np.ndarray:
-    """Labels given as strings or indices, as int64 indices into LABELS."""
+    """Labels given as strings or indices, as int64 indices into OUTPUTS (LABELS, then
+    PARTIAL)."""
     array = np.asarray(labels)
     if array.dtype.kind in "iu":
-        if array.size and (array.min() < 0 or array.max() >= len(LABELS)):
-            raise InvalidInputError(f"label indices must be 0-{len(LABELS) - 1}")
+        if array.size and (array.min() < 0 or array.max() >= len(OUTPUTS)):
+            raise InvalidInputError(f"label indices must be 0-{len(OUTPUTS) - 1}")
         return array.astype(np.int64)
-    unknown = sorted({str(v) for v in array.tolist()} - set(LABELS))
+    unknown = sorted({str(v) for v in array.tolist()} - set(OUTPUTS))
     if unknown:
-        raise InvalidInputError(f"unknown labels {unknown}; labels are {', '.join(LABELS)}")
-    lookup = {label: i for i, label in enumerate(LABELS)}
+        raise InvalidInputError(f"unknown labels {unknown}; labels are {', '.join(OUTPUTS)}")
+    lookup = {label: i for i, label in enumerate(OUTPUTS)}
     return np.array([lookup[str(v)] for v in array.tolist()], np.int64)
+
+
+@dataclasses.dataclass(frozen=True)
+class CellReading:
+    """What the classifier makes of one cell, beside SPEC §5's bare label."""
+
+    label: str
+    """One of OUTPUTS: circle, cross, nothing, or partial (ink that is not a whole symbol)."""
+    confidence: float
+    """The calibrated probability of `label`, in (0, 1]."""
+    ink: float = 0.0
+    """Share of the cell's pixels that are ink, as the network sees them: a drawing under
+    way grows it from one reading to the next (the move tracker waits until it stops)."""
+
+    @property
+    def spec_label(self) -> str:
+        """The SPEC §5 label: a partial cell is "nothing" (no move)."""
+        return "nothing" if self.label == PARTIAL else self.label
+
+
+def spec_label(label: str) -> str:
+    """The SPEC §5 label of one of OUTPUTS: PARTIAL is "nothing", since it is no move."""
+    return "nothing" if label == PARTIAL else label
+
+
+def softmax(scores: np.ndarray, temperature: float) -> np.ndarray:
+    """Row-wise softmax of `scores / temperature`, float64."""
+    z = scores.astype(np.float64) / temperature
+    z -= z.max(axis=1, keepdims=True)
+    e = np.exp(z)
+    return e / e.sum(axis=1, keepdims=True)
 
 
 SMALL_BATCH = 64
@@ -294,7 +343,7 @@ class SymbolClassifier:
         self.metadata.update(trained_images=len(x), final_loss=float(loss.item()))
 
     def decision_function(self, cells: Any) -> np.ndarray:
-        """The SVM layer's score of each label for each cell, float32 (N, 3)."""
+        """The SVM layer's score of each output for each cell, float32 (N, 4), OUTPUTS order."""
         x = to_input(check_cells(cells, self.image_size))
         # A frame's 9 cells take well under a millisecond on one thread; spreading so little
         # work over threads costs more than it saves, many times more when cores are shared.
@@ -302,12 +351,42 @@ class SymbolClassifier:
             return self.net.scores(x).numpy()
 
     def predict(self, cells: Any) -> list[str]:
-        """The label of each cell of a batch: uint8 (N, 40, 40) dark-on-light -> N strings."""
+        """The label of each cell of a batch: uint8 (N, 40, 40) dark-on-light -> N strings.
+
+        SPEC §5's labels only: a cell the network reads as partial is "nothing" (no move).
+        """
         scores = self.decision_function(cells)
-        return [LABELS[i] for i in scores.argmax(axis=1)]
+        return [spec_label(OUTPUTS[i]) for i in scores.argmax(axis=1)]
+
+    @property
+    def temperature(self) -> float:
+        """Divides the hinge scores before the softmax of `read`; fitted by `fit_temperature`."""
+        return float(self.metadata.get("temperature", 1.0))
+
+    def probabilities(self, cells: Any) -> np.ndarray:
+        """Calibrated probability of each output for each cell, float64 (N, 4)."""
+        return softmax(self.decision_function(cells), self.temperature)
+
+    def read(self, cells: Any) -> list[CellReading]:
+        """Each cell's label among OUTPUTS (partial included) with its calibrated confidence."""
+        checked = check_cells(cells, self.image_size)
+        p = self.probabilities(checked)
+        ink = ink_share(checked)
+        best = p.argmax(axis=1)
+        return [CellReading(OUTPUTS[k], float(p[i, k]), float(ink[i])) for i, k in enumerate(best)]
+
+    def fit_temperature(self, cells: Any, labels: Sequence[str] | np.ndarray) -> float:
+        """Fit the softmax temperature on held-out labelled cells (least negative log
+        likelihood over a log grid), keep it in the metadata and return it."""
+        scores = self.decision_function(cells)
+        y = label_indices(labels)
+        grid = np.exp(np.linspace(np.log(0.02), np.log(5.0), 121))
+        nll = [-np.log(softmax(scores, t)[np.arange(len(y)), y] + 1e-12).mean() for t in grid]
+        self.metadata["temperature"] = float(grid[int(np.argmin(nll))])
+        return self.temperature
 
     def score(self, cells: Any, labels: Sequence[str] | np.ndarray) -> float:
-        """Accuracy on labelled cells."""
+        """Accuracy on labelled cells, over all four outputs."""
         y = label_indices(labels)
         return float((self.decision_function(cells).argmax(axis=1) == y).mean())
 
@@ -321,6 +400,7 @@ class SymbolClassifier:
             "format": FORMAT,
             "format_version": FORMAT_VERSION,
             "labels": list(LABELS),
+            "outputs": list(OUTPUTS),
             "architecture": {f: getattr(self.config, f) for f in ARCHITECTURE_FIELDS},
             "config": dataclasses.asdict(self.config),
             "seed": self.seed,
@@ -372,6 +452,11 @@ class SymbolClassifier:
                 f"model file {path} has format version {payload.get('format_version')} and "
                 f"labels {payload.get('labels')}; this oxbot reads version {FORMAT_VERSION} "
                 f"with labels {list(LABELS)}"
+            )
+        if payload.get("outputs", list(LABELS)) != list(OUTPUTS):
+            raise ModelFileError(
+                f"model file {path} has outputs {payload.get('outputs', list(LABELS))}; this "
+                f"oxbot reads {list(OUTPUTS)}: retrain it with `oxbot train perceiver`"
             )
         known = {f.name for f in dataclasses.fields(PerceptionConfig)}
         saved = {k: v for k, v in dict(payload.get("config", {})).items() if k in known}

@@ -29,6 +29,7 @@ from oxbot.errors import DataError
 from oxbot.perception.augment import generate
 from oxbot.perception.classifier import SymbolClassifier
 from oxbot.perception.evaluation import (
+    CALIBRATION_STREAM,
     TRAIN_STREAM,
     evaluate,
     evaluate_fonts,
@@ -78,14 +79,25 @@ def train_perceiver(
     seeds = load_seeds(seeds_dir, size=config.image_size)
 
     started = time.perf_counter()
-    x, y = generate(seeds, n, np.random.default_rng([config.seed, TRAIN_STREAM]), config.image_size)
+    train_rng = np.random.default_rng([config.seed, TRAIN_STREAM])
+    x, y = generate(seeds, n, train_rng, config.image_size, partial=True)
     generate_s = time.perf_counter() - started
     test_x, test_y = generated_test_set(seeds, config.test_images, config.seed, config.image_size)
 
     sizes = [s for s in CURVE_SIZES if s < n] if curve else []
     clf, points = _fit_along_the_curve(config, (x, y), (test_x, test_y), [*sizes, n], show_progress)
 
+    # The temperature of `read`'s confidences, fitted on images of all four outputs that
+    # neither training nor testing sees.
+    cal_rng = np.random.default_rng([config.seed, CALIBRATION_STREAM])
+    cal_x, cal_y = generate(seeds, config.test_images, cal_rng, config.image_size, partial=True)
+    temperature = clf.fit_temperature(cal_x, cal_y)
     test = evaluate(clf, test_x, test_y, "generated")
+    with_partial = evaluate(
+        clf,
+        *generated_test_set(seeds, config.test_images, config.seed, config.image_size, True),
+        "generated with partial",
+    )
     try:
         fonts = evaluate_fonts(clf, seed=config.seed).to_dict()
     except DataError as exc:  # no fonts installed: the metrics say so instead
@@ -95,6 +107,8 @@ def train_perceiver(
         "generate_seconds": round(generate_s, 3),
         "fit_seconds": round(points[-1]["fit_seconds"], 3),
         "test": test.to_dict(),
+        "test_with_partial": with_partial.to_dict(),
+        "temperature": temperature,
         "fonts": fonts,
         "learning_curve": points,
         "seeds": str(seeds.folder),

@@ -5,11 +5,11 @@ from torch import nn
 
 from oxbot.config import PerceptionConfig
 from oxbot.errors import InvalidInputError, ModelFileError
-from oxbot.perception import LABELS, SymbolClassifier, load_classifier
+from oxbot.perception import LABELS, OUTPUTS, SymbolClassifier, load_classifier
 from oxbot.perception.augment import generate
 from oxbot.perception.classifier import SymbolNet, shipped_model_path
 from oxbot.perception.seeds import load_seeds
-from oxbot.perception.synth import draw_cell
+from oxbot.perception.synth import draw_cell, draw_partial, paper
 
 
 @pytest.fixture(scope="module")
@@ -36,8 +36,10 @@ def test_network_is_the_papers_architecture():
     assert (conv2.out_channels, conv2.kernel_size, conv2.padding) == (16, (5, 5), (2, 2))
     assert isinstance(relu1, nn.ReLU) and isinstance(relu2, nn.ReLU)
     assert (pool1.kernel_size, pool1.stride, pool2.kernel_size, pool2.stride) == (2, 2, 3, 3)
-    assert (net.svm.in_features, net.svm.out_features) == (16 * 6 * 6, 3)
-    assert net(torch.zeros(2, 1, 40, 40)).shape == (2, 3)
+    # the paper's three labels, then oxbot's "partial" (issue 15), kept after them
+    assert (net.svm.in_features, net.svm.out_features) == (16 * 6 * 6, 4)
+    assert net(torch.zeros(2, 1, 40, 40)).shape == (2, 4)
+    assert OUTPUTS[:3] == LABELS == ("circle", "cross", "nothing") and OUTPUTS[3] == "partial"
 
 
 def test_inference_scores_are_the_trained_networks(shipped):
@@ -147,3 +149,43 @@ def test_predict_leaves_torch_threads_as_they_were(shipped, cells):
     shipped.predict(cells[0][:9])
     shipped.predict(np.concatenate([cells[0]] * 4))  # a big batch keeps the caller's threads
     assert torch.get_num_threads() == before
+
+
+def test_read_gives_partial_for_an_arc_and_predict_says_nothing(shipped):
+    rng = np.random.default_rng(5)
+    arcs = np.stack([draw_partial(paper((40, 40), rng), rng, (19.5, 19.5), 28) for _ in range(9)])
+    readings = shipped.read(arcs)
+    assert sum(r.label == "partial" for r in readings) >= 7, readings
+    for r, label in zip(readings, shipped.predict(arcs), strict=True):
+        assert label == ("nothing" if r.label == "partial" else r.label)
+        assert r.spec_label == label
+
+
+def test_read_confidences_are_calibrated_probabilities(shipped, cells):
+    images, labels = cells
+    readings = shipped.read(images)
+    assert [r.label for r in readings] == labels
+    assert all(0.25 <= r.confidence <= 1.0 for r in readings)
+    assert 0.05 <= shipped.temperature <= 5.0  # fitted on held-out images, not left at 1
+    assert shipped.temperature != 1.0
+    p = shipped.probabilities(images)
+    np.testing.assert_allclose(p.sum(axis=1), 1.0, rtol=1e-9)
+    # ink: none on a blank, some on a symbol
+    inks = {label: r.ink for r, label in zip(readings, labels, strict=True)}
+    assert inks["nothing"] < 0.02 < inks["circle"] and inks["cross"] > 0.02
+
+
+def test_fit_temperature_minimises_the_held_out_loss():
+    clf = SymbolClassifier()
+    images = np.full((8, 40, 40), 230, np.uint8)
+    t = clf.fit_temperature(images, ["nothing"] * 8)
+    assert clf.metadata["temperature"] == t and clf.temperature == t
+
+
+def test_a_three_output_model_file_is_refused(tmp_path):
+    old = tmp_path / "old.pt"
+    payload = torch.load(shipped_model_path(), weights_only=True)
+    payload.pop("outputs")
+    torch.save(payload, old)
+    with pytest.raises(ModelFileError, match="retrain it"):
+        load_classifier(old)
