@@ -97,9 +97,19 @@ class TrackerConfig:
     """Paper §2.1: the classifier runs every 100 milliseconds."""
     stable_readings: int = 3
     """Paper §2.1: a new drawing is accepted once recognised 3 times in a row."""
+    min_confidence: float = 0.9
+    """oxbot (issue 15): a new symbol counts only when the classifier's calibrated confidence
+    in it is at least this, in every one of those readings."""
+    ink_tolerance: float = 0.1
+    """oxbot (issue 15): the readings agree only while the new symbol's ink (share of its
+    cell) changes by at most this fraction of itself: the pen has stopped."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "period_s", "stable_readings")
+        for name in ("min_confidence", "ink_tolerance"):
+            value = getattr(self, name)
+            if not 0.0 <= value < 1.0:
+                raise ConfigError(f"tracker.{name} is {value}; use a value in [0, 1)")
 
 
 @dataclass(frozen=True)
