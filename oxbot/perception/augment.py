@@ -128,6 +128,17 @@ def _move_blank(drawing: _Drawing, rng: np.random.Generator, size: int) -> np.nd
     return ink if ink.shape == (size, size) else cv2.resize(ink, (size, size))
 
 
+def _cut_to_arc(ink: np.ndarray, keep: float, rng: np.random.Generator) -> np.ndarray:
+    """A circle's ink with all but `keep` of its turn (from a random angle) erased."""
+    ys, xs = np.nonzero(ink > 0.15)
+    if xs.size == 0:
+        return ink
+    cx, cy = (xs.min() + xs.max()) / 2, (ys.min() + ys.max()) / 2
+    yy, xx = np.mgrid[0 : ink.shape[0], 0 : ink.shape[1]]
+    angle = (np.arctan2(yy - cy, xx - cx) - rng.uniform(0, 2 * np.pi)) % (2 * np.pi)
+    return np.where(angle < 2 * np.pi * keep, ink, 0.0).astype(np.float32)
+
+
 def _partial(
     drawings: dict[str, list[_Drawing]], rng: np.random.Generator, size: int
 ) -> np.ndarray:
@@ -137,14 +148,8 @@ def _partial(
     if rng.random() < 1 / 3:
         items = drawings["circle"]
         ink = _place_symbol(items[rng.integers(len(items))], rng, size)
-        ys, xs = np.nonzero(ink > 0.15)
-        if xs.size == 0:
-            return ink
-        cx, cy = (xs.min() + xs.max()) / 2, (ys.min() + ys.max()) / 2
-        yy, xx = np.mgrid[0:size, 0:size]
-        angle = (np.arctan2(yy - cy, xx - cx) - rng.uniform(0, 2 * np.pi)) % (2 * np.pi)
-        keep = rng.uniform(0.12, 0.68)  # up to about 2/3 of a turn: open circles reach 0.8
-        return np.where(angle < 2 * np.pi * keep, ink, 0.0).astype(np.float32)
+        # up to a half turn and a bit: open circles reach 0.8
+        return _cut_to_arc(ink, rng.uniform(0.12, 0.55), rng)
     width = rng.uniform(0.35, 0.9) * size
     slack = max(size - width * 1.1, 0.0) / 2
     centre = (size - 1) / 2 + rng.uniform(-slack, slack, size=2)
@@ -201,6 +206,10 @@ def generate(
         else:
             items = drawings[label]
             ink = _place_symbol(items[rng.integers(len(items))], rng, size)
+            if partial and label == "circle" and rng.random() < 0.3:
+                # An open circle is still one (SPEC §1): taught beside the arcs of "partial",
+                # so that a gap of a fifth of a turn does not make a circle partial.
+                ink = _cut_to_arc(ink, rng.uniform(0.8, 0.97), rng)
         # Lighter or darker ink, but never so faint that a person could not see the drawing.
         factor = rng.uniform(0.55, 1.4)
         if label != "nothing":

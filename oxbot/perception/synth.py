@@ -329,15 +329,15 @@ PARTIAL_KINDS = ("arc", "stroke", "plus", "tick", "scribble", "corner")
 def partial_strokes(rng: np.random.Generator, kind: str | None = None) -> list[np.ndarray]:
     """Ink that is not a whole symbol, as (K, 2) polylines in the unit box [-1, 1]^2.
 
-    What a person leaves while drawing or by mistake: an arc of up to 0.7 of a turn (a whole
+    What a person leaves while drawing or by mistake: an arc of up to 0.55 of a turn (a whole
     circle here starts at 0.8 of a turn, `_circle_strokes`), one stroke, a
     plus (a cross is diagonal), a tick, a scribble, two strokes meeting at a corner.
     """
     kind = kind if kind is not None else PARTIAL_KINDS[int(rng.integers(len(PARTIAL_KINDS)))]
     u = np.linspace(0.0, 1.0, 24)[:, None]
     if kind == "arc":
-        # Up to 0.7 of a turn: a margin below the open circles' 0.8 that still read as one.
-        sweep = rng.uniform(0.12, 0.70)
+        # Up to 0.55 of a turn: well below the open circles (0.8) that still read as one.
+        sweep = rng.uniform(0.12, 0.55)
         t = rng.uniform(0, 2 * np.pi) + np.linspace(0, 2 * np.pi * sweep, 48)
         aspect = rng.uniform(0.6, 1.0)
         r = 1.0 + rng.uniform(-0.08, 0.08) * np.linspace(0, 1, t.size)
