@@ -155,7 +155,9 @@ def test_read_gives_partial_for_an_arc_and_predict_says_nothing(shipped):
     rng = np.random.default_rng(5)
     arcs = np.stack([draw_partial(paper((40, 40), rng), rng, (19.5, 19.5), 28) for _ in range(9)])
     readings = shipped.read(arcs)
-    assert sum(r.label == "partial" for r in readings) >= 7, readings
+    # the partial output is lowered so whole symbols stay whole (training.WHOLE_AS_PARTIAL):
+    # most synthesised partial shapes still read partial, not all
+    assert sum(r.label == "partial" for r in readings) >= 5, readings
     for r, label in zip(readings, shipped.predict(arcs), strict=True):
         assert label == ("nothing" if r.label == "partial" else r.label)
         assert r.spec_label == label
@@ -164,7 +166,7 @@ def test_read_gives_partial_for_an_arc_and_predict_says_nothing(shipped):
 def test_read_confidences_are_calibrated_probabilities(shipped, cells):
     images, labels = cells
     readings = shipped.read(images)
-    assert [r.label for r in readings] == labels
+    assert [r.spec_label for r in readings] == labels  # a speck may be partial: no move
     assert all(0.25 <= r.confidence <= 1.0 for r in readings)
     assert 0.05 <= shipped.temperature <= 5.0  # fitted on held-out images, not left at 1
     assert shipped.temperature != 1.0
@@ -189,3 +191,15 @@ def test_a_three_output_model_file_is_refused(tmp_path):
     torch.save(payload, old)
     with pytest.raises(ModelFileError, match="retrain it"):
         load_classifier(old)
+
+
+def test_lower_partial_keeps_whole_symbols_whole(cells):
+    images, labels = cells
+    clf = SymbolClassifier(seed=3)  # untrained: its partial output wins at random
+    with torch.no_grad():
+        clf.net.svm.bias[3] += 5.0  # and now always
+    assert all(r.label == "partial" for r in clf.read(images))
+    offset = clf.lower_partial(images, labels, share=0.0)
+    assert offset > 0 and clf.metadata["partial_offset"] == offset
+    whole = [r for r, label in zip(clf.read(images), labels, strict=True) if label != "nothing"]
+    assert all(r.label != "partial" for r in whole)

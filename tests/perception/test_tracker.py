@@ -300,9 +300,9 @@ def test_tracker_waits_until_the_ink_stops_changing():
     growing = [
         tracker.update(seen, cell_readings(seen, ink={4: 0.10 + 0.02 * k})) for k in range(6)
     ]
-    assert growing == [None] * 6
+    assert growing == [None] * 6 and tracker.agreeing == 1
     # The pen has lifted: three readings of the same ink (within 10%) make the move.
-    still = [tracker.update(seen, cell_readings(seen, ink={4: v})) for v in (0.2, 0.205, 0.198)]
+    still = [tracker.update(seen, cell_readings(seen, ink={4: v})) for v in (0.3, 0.305, 0.298)]
     assert still[:2] == [None, None] and isinstance(still[2], AcceptedDrawing)
 
 
