@@ -172,9 +172,12 @@ def test_read_confidences_are_calibrated_probabilities(shipped, cells):
     assert shipped.temperature != 1.0
     p = shipped.probabilities(images)
     np.testing.assert_allclose(p.sum(axis=1), 1.0, rtol=1e-9)
-    # ink: none on a blank, some on a symbol
-    inks = {label: r.ink for r, label in zip(readings, labels, strict=True)}
-    assert inks["nothing"] < 0.02 < inks["circle"] and inks["cross"] > 0.02
+    # ink: little on a blank (specks, remnants), more on a symbol
+    ink = {
+        name: np.median([r.ink for r, label in zip(readings, labels, strict=True) if label == name])
+        for name in LABELS
+    }
+    assert ink["nothing"] < 0.02 < min(ink["circle"], ink["cross"]), ink
 
 
 def test_fit_temperature_minimises_the_held_out_loss():

@@ -247,10 +247,10 @@ def arc_path(page: Page, where: str, start_deg: float, end_deg: float) -> list[t
     return [(float(x), float(y)) for x, y in points]
 
 
-def test_a_half_drawn_circle_is_never_a_move(tmp_path):
-    """The person starts (circles). Three quarters of a circle, pen held down, sends nothing;
-    left alone after the pen lifts, the robot reads "partial" and makes no move of it; the
-    circle finished, it is a move."""
+def test_a_half_drawn_circle_is_never_a_move(page: Page):
+    """The person starts (circles). Half a circle, pen held down, sends nothing; left alone
+    after the pen lifts, the robot reads "partial" and makes no move of it; the circle
+    finished, it is a move."""
     from oxbot.config import load_config
     from tests.web.conftest import running_server
 
@@ -263,10 +263,10 @@ def test_a_half_drawn_circle_is_never_a_move(tmp_path):
             "game.robot_starts=false",
         ],
     )
-    with running_server(config=config) as url, sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+    # a tab beside the first test's, on a server of its own where the person starts
+    with running_server(config=config) as url:
+        first, page = page, page.context.new_page()
         try:
-            page = browser.new_page(viewport={"width": 1200, "height": 900})
             page.goto(url + "/")
             page.get_by_test_id("start").click()
             wait_for_act(page, "Request(playGame)")
@@ -277,9 +277,9 @@ def test_a_half_drawn_circle_is_never_a_move(tmp_path):
             cell = "middle"
             label = "document.querySelectorAll('[data-testid=cells] > div')[4].dataset.label"
 
-            # three quarters of a circle, the pen still down: nothing goes to the robot
+            # half a circle, the pen still down: nothing goes to the robot
             sent = page.evaluate("window.oxbot.stats.framesSent")
-            path = arc_path(page, cell, 0, 270)
+            path = arc_path(page, cell, 0, 180)
             page.mouse.move(*path[0])
             page.mouse.down()
             for x, y in path[1:]:
@@ -297,7 +297,7 @@ def test_a_half_drawn_circle_is_never_a_move(tmp_path):
             page.screenshot(path=ARTIFACTS / "07-half-drawn-circle.png", full_page=True)
 
             # the circle closed with a second stroke: now it is the person's move
-            path = arc_path(page, cell, 260, 370)
+            path = arc_path(page, cell, 170, 370)
             page.mouse.move(*path[0])
             page.mouse.down()
             for x, y in path[1:]:
@@ -311,4 +311,5 @@ def test_a_half_drawn_circle_is_never_a_move(tmp_path):
             page.screenshot(path=ARTIFACTS / "failure-half-drawn.png", full_page=True)
             raise
         finally:
-            browser.close()
+            page.close()
+            first.bring_to_front()
