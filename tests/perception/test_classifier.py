@@ -177,7 +177,7 @@ def test_read_confidences_are_calibrated_probabilities(shipped, cells):
         name: np.median([r.ink for r, label in zip(readings, labels, strict=True) if label == name])
         for name in LABELS
     }
-    assert ink["nothing"] < 0.02 < min(ink["circle"], ink["cross"]), ink
+    assert ink["nothing"] < 0.5 * min(ink["circle"], ink["cross"]), ink
 
 
 def test_fit_temperature_minimises_the_held_out_loss():
