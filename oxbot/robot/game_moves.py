@@ -24,6 +24,7 @@ import numpy as np
 from oxbot.config import TrackerConfig
 from oxbot.errors import FrameSourceError, NoGridFound
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
+from oxbot.perception.classifier import CellReading
 from oxbot.perception.sources import FrameSource
 from oxbot.perception.tracker import AcceptedDrawing, ImpossibleEvent, MoveTracker
 from oxbot.robot.bus import Bus, Component
@@ -120,7 +121,7 @@ class GameMoveComponent(Component):
             event = self.tracker.update(reading.labels, reading.readings or None)
         accepted = isinstance(event, AcceptedDrawing)
         labels = reading.labels if reading is not None else ()
-        readings = tuple(r.label for r in reading.readings) if reading is not None else ()
+        readings = tuple(self._shown(r) for r in reading.readings) if reading is not None else ()
         agreeing = self.config.stable_readings if accepted else self.tracker.agreeing
         seen = (labels, agreeing, readings)
         if seen != self._last_seen:
@@ -141,6 +142,13 @@ class GameMoveComponent(Component):
         elif isinstance(event, ImpossibleEvent):
             log.info("impossible: %s", event)
             self.bus.publish(BoardProblem(reason=event.message, kind=event.kind))
+
+    def _shown(self, reading: CellReading) -> str:
+        """A cell's label as the page shows it: a symbol too unsure to become a move
+        (below `min_confidence`) is shown as partial, since that is how the tracker takes it."""
+        if reading.label in ("circle", "cross") and reading.confidence < self.config.min_confidence:
+            return "partial"
+        return reading.label
 
     def restart(self) -> None:
         with self._lock:

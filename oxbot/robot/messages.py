@@ -118,7 +118,8 @@ class BoardSeen(Message):
     format: Literal["png"] = "png"
     readings: tuple[str, ...] = ()
     """Each cell's reading among circle, cross, nothing and partial (ink that is not a whole
-    symbol); empty when no grid was found."""
+    symbol, or a symbol read with less than `[tracker] min_confidence`, which cannot become a
+    move); empty when no grid was found."""
     confidences: tuple[float, ...] = ()
     """The classifier's calibrated confidence in each of `readings`."""
 
