@@ -8,16 +8,20 @@ options (`oxbot play --port 8080`) override both.
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import shlex
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from oxbot.config import OxbotConfig, load_config, to_toml, who_starts, with_overrides
-from oxbot.errors import OxbotError
+from oxbot.errors import OxbotError, TrainingInterrupted
 
 app = typer.Typer(
     name="oxbot",
@@ -61,6 +65,22 @@ def main_options(
 
 def _config(ctx: typer.Context) -> OxbotConfig:
     return ctx.obj if isinstance(ctx.obj, OxbotConfig) else OxbotConfig()
+
+
+@contextlib.contextmanager
+def _resumable(ctx: typer.Context, command: list[str]) -> Iterator[None]:
+    """On Ctrl-C during training: one line saying where the checkpoint is and the exact
+    command that resumes (`command` after the global options this run was given); exit 130."""
+    try:
+        yield
+    except TrainingInterrupted as exc:
+        root = ctx.find_root().params
+        words = ["oxbot"]
+        words += ["--config", str(root["config"])] if root.get("config") else []
+        for item in root.get("overrides") or []:
+            words += ["--set", item]
+        typer.echo(f"{exc}; resume with: {shlex.join([*words, *command])}", err=True)
+        raise typer.Exit(130) from None
 
 
 @app.command("config")
@@ -149,14 +169,32 @@ def train_perceiver_command(
     curve: Annotated[
         bool, typer.Option("--curve/--no-curve", help="Also train the learning curve's points.")
     ] = True,
+    resume: Annotated[
+        bool,
+        typer.Option(
+            "--resume/--no-resume",
+            help="Continue an interrupted run from the checkpoint beside OUT (.checkpoint.pt).",
+        ),
+    ] = True,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
 ) -> None:
     """Train the CNN+SVM perceiver on images generated from the seeds (paper §3.3)."""
     from oxbot.perception.training import train_perceiver
 
-    result = train_perceiver(
-        _config(ctx).perception, images, seeds, out, curve=curve, show_progress=not quiet
-    )
+    options = ["--out", str(out)]
+    options += ["--images", str(images)] if images is not None else []
+    options += ["--seeds", str(seeds)] if seeds is not None else []
+    options += [] if curve else ["--no-curve"]
+    with _resumable(ctx, ["train", "perceiver", *options, "--resume"]):
+        result = train_perceiver(
+            _config(ctx).perception,
+            images,
+            seeds,
+            out,
+            curve=curve,
+            show_progress=not quiet,
+            resume=resume,
+        )
     m = result.metrics
     typer.echo(
         f"trained on {m['train_images']:,} images in {m['fit_seconds']:.1f} s "
@@ -231,7 +269,6 @@ def see(
     ] = None,
 ) -> None:
     """Print the board read from each photo of the game sheet (O circles, X crosses)."""
-    from rich.markup import escape
 
     from oxbot.game.board import render_labels
     from oxbot.perception.board import default_reader, save_debug
@@ -272,7 +309,8 @@ def train_agent_command(
     """Train the DQN interaction manager against the user simulator (agent config section)."""
     from oxbot.dialogue.training import train_agent
 
-    result = train_agent(_config(ctx), out, resume=resume, show_progress=not quiet)
+    with _resumable(ctx, ["train", "agent", "--out", str(out), "--resume"]):
+        result = train_agent(_config(ctx), out, resume=resume, show_progress=not quiet)
     m = result.metrics
     typer.echo(
         f"trained on {m['experiences']} experiences ({m['games']} games) in "
@@ -448,15 +486,20 @@ def reproduce_command(
     else:
         train_config = load_config(shipped_policy_path().with_suffix(".toml"), overrides)
         eval_config = load_config(None, overrides)
-    result = reproduce(
-        out,
-        work,
-        train_config,
-        eval_config,
-        quick=quick,
-        show_progress=not quiet,
-        announce=lambda text: err_console.print(f"[bold]{text}[/]"),
-    )
+    try:
+        result = reproduce(
+            out,
+            work,
+            train_config,
+            eval_config,
+            quick=quick,
+            show_progress=not quiet,
+            announce=lambda text: err_console.print(f"[bold]{text}[/]"),
+        )
+    except TrainingInterrupted:
+        # a reproduction times whole runs, so it does not resume; its next run starts afresh
+        typer.echo(f"reproduce interrupted; run it again to start afresh (clears {work})", err=True)
+        raise typer.Exit(130) from None
     typer.echo(
         f"wrote {result.report_path}, {result.json_path} and {len(result.plots)} plots "
         f"in {result.figures['wall_clock_s']:.0f} s"
@@ -472,7 +515,8 @@ def main() -> None:
     try:
         app()
     except OxbotError as exc:
-        err_console.print(f"[bold red]error:[/] {exc}")
+        # escaped: messages name TOML sections like [agent], which rich would take for markup
+        err_console.print(f"[bold red]error:[/] {escape(str(exc))}", soft_wrap=True)
         sys.exit(2)
     except KeyboardInterrupt:
         sys.exit(130)

@@ -18,6 +18,7 @@ import dataclasses
 import functools
 import inspect
 import itertools
+import math
 import textwrap
 import tomllib
 from collections.abc import Sequence
@@ -85,8 +86,8 @@ class PerceptionConfig:
         _require_positive(self, "image_size", "conv1_filters", "conv2_filters", "kernel_size")
         _require_positive(self, "pool1", "pool2", "seeds_per_class", "train_images", "test_images")
         _require_positive(self, "epochs", "batch_size", "learning_rate", "threads")
-        if self.weight_decay < 0:
-            raise ConfigError(f"perception.weight_decay is {self.weight_decay}; use 0 or more")
+        _require_at_least(self, 0, "weight_decay", "seed")
+        _require_finite(self)
 
 
 @dataclass(frozen=True)
@@ -106,10 +107,9 @@ class TrackerConfig:
 
     def __post_init__(self) -> None:
         _require_positive(self, "period_s", "stable_readings")
-        for name in ("min_confidence", "ink_tolerance"):
-            value = getattr(self, name)
-            if not 0.0 <= value < 1.0:
-                raise ConfigError(f"tracker.{name} is {value}; use a value in [0, 1)")
+        _require_range(self, "min_confidence", "[0, 1)")
+        _require_range(self, "ink_tolerance", "[0, 1)")
+        _require_finite(self)
 
 
 @dataclass(frozen=True)
@@ -136,12 +136,9 @@ class RewardConfig:
     """Paper §2.2: only actions with Pr(a|s) > 0.001 are offered."""
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.bonus_weight <= 1.0:
-            raise ConfigError(f"reward.bonus_weight is {self.bonus_weight}; use a value in [0, 1]")
-        if not 0.0 <= self.mask_threshold < 1.0:
-            raise ConfigError(
-                f"reward.mask_threshold is {self.mask_threshold}; use a value in [0, 1)"
-            )
+        _require_range(self, "bonus_weight", "[0, 1]")
+        _require_range(self, "mask_threshold", "[0, 1)")
+        _require_finite(self)
 
 
 @dataclass(frozen=True)
@@ -198,24 +195,22 @@ class AgentConfig:
         _require_positive(self, "replay_size", "learning_rate", "batch_size")
         _require_positive(self, "target_update_interval", "total_steps", "train_frequency")
         _require_positive(self, "eval_games")
-        if self.learning_starts < 0 or self.eval_every < 0:
-            raise ConfigError("agent.learning_starts and agent.eval_every must be 0 or more")
-        if not 0.0 <= self.misheard_words <= 1.0:
-            raise ConfigError(f"agent.misheard_words is {self.misheard_words}; use [0, 1]")
-        if not 0.0 < self.exploration_fraction <= 1.0:
-            raise ConfigError(
-                f"agent.exploration_fraction is {self.exploration_fraction}; use a value in (0, 1]"
-            )
+        _require_at_least(self, 0, "learning_starts", "eval_every", "seed")
+        _require_range(self, "misheard_words", "[0, 1]")
+        _require_range(self, "exploration_fraction", "(0, 1]")
         who_starts(self.robot_starts, "agent.robot_starts")
         opponent_mix(self.opponents)
-        if not 0.0 <= self.discount <= 1.0:
-            raise ConfigError(f"agent.discount is {self.discount}; use a value in [0, 1]")
-        if not 0.0 <= self.epsilon_min <= 1.0:
-            raise ConfigError(f"agent.epsilon_min is {self.epsilon_min}; use a value in [0, 1]")
-        if not self.hidden_sizes or any(int(h) <= 0 for h in self.hidden_sizes):
+        _require_range(self, "discount", "[0, 1]")
+        _require_range(self, "epsilon_min", "[0, 1]")
+        _require_range(self, "epsilon_start", "[0, 1]")
+        if not self.hidden_sizes or any(
+            not isinstance(h, int) or isinstance(h, bool) or h <= 0 for h in self.hidden_sizes
+        ):
             raise ConfigError(
-                f"agent.hidden_sizes is {self.hidden_sizes}; give one or more positive sizes"
+                f"[agent] hidden_sizes must be one or more whole numbers > 0, "
+                f"got {self.hidden_sizes}"
             )
+        _require_finite(self)
 
 
 def who_starts(text: str, where: str = "robot_starts") -> tuple[bool, ...]:
@@ -242,8 +237,10 @@ def opponent_mix(text: str) -> dict[str, float]:
             weights[name] = float(weight) if weight else 1.0
         except ValueError:
             raise ConfigError(f"agent.opponents weight {weight!r} is not a number") from None
-        if weights[name] <= 0:
-            raise ConfigError(f"agent.opponents weight of {name} must be greater than 0")
+        if not (math.isfinite(weights[name]) and weights[name] > 0):
+            raise ConfigError(
+                f"agent.opponents weight of {name} must be a finite number > 0, got {weight}"
+            )
     total = sum(weights.values())
     return {name: w / total for name, w in weights.items()}
 
@@ -286,10 +283,9 @@ class DialogueConfig:
             "silence_probability",
             "rematch_probability",
         ):
-            value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
-                raise ConfigError(f"dialogue.{name} is {value}; use a value in [0, 1]")
+            _require_range(self, name, "[0, 1]")
         _require_positive(self, "max_turns", "nb_alpha")
+        _require_finite(self)
 
 
 @dataclass(frozen=True)
@@ -309,10 +305,9 @@ class ArmConfig:
 
     def __post_init__(self) -> None:
         _require_positive(self, "cell_size", "pen_speed")
-        if not 0 < self.fill <= 1:
-            raise ConfigError(f"robot.arm.fill is {self.fill}; use a value in (0, 1]")
-        if min(self.pen_lift, self.travel) < 0:
-            raise ConfigError("robot.arm.pen_lift and travel are durations; use 0 or more")
+        _require_range(self, "fill", "(0, 1]")
+        _require_at_least(self, 0, "pen_lift", "travel")
+        _require_finite(self)
 
 
 @dataclass(frozen=True)
@@ -335,10 +330,9 @@ class HeadConfig:
     def __post_init__(self) -> None:
         _require_positive(self, "calibration_detections")
         _require_positive(self, "horizontal_threshold", "vertical_threshold")
-        if self.detection_width < 64 or self.min_face < 8:
-            raise ConfigError(
-                "robot.head.detection_width must be 64 or more and min_face 8 or more pixels"
-            )
+        _require_at_least(self, 64, "detection_width")
+        _require_at_least(self, 8, "min_face")
+        _require_finite(self)
 
 
 @dataclass(frozen=True)
@@ -353,17 +347,38 @@ class RobotConfig:
     """oxbot: seconds to wait for the person's drawing after "Your turn"; then it asks again."""
     speed_factor: float = 1.0
     """oxbot: how many times faster than real time speech, the arm and the waits run (tests)."""
+    restart_limit: int = 5
+    """oxbot: restarts a component may use within `restart_window` (an Erlang supervisor's
+    intensity); one more failure and it stays off (the robot says so, and ends the game if it
+    needs the component)."""
+    restart_window: float = 60.0
+    """oxbot: seconds over which a component's failures count against `restart_limit`."""
+    restart_backoff: float = 0.1
+    """oxbot: seconds before the first restart; each further one within the window waits twice
+    as long as the one before (exponential backoff, like ROS 2 launch's respawn delay)."""
+    restart_backoff_max: float = 5.0
+    """oxbot: the longest wait before a restart."""
+    hang_seconds: float = 3.0
+    """oxbot: a component's call that runs this much longer than it said it would is hung: its
+    thread is abandoned and a fresh copy of the component takes over."""
+    hang_limit: int = 1
+    """oxbot: hangs a component may recover from within `restart_window` (each costs the person
+    `hang_seconds` and leaves a thread behind); one more and it stays off."""
     arm: ArmConfig = field(default_factory=ArmConfig)
     """Paper §3.1: Baxter's arm drew the robot's symbol; oxbot's is simulated, as fast as a pen."""
     head: HeadConfig = field(default_factory=HeadConfig)
     """Paper §3.1: head-move recognition from a Kinect; oxbot's from a webcam."""
 
     def __post_init__(self) -> None:
-        _require_positive(self, "speed_factor")
-        for name in ("answer_timeout", "question_timeout", "move_timeout"):
-            value = getattr(self, name)
-            if not value >= 0:
-                raise ConfigError(f"robot.{name} is {value}; a wait cannot be negative")
+        _require_positive(self, "speed_factor", "restart_window", "hang_seconds")
+        _require_at_least(self, 0, "answer_timeout", "question_timeout", "move_timeout")
+        _require_at_least(self, 0, "restart_limit", "hang_limit", "restart_backoff_max")
+        _require_finite(self)
+        if not 0 <= self.restart_backoff <= self.restart_backoff_max:
+            raise ConfigError(
+                f"{_where(self, 'restart_backoff')} must be from 0 up to restart_backoff_max "
+                f"({self.restart_backoff_max}), got {self.restart_backoff}"
+            )
 
 
 @dataclass(frozen=True)
@@ -385,15 +400,11 @@ class ListeningConfig:
     """oxbot: not listened to after the robot stops speaking (its voice reaches a mic late)."""
 
     def __post_init__(self) -> None:
-        if not 0 < self.threshold < 1:
-            raise ConfigError(
-                f"speech.listening.threshold is {self.threshold}; use a probability in (0, 1)"
-            )
+        _require_range(self, "threshold", "(0, 1)")
         _require_positive(self, "start_seconds", "end_silence_seconds", "max_utterance_seconds")
-        for name in ("pre_roll_seconds", "echo_seconds"):
-            value = getattr(self, name)
-            if not 0 <= value <= 2:
-                raise ConfigError(f"speech.listening.{name} is {value}; use 0 to 2 seconds")
+        _require_range(self, "pre_roll_seconds", "[0, 2]")
+        _require_range(self, "echo_seconds", "[0, 2]")
+        _require_finite(self)
         if self.max_utterance_seconds <= self.start_seconds + self.pre_roll_seconds:
             raise ConfigError(
                 "speech.listening.max_utterance_seconds must be longer than start_seconds "
@@ -416,6 +427,7 @@ class SpeechConfig:
 
     def __post_init__(self) -> None:
         _require_positive(self, "nbest")
+        _require_finite(self)
         if not self.recognizer.strip():
             raise ConfigError("speech.recognizer is empty; use pocketsphinx or module:factory")
 
@@ -444,14 +456,39 @@ class WebConfig:
     """oxbot: longest typed answer."""
     max_sessions: int = 32
     """oxbot: sessions (tabs) served at once; more are refused with a message."""
+    idle_timeout: float = 600.0
+    """oxbot: seconds a tab may send nothing before its session is closed (the page sends
+    frames while the person draws, so only a forgotten tab is this quiet)."""
+    max_session_seconds: float = 3600.0
+    """oxbot: longest a session lasts, however busy (a game takes a few minutes)."""
+    max_outbox_bytes: int = 8_000_000
+    """oxbot: bytes of messages waiting for a tab that does not read them; more closes its
+    session (a spoken sentence's audio is 100-200 KB)."""
+    max_messages_per_second: float = 50.0
+    """oxbot: messages a tab may send a second, in bursts of as many; more closes its session
+    (the page sends about 25: sheet frames, audio pieces and webcam frames)."""
+    max_json_depth: int = 16
+    """oxbot: deepest nesting of a message's JSON, checked before parsing (messages are 1 deep)."""
+    allowed_origins: str = ""
+    """oxbot: other origins whose pages may open the game socket, comma-separated, e.g.
+    "https://oxbot.example.org" behind a reverse proxy or "http://mylaptop.local:8000" on a
+    LAN; pages this server serves by IP address or as localhost always may."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "max_message_bytes", "max_image_side", "min_image_side")
         _require_positive(self, "audio_rate", "max_audio_seconds", "max_text_chars")
         _require_positive(self, "max_stream_piece_seconds")
-        _require_positive(self, "max_sessions")
-        if not 0 < self.port < 65536:
-            raise ConfigError(f"web.port is {self.port}; use a port in 1-65535")
+        _require_positive(self, "max_sessions", "idle_timeout", "max_session_seconds")
+        _require_positive(self, "max_outbox_bytes", "max_messages_per_second", "max_json_depth")
+        _require_range(self, "port", "[1, 65535]")
+        _require_finite(self)
+        for origin in filter(None, (o.strip() for o in self.allowed_origins.split(","))):
+            scheme, _, rest = origin.partition("://")
+            if scheme not in ("http", "https") or not rest or "/" in rest:
+                raise ConfigError(
+                    f"{_where(self, 'allowed_origins')} has {origin!r}; write each origin as "
+                    f"scheme://host[:port], e.g. https://oxbot.example.org"
+                )
         if self.min_image_side > self.max_image_side:
             raise ConfigError("web.min_image_side is larger than web.max_image_side")
 
@@ -471,12 +508,56 @@ class OxbotConfig:
     web: WebConfig = field(default_factory=WebConfig)
 
 
+def _where(config: Any, name: str) -> str:
+    """A field as the TOML file spells it: `[robot.arm] fill`."""
+    return f"[{_section_name(type(config))}] {name}"
+
+
+def _number(config: Any, name: str) -> float:
+    value = getattr(config, name)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(f"{_where(config, name)} must be a number, got {value!r}")
+    return value
+
+
+def _kind(value: float) -> str:
+    return "a whole number" if isinstance(value, int) else "a finite number"
+
+
 def _require_positive(config: Any, *names: str) -> None:
-    section = _section_name(type(config))
     for name in names:
-        value = getattr(config, name)
-        if not value > 0:  # NaN is not greater than 0 either
-            raise ConfigError(f"{section}.{name} is {value}; it must be greater than 0")
+        value = _number(config, name)
+        if not (math.isfinite(value) and value > 0):
+            raise ConfigError(f"{_where(config, name)} must be {_kind(value)} > 0, got {value}")
+
+
+def _require_at_least(config: Any, low: float, *names: str) -> None:
+    for name in names:
+        value = _number(config, name)
+        if not (math.isfinite(value) and value >= low):
+            raise ConfigError(
+                f"{_where(config, name)} must be {_kind(value)} >= {low}, got {value}"
+            )
+
+
+def _require_range(config: Any, name: str, interval: str) -> None:
+    """`interval` as written in maths: "[0, 1)" includes 0 and excludes 1."""
+    value = _number(config, name)
+    low, high = (float(v) for v in interval[1:-1].split(","))
+    above = value > low if interval[0] == "(" else value >= low
+    below = value < high if interval[-1] == ")" else value <= high
+    if not (math.isfinite(value) and above and below):
+        raise ConfigError(
+            f"{_where(config, name)} must be {_kind(value)} in {interval}, got {value}"
+        )
+
+
+def _require_finite(config: Any) -> None:
+    """Every number of `config` finite: NaN and infinity slip through most comparisons."""
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ConfigError(f"{_where(config, f.name)} must be a finite number, got {value}")
 
 
 def _section_name(cls: type, root: type | None = None, prefix: str = "") -> str:
@@ -580,6 +661,8 @@ def parse_assignment(text: str) -> tuple[list[str], Any]:
         value = tomllib.loads(f"v = {raw.strip()}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw.strip()  # a bare word such as blocker reads as a string
+    except RecursionError:
+        raise ConfigError(f"--set {key.strip()} nests its value too deeply") from None
     return keys, value
 
 
@@ -594,8 +677,17 @@ def load_config(path: str | Path | None = None, assignments: Sequence[str] = ())
             raise ConfigError(f"config file {path} does not exist; check the path") from None
         except IsADirectoryError:
             raise ConfigError(f"config file {path} is a folder; give a TOML file") from None
+        except OSError as exc:  # no permission, a broken disk, ...
+            raise ConfigError(
+                f"config file {path} cannot be read ({exc.strerror or exc}); check its permissions"
+            ) from None
         except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise ConfigError(f"config file {path} is not valid TOML: {exc}") from None
+        except RecursionError:  # tomllib parses nested arrays and tables recursively
+            raise ConfigError(
+                f"config file {path} nests arrays or tables too deeply; oxbot's config has "
+                "sections, a few tables inside them and flat lists"
+            ) from None
         config = with_overrides(config, data)
     overrides: Overrides = {}
     for item in assignments:

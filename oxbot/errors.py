@@ -6,6 +6,8 @@ all; the command line prints the message alone, without a traceback.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 
 class OxbotError(Exception):
     """Base class of all errors oxbot raises on purpose."""
@@ -45,3 +47,16 @@ class FrameSourceError(OxbotError):
 
 class SpeechUnavailable(OxbotError):
     """Speech synthesis or recognition cannot run here (espeak-ng or pocketsphinx missing)."""
+
+
+class TrainingInterrupted(OxbotError):
+    """Training stopped on Ctrl-C after saving a checkpoint it can resume from.
+
+    `checkpoint` is the file written, `step` how far training got. The command line prints the
+    message with the command that resumes and exits with 130, as for any Ctrl-C.
+    """
+
+    def __init__(self, message: str, checkpoint: Path, step: int) -> None:
+        super().__init__(message)
+        self.checkpoint = checkpoint
+        self.step = step

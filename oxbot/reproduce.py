@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from oxbot import artifacts
 from oxbot.atomic import atomic_write, write_text_atomic
 from oxbot.config import OxbotConfig, with_overrides
 from oxbot.dialogue.evaluation import CONDITIONS, condition_key
@@ -361,9 +362,14 @@ def measure_shipped(
         other_hand: float | None = evaluate_fonts(classifier, seed=p.seed).accuracy
     except DataError:
         other_hand = None
-    perceiver_metrics = json.loads(companion_paths(shipped_model_path())[0].read_text())
+    remedy = "re-download it from the oxbot repository"
+    perceiver_metrics = artifacts.load_json(
+        companion_paths(shipped_model_path())[0], "the shipped perceiver's metrics", remedy
+    )
     agent_dir = shipped_policy_path().parent
-    agent_metrics = json.loads((agent_dir / "agent_metrics.json").read_text())
+    agent_metrics = artifacts.load_json(
+        agent_dir / "agent_metrics.json", "the shipped agent's metrics", remedy
+    )
     first_zero = next(
         (
             e

@@ -10,9 +10,9 @@ network (Wang et al. 2016), into one value of moving now, from the whole state, 
 per cell from a second tower that sees the board alone. Whether to draw or to talk still depends
 on everything heard; which cell, only on the board, so a misheard word cannot change it.
 
-A policy file (`torch.save` of plain types) records the feature layout it was trained on and the
-network's shape; a file from another layout (another vocabulary) is refused with a
-`ModelFileError`.
+A policy file (`torch.save` of plain types behind a checksummed header, `oxbot.artifacts`)
+records the feature layout it was trained on and the network's shape; a file from another
+layout (another vocabulary) or a damaged one is refused with a `ModelFileError`.
 """
 
 from __future__ import annotations
@@ -26,11 +26,14 @@ import numpy as np
 import torch
 from torch import nn
 
-from oxbot.atomic import atomic_write
+from oxbot import artifacts
 from oxbot.dialogue.domain import GAME_MOVES, N_ACTIONS, SYSTEM_ACTS
 from oxbot.errors import ModelFileError
 
 POLICY_FORMAT = "oxbot-dqn-policy/1"
+POLICY_KIND = "policy"
+POLICY_VERSION = 2
+"""2: the payload behind `oxbot.artifacts`' checksummed header; 1 had none."""
 SHIPPED_POLICY = "agent.pt"
 
 
@@ -135,8 +138,7 @@ class DQNPolicy:
             "state_dict": self.q_network.state_dict(),
             "metadata": self.metadata,
         }
-        with atomic_write(path, "wb") as handle:
-            torch.save(payload, handle)
+        artifacts.save(path, POLICY_KIND, POLICY_VERSION, payload)
 
 
 def shipped_policy_path() -> Path:
@@ -157,19 +159,21 @@ def load_policy(
         from oxbot.dialogue.model import shipped_dialogue_model
 
         feature_names = shipped_dialogue_model().layout.names
-    try:
-        payload = torch.load(path, map_location="cpu", weights_only=True)
-    except FileNotFoundError:
-        raise ModelFileError(
-            f"policy file {path} does not exist; train one with `oxbot train agent`"
-        ) from None
-    except Exception as exc:
-        raise ModelFileError(
-            f"policy file {path} cannot be read ({exc}); it may be truncated"
-        ) from None
-    if not isinstance(payload, dict) or payload.get("format") != POLICY_FORMAT:
+    what = "policy file"
+    remedy = (
+        "retrain it with `oxbot train agent`, or re-download oxbot/data/models/agent.pt "
+        "from the oxbot repository"
+    )
+    payload = artifacts.load(path, POLICY_KIND, POLICY_VERSION, what, remedy, _is_legacy)
+    if payload.get("format") != POLICY_FORMAT:
         raise ModelFileError(f"{path} is not an oxbot DQN policy file ({POLICY_FORMAT})")
-    saved = tuple(payload["feature_names"])
+    with artifacts.checked(path, what, remedy):
+        saved = tuple(_strings(payload["feature_names"]))
+        actions = tuple(_strings(payload["action_names"]))
+        hidden = [int(h) for h in payload["hidden_sizes"]]
+        board = payload.get("board_features")
+        board = (int(board[0]), int(board[1])) if board else None
+        metadata = dict(payload.get("metadata") or {})
     if saved != tuple(feature_names):
         missing = sorted(set(feature_names) - set(saved))[:5]
         extra = sorted(set(saved) - set(feature_names))[:5]
@@ -178,14 +182,23 @@ def load_policy(
             f"the environment has {len(feature_names)}; missing {missing}, unknown {extra}); "
             "retrain it with `oxbot train agent`"
         )
-    if tuple(payload["action_names"]) != SYSTEM_ACTS:
+    if actions != SYSTEM_ACTS:
         raise ModelFileError(f"policy file {path} was trained on other acts; retrain it")
-    board = payload.get("board_features")
-    network = QNetwork(
-        len(saved), payload["hidden_sizes"], len(SYSTEM_ACTS), tuple(board) if board else None
-    )
     try:
+        network = QNetwork(len(saved), hidden, len(SYSTEM_ACTS), board)
         network.load_state_dict(payload["state_dict"])
-    except RuntimeError as exc:
-        raise ModelFileError(f"policy file {path} does not match its network: {exc}") from None
-    return DQNPolicy(network, saved, payload.get("metadata", {}))
+    except (RuntimeError, TypeError, ValueError, KeyError, AttributeError) as exc:
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        raise ModelFileError(f"policy file {path} does not match its network: {first}") from None
+    return DQNPolicy(network, saved, metadata)
+
+
+def _strings(values: Any) -> list[str]:
+    if not isinstance(values, list | tuple) or not all(isinstance(v, str) for v in values):
+        raise TypeError(f"expected a list of names, got {type(values).__name__}")
+    return list(values)
+
+
+def _is_legacy(payload: Any) -> bool:
+    """A policy saved before files carried a checksum."""
+    return isinstance(payload, dict) and payload.get("format") == POLICY_FORMAT

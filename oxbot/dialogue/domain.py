@@ -264,6 +264,10 @@ def _lines(path: Path) -> list[tuple[int, str]]:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise DataError(f"{path} does not exist; the dialogue domain needs it") from None
+    except IsADirectoryError:
+        raise DataError(f"{path} is a folder; the dialogue domain needs a text file") from None
+    except OSError as exc:
+        raise DataError(f"{path} cannot be read ({exc.strerror or exc})") from None
     except UnicodeDecodeError as exc:
         raise DataError(f"{path} is not UTF-8 text: {exc}") from None
     return [(n, line.strip()) for n, line in enumerate(text.splitlines(), start=1)]

@@ -12,7 +12,8 @@ who-starts conditions, and periodic greedy evaluations that keep the best policy
 - `agent_metrics.json`: the config, seed, curves, evaluations and wall-clock time;
 - `agent_reward.png` and `agent_win_draw.png`: the learning curves of the paper's Figure
   "plots" (middle: average reward against experiences; right: win/draw rate against games);
-- `checkpoint.pt`: everything needed to resume (written atomically every `checkpoint_every`).
+- `checkpoint.pt`: everything needed to resume (written atomically every `checkpoint_every`,
+  and at once on Ctrl-C, which then raises `TrainingInterrupted`).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import torch
 import torch.nn.functional as F
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from oxbot import artifacts
 from oxbot.atomic import atomic_write, write_text_atomic
 from oxbot.config import AgentConfig, OxbotConfig, opponent_mix, who_starts
 from oxbot.dialogue.agent import DQNPolicy, QNetwork, greedy_batch_policy, masked_argmax
@@ -44,12 +46,16 @@ from oxbot.dialogue.evaluation import (
     evaluate,
     losing_positions,
 )
-from oxbot.errors import ModelFileError
+from oxbot.errors import ModelFileError, TrainingInterrupted
 from oxbot.game.opponents import make_opponent
+from oxbot.interrupt import deferred_interrupt
 
 log = logging.getLogger(__name__)
 
 CHECKPOINT_FORMAT = "oxbot-dqn-checkpoint/1"
+CHECKPOINT_KIND = "agent-checkpoint"
+CHECKPOINT_VERSION = 2
+"""2: behind `oxbot.artifacts`' checksummed header; 1 had none."""
 TREE_NOISE_VARIANTS = (10, 40)
 """Noisy hearings of each utterance per board in the game-tree check: always, for candidates."""
 
@@ -125,6 +131,8 @@ class TrainingState:
     best_step: int | None = None
     best_state_dict: dict[str, Any] | None = None
     """The weights of the best evaluated policy so far."""
+    evaluation_pending: bool = False
+    """Ctrl-C stopped the evaluation due at `step`; a resumed run does it first."""
 
 
 @dataclass
@@ -247,7 +255,11 @@ def train_agent(
     checkpoint_every: int = 20_000,
     log_every: int = 1_000,
 ) -> TrainingResult:
-    """Train the interaction manager with `config` and write its files into `out_dir`."""
+    """Train the interaction manager with `config` and write its files into `out_dir`.
+
+    With `resume`, continue from `out_dir/checkpoint.pt` if there is one. Ctrl-C saves that
+    checkpoint after the step in hand and raises `TrainingInterrupted`.
+    """
     # Long on purpose: the paper's algorithm as one loop read top to bottom, as CleanRL's dqn.py.
     out_dir = Path(out_dir)
     cfg = config.agent
@@ -271,9 +283,37 @@ def train_agent(
     recent_rewards: deque[float] = deque(maxlen=log_every)
     recent_outcomes: deque[str] = deque(run.outcomes[-500:], maxlen=500)
 
+    def interrupted(step: int) -> TrainingInterrupted:
+        """Save where training stands after `step` experiences; the error to stop with."""
+        nonlocal started_at
+        run.step = step
+        run.elapsed_s += time.perf_counter() - started_at
+        started_at = time.perf_counter()
+        _save_checkpoint(checkpoint_path, config, learner, run)
+        return TrainingInterrupted(
+            f"training interrupted after {step:,} of {cfg.total_steps:,} experiences; "
+            f"saved the checkpoint {checkpoint_path}",
+            checkpoint_path,
+            step,
+        )
+
+    def evaluate_at(step: int) -> None:
+        """The greedy evaluation due after `step` experiences; Ctrl-C stops it at once."""
+        elapsed = run.elapsed_s + time.perf_counter() - started_at
+        try:
+            with stop.immediately():
+                _evaluate_and_keep_best(config, learner.q_network, run, step, elapsed)
+        except KeyboardInterrupt:
+            run.evaluation_pending = True
+            raise interrupted(step) from None
+        run.evaluation_pending = False
+
     obs, info = env.reset(seed=cfg.seed + run.step, options=next_episode())
     progress, task = _progress(show_progress, cfg.total_steps, run.step)
-    with progress:
+    with progress, deferred_interrupt() as stop:
+        log.info("training from experience %d of %d", run.step, cfg.total_steps)
+        if run.evaluation_pending:
+            evaluate_at(run.step)
         for step in range(run.step, cfg.total_steps):
             # 1. act: epsilon-greedy among the offered acts
             epsilon = epsilon_at(step, config)
@@ -312,13 +352,14 @@ def train_agent(
                 stats = _stats(run, recent_outcomes, recent_rewards, epsilon)
                 progress.update(task, completed=done_steps, stats=stats)
             if cfg.eval_every and done_steps % cfg.eval_every == 0:
-                elapsed = run.elapsed_s + time.perf_counter() - started_at
-                _evaluate_and_keep_best(config, learner.q_network, run, done_steps, elapsed)
+                evaluate_at(done_steps)
             if checkpoint_every and done_steps % checkpoint_every == 0:
                 run.step = done_steps
                 run.elapsed_s += time.perf_counter() - started_at
                 started_at = time.perf_counter()
                 _save_checkpoint(checkpoint_path, config, learner, run)
+            if stop.requested:  # Ctrl-C: this step is whole, save it and stop
+                raise interrupted(done_steps)
         progress.update(task, completed=cfg.total_steps)
 
     # --- the result: the best evaluated network (or the last), its metrics and curves ----------
@@ -520,20 +561,26 @@ def _save_checkpoint(
         "rng": _json_safe(learner.rng.bit_generator.state),
         "state": {f.name: getattr(run, f.name) for f in dataclasses.fields(run)},
     }
-    with atomic_write(path, "wb") as handle:
-        torch.save(payload, handle)
+    artifacts.save(path, CHECKPOINT_KIND, CHECKPOINT_VERSION, payload)
 
 
 def _load_checkpoint(path: Path, config: OxbotConfig, learner: _Learner) -> TrainingState:
-    try:
-        payload = torch.load(path, map_location="cpu", weights_only=False)
-    except Exception as exc:
-        raise ModelFileError(f"checkpoint {path} cannot be read ({exc}); delete it") from None
-    if not isinstance(payload, dict) or payload.get("format") != CHECKPOINT_FORMAT:
+    what = "checkpoint"
+    remedy = "delete it, or start afresh with --no-resume"
+    payload = artifacts.load(
+        path,
+        CHECKPOINT_KIND,
+        CHECKPOINT_VERSION,
+        what,
+        remedy,
+        legacy=lambda p: isinstance(p, dict) and p.get("format") == CHECKPOINT_FORMAT,
+    )
+    if payload.get("format") != CHECKPOINT_FORMAT:
         raise ModelFileError(
             f"{path} is not an oxbot DQN checkpoint; delete it or use another --out"
         )
-    saved = dict(payload["config"])
+    with artifacts.checked(path, what, remedy):
+        saved = dict(payload["config"])
     current = _json_safe(dataclasses.asdict(config.agent))
     changed = sorted(k for k in current if k != "total_steps" and saved.get(k) != current[k])
     if changed:
@@ -541,13 +588,11 @@ def _load_checkpoint(path: Path, config: OxbotConfig, learner: _Learner) -> Trai
             f"checkpoint {path} was made with other agent settings ({', '.join(changed)}); "
             "use the same settings to resume, or --no-resume"
         )
-    try:
+    with artifacts.checked(path, "checkpoint (does not match this run)", remedy):
         learner.q_network.load_state_dict(payload["q_network"])
         learner.target_network.load_state_dict(payload["target_network"])
         run = TrainingState(**payload["state"])
-    except (RuntimeError, TypeError) as exc:
-        raise ModelFileError(f"checkpoint {path} does not match this run: {exc}") from None
-    learner.optimizer.load_state_dict(payload["optimizer"])
-    learner.replay.load_state_dict(payload["replay"])
-    learner.rng.bit_generator.state = payload["rng"]
+        learner.optimizer.load_state_dict(payload["optimizer"])
+        learner.replay.load_state_dict(payload["replay"])
+        learner.rng.bit_generator.state = payload["rng"]
     return run

@@ -26,12 +26,9 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import importlib.resources
-import io
 import itertools
 import logging
 import math
-import pickle
-import zipfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -41,7 +38,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from oxbot.atomic import atomic_write
+from oxbot import artifacts
 from oxbot.config import PerceptionConfig
 from oxbot.errors import InvalidInputError, ModelFileError
 from oxbot.perception.synth import LABELS, OUTPUTS, PARTIAL
@@ -49,7 +46,9 @@ from oxbot.perception.synth import LABELS, OUTPUTS, PARTIAL
 log = logging.getLogger(__name__)
 
 FORMAT = "oxbot.perceiver"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+"""2: the payload behind `oxbot.artifacts`' checksummed header; 1 had none."""
+ARTIFACT_KIND = "perceiver"
 ARCHITECTURE_FIELDS = (
     "image_size",
     "conv1_filters",
@@ -413,7 +412,8 @@ class SymbolClassifier:
     # --- saving and loading ---------------------------------------------------------------
 
     def save(self, path: str | Path, **metadata: Any) -> Path:
-        """Write the model with its configuration, seed and `metadata`; never half-written."""
+        """Write the model with its configuration, seed and `metadata`, checksummed; never
+        half-written."""
         path = Path(path)
         merged = {**self.metadata, **metadata}
         payload = {
@@ -427,51 +427,30 @@ class SymbolClassifier:
             "metadata": merged,
             "state_dict": self.net.state_dict(),
         }
-        buffer = io.BytesIO()
-        torch.save(payload, buffer)
-        with atomic_write(path) as handle:
-            handle.write(buffer.getvalue())
+        artifacts.save(path, ARTIFACT_KIND, FORMAT_VERSION, payload)
         self.metadata = merged
         log.info("saved the perceiver to %s", path)
         return path
 
     @classmethod
     def load(cls, path: str | Path) -> SymbolClassifier:
-        """Read a model written by `save`; refuse truncated files and other architectures."""
+        """Read a model written by `save`; refuse damaged files and other architectures."""
         path = Path(path)
-        if not path.is_file():
-            raise ModelFileError(
-                f"model file {path} does not exist; train one with `oxbot train perceiver`"
-            )
-        try:
-            payload = torch.load(io.BytesIO(path.read_bytes()), weights_only=True)
-        except (
-            RuntimeError,
-            EOFError,
-            zipfile.BadZipFile,
-            ValueError,
-            OSError,
-            pickle.UnpicklingError,
-        ) as exc:
-            raise ModelFileError(
-                f"model file {path} is truncated or not a model file ({type(exc).__name__}); "
-                f"retrain it with `oxbot train perceiver`"
-            ) from None
-        except Exception as exc:  # unpickling refuses unknown objects in many ways
-            raise ModelFileError(
-                f"model file {path} could not be read ({type(exc).__name__}); it is not an "
-                f"oxbot perceiver"
-            ) from None
-        if not isinstance(payload, dict) or payload.get("format") != FORMAT:
+        what = "perceiver model file"
+        remedy = (
+            "retrain it with `oxbot train perceiver`, or re-download "
+            "oxbot/data/models/perceiver.pt from the oxbot repository"
+        )
+        payload = artifacts.load(path, ARTIFACT_KIND, FORMAT_VERSION, what, remedy, _is_legacy)
+        if payload.get("format") != FORMAT:
             raise ModelFileError(
                 f"model file {path} is not an oxbot perceiver (another architecture or "
                 f"another program's file)"
             )
-        if payload.get("format_version") != FORMAT_VERSION or payload.get("labels") != list(LABELS):
+        if payload.get("labels") != list(LABELS):
             raise ModelFileError(
-                f"model file {path} has format version {payload.get('format_version')} and "
-                f"labels {payload.get('labels')}; this oxbot reads version {FORMAT_VERSION} "
-                f"with labels {list(LABELS)}"
+                f"model file {path} has labels {payload.get('labels')}; this oxbot reads "
+                f"{list(LABELS)}; {remedy}"
             )
         if payload.get("outputs", list(LABELS)) != list(OUTPUTS):
             raise ModelFileError(
@@ -479,20 +458,32 @@ class SymbolClassifier:
                 f"oxbot reads {list(OUTPUTS)}: retrain it with `oxbot train perceiver`"
             )
         known = {f.name for f in dataclasses.fields(PerceptionConfig)}
-        saved = {k: v for k, v in dict(payload.get("config", {})).items() if k in known}
+        with artifacts.checked(path, what, remedy):
+            saved = {k: v for k, v in dict(payload.get("config", {})).items() if k in known}
+            metadata = dict(payload.get("metadata", {}))
+            seed = int(payload.get("seed", 0))
         try:
             config = dataclasses.replace(PerceptionConfig(**saved), **payload["architecture"])
-            clf = cls(config, seed=int(payload.get("seed", 0)))
+            clf = cls(config, seed=seed)
             clf.net.load_state_dict(payload["state_dict"])
-        except (KeyError, TypeError, ValueError, RuntimeError) as exc:
-            first = str(exc).strip().splitlines()[0]
+        except (KeyError, TypeError, ValueError, RuntimeError, AttributeError) as exc:
+            first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
             raise ModelFileError(
                 f"model file {path} does not match the perceiver's architecture: {first}"
             ) from None
         clf.net.eval()
-        clf.metadata = dict(payload.get("metadata", {}))
+        clf.metadata = metadata
         clf.fitted = True
         return clf
+
+
+def _is_legacy(payload: Any) -> bool:
+    """A perceiver saved before files carried a checksum (format version 1)."""
+    return (
+        isinstance(payload, dict)
+        and payload.get("format") == FORMAT
+        and payload.get("format_version") == 1
+    )
 
 
 def load_classifier(path: str | Path | None = None) -> SymbolClassifier:

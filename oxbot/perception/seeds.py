@@ -20,6 +20,7 @@ import numpy as np
 
 from oxbot.atomic import atomic_write
 from oxbot.errors import DataError, InvalidInputError
+from oxbot.image_size import check_pixels
 from oxbot.perception.synth import LABELS, draw_cell
 
 IMAGE_SUFFIXES = (".png",)
@@ -64,8 +65,13 @@ def read_cell(path: str | Path, size: int = 40) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise DataError(f"image {path} does not exist")
-    data = np.frombuffer(path.read_bytes(), np.uint8)
-    image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if data.size else None
+    raw = path.read_bytes()
+    try:
+        known = check_pixels(raw, f"image {path}")
+    except InvalidInputError as exc:
+        raise DataError(str(exc)) from None
+    data = np.frombuffer(raw, np.uint8)
+    image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED) if known is not None else None
     if image is None:
         raise DataError(f"image {path} is not a readable PNG (corrupt or empty); replace it")
     if image.ndim == 3 and image.shape[2] >= 3:  # OpenCV decodes to BGR(A)

@@ -25,6 +25,7 @@ import cv2
 import numpy as np
 
 from oxbot.errors import FrameSourceError, InvalidInputError
+from oxbot.image_size import MAX_PIXELS, check_pixels
 
 log = logging.getLogger(__name__)
 
@@ -32,14 +33,17 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 """Files an image folder reads, by suffix (case-insensitive)."""
 
 
-def load_image(path: str | Path) -> np.ndarray:
-    """The image file at `path` as uint8 (H, W, 3) RGB; InvalidInputError if it is unreadable."""
+def load_image(path: str | Path, max_pixels: int = MAX_PIXELS) -> np.ndarray:
+    """The image file at `path` as uint8 (H, W, 3) RGB; InvalidInputError if it is unreadable
+    or has more than `max_pixels` pixels (checked before decoding)."""
     path = Path(path)
     if not path.is_file():
         raise InvalidInputError(f"image {path} does not exist (or is not a file); check the path")
     data = np.fromfile(path, np.uint8)
-    with _quiet_opencv():
-        image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    image = None
+    if check_pixels(data.tobytes(), f"image {path}", max_pixels) is not None:
+        with _quiet_opencv():
+            image = cv2.imdecode(data, cv2.IMREAD_COLOR)
     if image is None:
         raise InvalidInputError(
             f"{path} is not an image OpenCV can read (corrupt, truncated or another kind of "
@@ -185,6 +189,14 @@ class VideoFileSource(_CaptureSource):
         with _quiet_opencv():
             capture = cv2.VideoCapture(str(self.path))
         ok = capture.isOpened()
+        width = int(capture.get(cv2.CAP_PROP_FRAME_WIDTH)) if ok else 0
+        height = int(capture.get(cv2.CAP_PROP_FRAME_HEIGHT)) if ok else 0
+        if width * height > MAX_PIXELS:  # known from the container, before a frame is decoded
+            capture.release()
+            raise FrameSourceError(
+                f"video {self.path} has {width}x{height} frames; the limit is {MAX_PIXELS:,} "
+                f"pixels a frame; give a smaller video"
+            )
         if ok:  # some backends "open" anything; a first frame proves it is a video
             ok, _ = capture.read()
             capture.set(cv2.CAP_PROP_POS_FRAMES, 0)

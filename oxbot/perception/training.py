@@ -16,6 +16,7 @@ import dataclasses
 import json
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,9 +24,11 @@ from typing import Any
 import numpy as np
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from oxbot import artifacts
 from oxbot.atomic import atomic_write, write_text_atomic
 from oxbot.config import PerceptionConfig
-from oxbot.errors import DataError
+from oxbot.errors import DataError, ModelFileError, TrainingInterrupted
+from oxbot.interrupt import deferred_interrupt
 from oxbot.perception.augment import generate
 from oxbot.perception.classifier import SymbolClassifier
 from oxbot.perception.evaluation import (
@@ -45,6 +48,9 @@ WHOLE_AS_PARTIAL = 0.003
 """oxbot (issue 15): after training, the "partial" output is lowered until at most this share
 of held-out whole symbols read as partial. Without it, open circles on rendered boards read
 as partial often enough to drop whole-board reading from 98.5% to 90%."""
+CHECKPOINT_FORMAT = "oxbot-perceiver-checkpoint/1"
+CHECKPOINT_KIND = "perceiver-checkpoint"
+CHECKPOINT_VERSION = 1
 
 
 @dataclass
@@ -64,6 +70,11 @@ def companion_paths(model_path: str | Path) -> tuple[Path, Path]:
     return path.with_suffix(".metrics.json"), path.with_suffix(".curve.png")
 
 
+def checkpoint_path(model_path: str | Path) -> Path:
+    """The checkpoint an interrupted run leaves beside its model file."""
+    return Path(model_path).with_suffix(".checkpoint.pt")
+
+
 def train_perceiver(
     config: PerceptionConfig | None = None,
     images: int | None = None,
@@ -71,10 +82,14 @@ def train_perceiver(
     out: str | Path | None = None,
     curve: bool = True,
     show_progress: bool = True,
+    resume: bool = True,
 ) -> TrainingResult:
     """Generate `images` (10K) training images from the seeds, train, measure and save.
 
     With `out` None nothing is written. `curve` False skips the learning curve's extra runs.
+    Each finished fit of the curve is kept in a checkpoint beside `out` (`checkpoint_path`);
+    Ctrl-C saves it and raises `TrainingInterrupted`, and with `resume` a later run with the
+    same settings skips those fits. The checkpoint is deleted once the model is written.
     """
     config = config if config is not None else PerceptionConfig()
     n = images if images is not None else config.train_images
@@ -88,8 +103,40 @@ def train_perceiver(
     generate_s = time.perf_counter() - started
     test_x, test_y = generated_test_set(seeds, config.test_images, config.seed, config.image_size)
 
-    sizes = [s for s in CURVE_SIZES if s < n] if curve else []
-    clf, points = _fit_along_the_curve(config, (x, y), (test_x, test_y), [*sizes, n], show_progress)
+    sizes = [*([s for s in CURVE_SIZES if s < n] if curve else []), n]
+    checkpoint = checkpoint_path(out) if out is not None else None
+    settings = {
+        "config": dataclasses.asdict(config),
+        "images": n,
+        "seeds": str(seeds.folder),
+        "sizes": sizes,
+    }
+    points: list[dict[str, float]] = []
+    if checkpoint is not None and resume and checkpoint.exists():
+        points = _load_checkpoint(checkpoint, settings)
+        log.info("resuming from %s: %d of %d fits done", checkpoint, len(points), len(sizes))
+
+    def keep(point_list: list[dict[str, float]]) -> None:
+        if checkpoint is not None:
+            _save_checkpoint(checkpoint, settings, point_list)
+
+    with deferred_interrupt() as stop:
+        try:
+            with stop.immediately():  # a fit cut short is simply redone on resuming
+                clf = _fit_along_the_curve(
+                    config, (x, y), (test_x, test_y), sizes, points, keep, show_progress
+                )
+        except KeyboardInterrupt:
+            if checkpoint is None:
+                raise
+            keep(points)
+            raise TrainingInterrupted(
+                f"training interrupted after {len(points)} of {len(sizes)} fits "
+                f"({', '.join(f'{s:,}' for s in sizes)} images); saved the checkpoint "
+                f"{checkpoint}",
+                checkpoint,
+                len(points),
+            ) from None
 
     # The partial output's offset and the temperature of `read`'s confidences, fitted on
     # images of all four outputs that neither training nor testing sees.
@@ -135,6 +182,7 @@ def train_perceiver(
         metrics_path, curve_path = companion_paths(model_path)
         write_text_atomic(metrics_path, json.dumps(metrics, indent=2) + "\n")
         plot_learning_curve(points, curve_path)
+        checkpoint_path(model_path).unlink(missing_ok=True)  # done: nothing left to resume
     return TrainingResult(clf, metrics, model_path, metrics_path, curve_path)
 
 
@@ -143,12 +191,18 @@ def _fit_along_the_curve(
     train: tuple[np.ndarray, np.ndarray],
     test: tuple[np.ndarray, np.ndarray],
     sizes: list[int],
+    points: list[dict[str, float]],
+    keep: Callable[[list[dict[str, float]]], None],
     show_progress: bool,
-) -> tuple[SymbolClassifier, list[dict[str, float]]]:
+) -> SymbolClassifier:
     """A classifier fitted afresh on the first `size` training images for each of `sizes`,
-    each measured on the test images: the last classifier, and the learning curve's points."""
+    each measured on the test images; the last classifier.
+
+    Each point of the learning curve is appended to `points` and handed to `keep` as soon as
+    it is measured; the fits of points already there are skipped, except the last one, whose
+    classifier is the result."""
     (x, y), (test_x, test_y) = train, test
-    points: list[dict[str, float]] = []
+    del points[len(sizes) - 1 :]  # the last fit is always made: it is the model
     with Progress(
         TextColumn("{task.description}"),
         BarColumn(),
@@ -157,10 +211,13 @@ def _fit_along_the_curve(
         disable=not show_progress,
         transient=True,
     ) as progress:
-        task = progress.add_task("training the perceiver", total=config.epochs * sum(sizes))
-        offset = 0
-        for size in sizes:
+        offset = config.epochs * sum(sizes[: len(points)])
+        task = progress.add_task(
+            "training the perceiver", total=config.epochs * sum(sizes), completed=offset
+        )
+        for size in sizes[len(points) :]:
             progress.update(task, description=f"training on {size:,} images")
+            log.info("training on %d images", size)
             base = offset
             tick = time.perf_counter()
             clf = SymbolClassifier(config).fit(
@@ -172,8 +229,42 @@ def _fit_along_the_curve(
             offset += config.epochs * size
             accuracy = evaluate(clf, test_x, test_y).accuracy
             points.append({"images": size, "accuracy": accuracy, "fit_seconds": seconds})
+            keep(points)
             log.info("%d images: accuracy %.4f in %.1f s", size, accuracy, seconds)
-    return clf, points
+    return clf
+
+
+def _save_checkpoint(path: Path, settings: dict[str, Any], points: list[dict[str, float]]) -> None:
+    payload = {"format": CHECKPOINT_FORMAT, "settings": settings, "points": points}
+    artifacts.save(path, CHECKPOINT_KIND, CHECKPOINT_VERSION, payload)
+
+
+def _load_checkpoint(path: Path, settings: dict[str, Any]) -> list[dict[str, float]]:
+    """The finished points of the learning curve an interrupted run saved with `settings`."""
+    what = "perceiver checkpoint"
+    remedy = "delete it, or start afresh with --no-resume"
+    payload = artifacts.load(path, CHECKPOINT_KIND, CHECKPOINT_VERSION, what, remedy)
+    with artifacts.checked(path, what, remedy):
+        if payload["format"] != CHECKPOINT_FORMAT:
+            raise ValueError(f"format {payload['format']!r}")
+        saved = dict(payload["settings"])
+        points = [
+            {
+                "images": int(p["images"]),
+                "accuracy": float(p["accuracy"]),
+                "fit_seconds": float(p["fit_seconds"]),
+            }
+            for p in payload["points"]
+        ]
+    changed = sorted(k for k in settings if saved.get(k) != settings[k])
+    if changed:
+        raise ModelFileError(
+            f"perceiver checkpoint {path} was made with other settings ({', '.join(changed)}); "
+            "use the same settings to resume, or --no-resume"
+        )
+    if [p["images"] for p in points] != settings["sizes"][: len(points)]:
+        raise ModelFileError(f"perceiver checkpoint {path} is inconsistent; {remedy}")
+    return points
 
 
 def plot_learning_curve(points: list[dict[str, float]], path: str | Path) -> Path:

@@ -48,6 +48,8 @@ class ArmComponent(Component):
     """
 
     listens_to = (ArmCommand,)
+    retries = (ArmCommand,)  # the manager waits for ArmDone
+    part = "arm"
 
     def __init__(
         self,
@@ -76,6 +78,7 @@ class ArmComponent(Component):
             drawing_seconds(strokes, self.config),
         )
         self.drawing = True
+        self.expect(drawing_seconds(strokes, self.config) / self.speed_factor)
         try:
             if not self._take(self.config.travel):
                 return

@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 
 from oxbot.errors import InvalidInputError
+from oxbot.image_size import check_pixels
 from oxbot.robot.messages import Frame, PersonFrame
 
 
@@ -33,7 +34,7 @@ def frame_message(
 def frame_pixels(message: Frame | PersonFrame) -> np.ndarray:
     """The image of a Frame or PersonFrame: uint8 RGB (or gray, for a raw gray frame).
 
-    InvalidInputError if its bytes are not the image it says.
+    InvalidInputError if its bytes are not the image it says, or too many pixels to decode.
     """
     if message.format == "raw":
         shape = tuple(message.shape)
@@ -43,7 +44,9 @@ def frame_pixels(message: Frame | PersonFrame) -> np.ndarray:
             )
         return check_frame(np.frombuffer(message.image, dtype=np.uint8).reshape(shape))
     data = np.frombuffer(message.image, dtype=np.uint8)
-    image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    image = None
+    if check_pixels(message.image, f"a {message.format.upper()} frame") is not None:
+        image = cv2.imdecode(data, cv2.IMREAD_COLOR)
     if image is None:
         raise InvalidInputError(
             f"the frame's {len(message.image)} bytes are not a {message.format.upper()} image"

@@ -15,6 +15,7 @@ to NewGame, which starts a clean sheet.
 
 from __future__ import annotations
 
+import copy
 import logging
 import threading
 
@@ -62,6 +63,8 @@ class GameMoveComponent(Component):
     """
 
     listens_to = (Frame, ArmCommand, NewGame)
+    retries = (ArmCommand, NewGame)  # the tracker must know the robot's drawings; not frames
+    part = "eyes"
 
     def __init__(
         self,
@@ -153,6 +156,14 @@ class GameMoveComponent(Component):
     def restart(self) -> None:
         with self._lock:
             self._cached = None
+
+    def take_over(self, old: Component) -> None:
+        assert isinstance(old, GameMoveComponent)
+        # the game so far: what the tracker knows of the sheet, the last view of it
+        self.tracker = copy.deepcopy(old.tracker)
+        self.reader, self._off, self._last_seen = old.reader, old._off, old._last_seen
+        with old._lock:
+            self._latest, self._version = old._latest, old._version
 
     def stop(self, timeout: float = 2.0) -> None:
         super().stop(timeout)

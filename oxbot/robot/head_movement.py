@@ -28,6 +28,8 @@ class HeadMovementComponent(Component):
     """On HeadDirection, publishes the mirroring HeadMove (once per change of direction)."""
 
     listens_to = (HeadDirection,)
+    part = "head"
+    essential = False  # the game goes on with the robot looking straight ahead
 
     def __init__(self, bus: Bus, name: str | None = None) -> None:
         super().__init__(bus, name)
@@ -42,3 +44,7 @@ class HeadMovementComponent(Component):
 
     def restart(self) -> None:
         self.current = None
+
+    def take_over(self, old: Component) -> None:
+        assert isinstance(old, HeadMovementComponent)
+        self.current = old.current

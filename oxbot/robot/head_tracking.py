@@ -151,6 +151,8 @@ class HeadTrackingComponent(Component):
 
     listens_to = (PersonFrame,)
     period = 0.1  # 10 Hz, the rate the game-move recognition reads frames at
+    part = "head tracking"
+    essential = False  # the head only mirrors the person; the game does not need it
 
     def __init__(
         self,
@@ -171,6 +173,10 @@ class HeadTrackingComponent(Component):
         if not isinstance(self.source, PushedFrames):
             raise FrameSourceError(f"{self.name} reads {self.source.name}; frames cannot be pushed")
         self.source.push(frame)
+
+    def take_over(self, old: Component) -> None:
+        assert isinstance(old, HeadTrackingComponent)
+        self.current, self._unavailable = old.current, old._unavailable
 
     def handle(self, message: Message) -> None:
         if isinstance(message, PersonFrame) and self._pushed:

@@ -20,10 +20,26 @@ and anything the robot has to say meanwhile (an impossible drawing) waits for Ar
 
 The manager is the authority on the game: a move that is not legal on its board (typed moves
 bypass the tracker) is refused in words and never changes the board.
+
+When a part fails (see `oxbot.robot.bus`), the game goes on if it can:
+- the manager itself raising is restarted with its dialogue state as it was (the game on the
+  board, the turns so far) and decides again; hanging, it is replaced by a fresh manager that
+  takes over a copy of that state and decides again (and reads the messages its predecessor
+  had not read); a NewGame it failed on is handled again;
+- the voice and the arm handle again the sentence or the drawing they failed on, since the
+  manager waits for them;
+- a part the game needs (voice, arm, eyes) that is lost for good (its restart budget spent) makes
+  the robot say so in words ("Sorry, my arm stopped working, so we have to stop here.
+  Goodbye.") and end the dialogue at once, without waiting for a voice or arm that may be gone;
+  when the manager is the lost part, `oxbot.robot.session.Robot` says it instead;
+- lost hearing is told ("please type your answers"), and the game goes on; a lost head goes
+  unsaid. Words a failing recogniser loses are silence for that turn, which the dialogue
+  handles as it always does (it asks again).
 """
 
 from __future__ import annotations
 
+import copy
 import enum
 import logging
 import time
@@ -65,6 +81,7 @@ from oxbot.robot.messages import (
     ArmCommand,
     ArmDone,
     BoardProblem,
+    ComponentLost,
     Decision,
     DialogueAct,
     DialogueEnded,
@@ -89,6 +106,10 @@ PROBLEM_SENTENCES = {
 }
 """What the robot says (as the act PROBLEM, not one the policy chooses) about an impossible
 drawing, by the tracker's or the manager's problem kind."""
+STOPPED_SENTENCE = "Sorry, my {part} stopped working, so we have to stop here. Goodbye."
+"""The robot's goodbye when a part the game needs is lost for good (as the act CLOSING)."""
+LOST_SENTENCES = {"hearing": "Sorry, my hearing has stopped working. Please type your answers."}
+"""What the robot tells the person when a part the game can do without is lost, by part."""
 Understand = Callable[[Sequence[tuple[str, float]], str], UserAct]
 """Reads what the person said (an N-best list) in the context of the robot's last act as
 their dialogue act with a score (`UserActClassifier.intent_of`)."""
@@ -116,8 +137,18 @@ class InteractionManagerComponent(Component):
     each change of the board, Decision for each choice.
     """
 
-    listens_to = (NewGame, SpeechHypotheses, GameMove, SpeakingFinished, ArmDone, BoardProblem)
+    listens_to = (
+        NewGame,
+        SpeechHypotheses,
+        GameMove,
+        SpeakingFinished,
+        ArmDone,
+        BoardProblem,
+        ComponentLost,
+    )
+    retries = (NewGame,)  # else it restarts deciding again from the dialogue so far
     period = 0.02
+    part = "mind"
 
     def __init__(
         self,
@@ -139,7 +170,7 @@ class InteractionManagerComponent(Component):
         self._unanswered = {act for act, a in answers.items() if a <= {SILENCE}}
         self._questions = {act for act, a in answers.items() if a and SILENCE not in a}
         self.phase = Phase.IDLE
-        self._reset(True)
+        self._reset(True, publish=False)  # a replacement must not announce an empty board
 
     @property
     def timing(self) -> RobotConfig:
@@ -170,6 +201,8 @@ class InteractionManagerComponent(Component):
         elif self.phase is Phase.DONE and isinstance(message, SpeechHypotheses):
             self._heard_after_goodbye(message)
         elif self.phase in (Phase.IDLE, Phase.DONE):
+            if isinstance(message, ComponentLost) and message.essential:
+                self._broken = True  # between games: no spoken rematch with the part gone
             return
         elif isinstance(message, SpeechHypotheses):
             self._heard(message)
@@ -177,6 +210,8 @@ class InteractionManagerComponent(Component):
             self._moved(message)
         elif isinstance(message, BoardProblem):
             self._problem(message.kind)
+        elif isinstance(message, ComponentLost):
+            self._lost(message)
         elif isinstance(message, SpeakingFinished):
             if self.phase is Phase.SPEAKING and message.text == self._speaking:
                 self._spoke()
@@ -192,9 +227,21 @@ class InteractionManagerComponent(Component):
         if self.phase not in (Phase.IDLE, Phase.DONE):
             self.phase, self._deadline = Phase.LISTENING, 0.0
 
+    def take_over(self, old: Component) -> None:
+        assert isinstance(old, InteractionManagerComponent)
+        # A copy, so the hung thread cannot change this game should it wake; the models it
+        # points to are read-only and stay shared.
+        state = old.state
+        keep = {id(state.layout): state.layout, id(state.action_model): state.action_model}
+        self.state = copy.deepcopy(state, keep)
+        self.rng, self.phase, self._deferred = old.rng, old.phase, list(old._deferred)
+        for name in ("_moved_since", "_spoke_since", "_speaking", "_arm_cell", "_rematch"):
+            setattr(self, name, getattr(old, name))
+        self._deadline = old._deadline
+
     # --- the turn ---
 
-    def _reset(self, robot_starts: bool) -> None:
+    def _reset(self, robot_starts: bool, publish: bool = True) -> None:
         self.state: DialogueState = self.model.new_state(robot_starts)
         self._moved_since = False
         self._spoke_since = False
@@ -203,7 +250,9 @@ class InteractionManagerComponent(Component):
         self._rematch = False
         self._deferred: list[str] = []
         self._deadline = 0.0
-        self._publish_game()
+        self._broken = False  # a part was lost: only Robot.new_game, which revives it, replays
+        if publish:
+            self._publish_game()
 
     def _decide(self) -> None:
         """Choose the next act greedily among the offered ones, and start saying it."""
@@ -297,7 +346,11 @@ class InteractionManagerComponent(Component):
 
     def _heard_after_goodbye(self, message: SpeechHypotheses) -> None:
         """After the goodbye the robot only listens for a new game ("again!", "new game")."""
-        if message.nbest and self._understand(message.nbest, "").act == NEW_GAME:
+        if (
+            message.nbest
+            and not self._broken
+            and self._understand(message.nbest, "").act == NEW_GAME
+        ):
             self.bus.publish(NewGame(robot_starts=self.state.robot_starts))
 
     def _moved(self, message: GameMove) -> None:
@@ -339,6 +392,25 @@ class InteractionManagerComponent(Component):
             self._tell(sentence)
         else:
             self._deferred.append(sentence)  # never over the robot's own words or arm
+
+    def _lost(self, message: ComponentLost) -> None:
+        """A part is gone for good: say goodbye now if the game needs it, else tell the person."""
+        if message.component == self.name:
+            return
+        if not message.essential:
+            sentence = LOST_SENTENCES.get(message.part)
+            if sentence is not None and self.phase is Phase.LISTENING:
+                self._tell(sentence)
+            elif sentence is not None:
+                self._deferred.append(sentence)
+            return
+        sentence = STOPPED_SENTENCE.format(part=message.part)
+        self.state.robot_says(CLOSING, sentence)
+        self._publish_turn("sys", CLOSING, sentence)
+        self.bus.publish(Utterance(text=sentence, act=CLOSING))
+        # no waiting for the voice or the arm to finish: either may be the part that is gone
+        self.phase, self._broken, self._rematch = Phase.DONE, True, False
+        self.bus.publish(DialogueEnded(outcome=self.state.outcome))
 
     def _game_started(self) -> bool:
         return any(plays(act) for act in self.state.said)

@@ -246,11 +246,24 @@ class DialogueEnded(Message):
 
 @dataclass(frozen=True)
 class ComponentFailed(Message):
-    """A component raised; the runtime reports it and carries on."""
+    """A component raised or hung; the runtime restarts it (after a wait) and carries on."""
 
     topic: ClassVar[str] = "robot/failure"
     component: str
     error: str
+
+
+@dataclass(frozen=True)
+class ComponentLost(Message):
+    """A component failed or hung more often than its restart budget allows and stays off; if
+    the game needs it (`essential`), the robot says so and ends the game."""
+
+    topic: ClassVar[str] = "robot/lost"
+    component: str
+    part: str
+    """What the component is to the robot, in words: "voice", "arm", "hearing"."""
+    error: str
+    essential: bool
 
 
 MESSAGE_TYPES: dict[str, type[Message]] = {cls.__name__: cls for cls in Message.__subclasses__()}
@@ -277,7 +290,7 @@ def from_json(text: str | bytes) -> Message:
         envelope = json.loads(text)
         cls = MESSAGE_TYPES[envelope["type"]]
         data = dict(envelope["data"])
-    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError) as exc:
+    except (json.JSONDecodeError, KeyError, TypeError, UnicodeDecodeError, RecursionError) as exc:
         raise InvalidInputError(
             f"not a message of oxbot's bus ({type(exc).__name__}: {exc}); "
             f"known types: {', '.join(sorted(MESSAGE_TYPES))}"
@@ -293,6 +306,10 @@ def from_json(text: str | bytes) -> Message:
                 data[f.name] = tuple(base64.b64decode(v, validate=True) for v in data[f.name])
             elif isinstance(data[f.name], list):
                 data[f.name] = _tuples(data[f.name])
+        except RecursionError:
+            raise InvalidInputError(
+                f"field {f.name!r} of a {cls.__name__} message is nested too deeply"
+            ) from None
         except (binascii.Error, TypeError, ValueError):
             raise InvalidInputError(
                 f"field {f.name!r} of a {cls.__name__} message is not base64 bytes"

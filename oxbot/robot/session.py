@@ -14,6 +14,13 @@ rate). The terminal (`oxbot play --terminal`), the web page (`oxbot play`) and t
 the same Robot; each browser tab has its own. The Robot talks to its components only through
 messages on its bus, and learns the board and the dialogue from them too. Components that load
 models (the classifier, the recogniser, the policy) share one copy per process.
+
+The components run under a `Supervisor` (oxbot.robot.bus, with the `[robot]` restart budget and
+hang deadline): a part that fails is restarted, a hung one replaced, and one lost for good is
+said out loud (see oxbot.robot.manager); if the lost part is the interaction manager itself,
+the Robot says the goodbye in its place. `stop` returns within about two seconds whatever the
+components do: a thread still hung then is left behind as a daemon, told to stop, unable to
+publish, and holding nothing of the robot's.
 """
 
 from __future__ import annotations
@@ -26,18 +33,27 @@ import numpy as np
 
 from oxbot.config import OxbotConfig
 from oxbot.dialogue.agent import DQNPolicy
-from oxbot.dialogue.domain import words_of
+from oxbot.dialogue.domain import CLOSING, words_of
 from oxbot.dialogue.state import Turn
 from oxbot.errors import InvalidInputError, SpeechUnavailable
-from oxbot.game.board import CELL_NAMES, EMPTY_BOARD, N_CELLS, USER, Board, cell_index, symbol_of
+from oxbot.game.board import (
+    CELL_NAMES,
+    EMPTY_BOARD,
+    N_CELLS,
+    USER,
+    Board,
+    cell_index,
+    outcome,
+    symbol_of,
+)
 from oxbot.perception.sources import FrameSource
 from oxbot.robot.arm import ArmComponent
-from oxbot.robot.bus import Bus, Component, LocalBus, start_all, stop_all
+from oxbot.robot.bus import Bus, Component, LocalBus, Supervisor
 from oxbot.robot.frames import frame_message
 from oxbot.robot.game_moves import GameMoveComponent
 from oxbot.robot.head_movement import HeadMovementComponent
 from oxbot.robot.head_tracking import HeadTracker, HeadTrackingComponent
-from oxbot.robot.manager import InteractionManagerComponent
+from oxbot.robot.manager import STOPPED_SENTENCE, InteractionManagerComponent
 from oxbot.robot.messages import (
     DialogueAct,
     DialogueEnded,
@@ -48,6 +64,7 @@ from oxbot.robot.messages import (
     SourceEnded,
     SpeechAudio,
     SpeechHypotheses,
+    Utterance,
 )
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
 from oxbot.speech.audio import read_wav
@@ -104,7 +121,7 @@ class Robot:
         body = self.config.robot
         manager_seed, arm_seed = np.random.default_rng(seed).integers(2**32, size=2)
         self._watching_sheet = sheet_camera is not None
-        self.components: list[Component] = [
+        components: list[Component] = [
             InteractionManagerComponent(
                 self.bus,
                 policy=policy if policy is not None else shared_policy(),
@@ -131,6 +148,7 @@ class Robot:
             HeadMovementComponent(self.bus),
         ]
         self._vision = vision.name
+        self.supervisor = Supervisor(components, self.bus, body, on_lost=self._lost)
         self._events = self.bus.subscribe(
             NewGame, GameState, DialogueAct, DialogueEnded, SourceEnded
         )
@@ -147,16 +165,31 @@ class Robot:
         """Start every component and the first game: the robot begins to talk."""
         if not self._started:
             warm_up(self.config)
-            start_all(self.components)
+            self.supervisor.start()
             self._started = True
             self.new_game()
         return self
 
-    def stop(self) -> None:
-        """Stop every component (a sentence or a drawing under way is cut off)."""
-        stop_all(self.components)
+    def stop(self, timeout: float = 2.0) -> None:
+        """Stop every component within about `timeout` seconds (a sentence or a drawing under
+        way is cut off; a hung thread is abandoned)."""
+        self.supervisor.stop(timeout)
         self._events.close()
         self._started = False
+
+    @property
+    def components(self) -> list[Component]:
+        """The components running now (a hung one's replacement in its place)."""
+        return list(self.supervisor.components)
+
+    def _lost(self, component: Component) -> None:
+        """The supervisor gave up on `component`: with the manager gone, say goodbye for it."""
+        if not isinstance(component, InteractionManagerComponent) or self.finished:
+            return
+        sentence = STOPPED_SENTENCE.format(part=component.part)
+        self.bus.publish(DialogueAct(speaker="sys", act=CLOSING, text=sentence))
+        self.bus.publish(Utterance(text=sentence, act=CLOSING))
+        self.bus.publish(DialogueEnded(outcome=outcome(self.board)))
 
     def __enter__(self) -> Robot:
         return self.start()
@@ -167,6 +200,11 @@ class Robot:
     def new_game(self, robot_starts: bool | None = None) -> None:
         """A clean sheet and a new dialogue; who starts is the config's unless given."""
         starts = self.config.game.robot_starts if robot_starts is None else robot_starts
+        if self._started:
+            # parts lost for good in the last game get another chance; before NewGame, so the
+            # fresh ones hear it
+            for name in self.supervisor.revive():
+                log.info("%s starts afresh for the new game", name)
         self.bus.publish(NewGame(robot_starts=starts))
 
     # --- the person ---

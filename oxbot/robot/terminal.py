@@ -39,6 +39,7 @@ from oxbot.robot.listening import HandsFreeListener
 from oxbot.robot.messages import (
     BoardProblem,
     ComponentFailed,
+    ComponentLost,
     DialogueAct,
     DialogueEnded,
     GameState,
@@ -225,7 +226,13 @@ class TerminalRobot:
         self.speakers = speakers if speakers is not None else Speakers()
         self.microphone = microphone if microphone is not None else Microphone()
         self._events = robot.bus.subscribe(
-            DialogueAct, GameState, BoardProblem, DialogueEnded, ComponentFailed, SpeakingStarted
+            DialogueAct,
+            GameState,
+            BoardProblem,
+            DialogueEnded,
+            ComponentFailed,
+            ComponentLost,
+            SpeakingStarted,
         )
         self._printer = threading.Thread(target=self._print_events, daemon=True)
         self._stopping = threading.Event()
@@ -339,8 +346,8 @@ class TerminalRobot:
         elif isinstance(message, SpeakingStarted):
             self.speakers.play(message.audio)
         elif isinstance(message, ComponentFailed):
-            c.print(
-                f"[red]{escape(message.component)} failed ({escape(message.error)}); restarted[/]"
-            )
+            c.print(f"[red]{escape(message.component)} failed ({escape(message.error)})[/]")
+        elif isinstance(message, ComponentLost):
+            c.print(f"[red]{escape(message.component)} is off until a new game[/]")
         elif isinstance(message, DialogueEnded):
             print_game_over(c, message.outcome)

@@ -42,6 +42,8 @@ class SpeechSynthesisComponent(Component):
     """
 
     listens_to = (Utterance,)
+    retries = (Utterance,)  # the manager waits for SpeakingFinished
+    part = "voice"
 
     def __init__(
         self,
@@ -66,6 +68,8 @@ class SpeechSynthesisComponent(Component):
         self.speaking = True
         try:
             self.bus.publish(SpeakingStarted(text=message.text, audio=audio, seconds=seconds))
+            if self.realtime:
+                self.expect(seconds / self.speed_factor)  # a long sentence is not a hang
             if self.realtime and self._stop.wait(seconds / self.speed_factor):
                 return  # stopped while speaking: the sentence is cut off
         finally:
@@ -105,6 +109,8 @@ class SpeechRecognitionComponent(Component):
     """
 
     listens_to = (SpeechAudio,)
+    part = "hearing"
+    essential = False  # the person can type
 
     def __init__(
         self,
@@ -129,6 +135,7 @@ class SpeechRecognitionComponent(Component):
                 self._unavailable = True
                 log.warning("speech recognition is off, type your answers instead: %s", exc)
                 return
+        self.expect(read_wav(message.audio).seconds)  # a long recording takes longer to hear
         hypotheses = self.recognizer.recognize(message.audio)
         nbest = tuple((h.text, h.confidence) for h in hypotheses)
         words = hypotheses[0].words if hypotheses else ()

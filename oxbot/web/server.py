@@ -2,8 +2,8 @@
 
 Each browser tab opens `/ws` and gets its own `Robot` (oxbot.robot.session): its own bus,
 components, tracker and dialogue. Everything the robot publishes goes to the tab as the bus's
-JSON (`oxbot.robot.messages.to_json`), in publish order; what the tab sends is checked here
-and handed to the robot:
+JSON (`oxbot.robot.messages.to_json`), in publish order, but for the tab's own frames and
+recordings (`ECHOES`); what the tab sends is checked here and handed to the robot:
 
 client → server (JSON text messages)::
 
@@ -29,6 +29,18 @@ names and the system acts), then every bus message, and {"type": "Error", "data"
 "about", "code"}} for anything the server refused (`code` is "game_over" for a drawing
 after the robot's goodbye, else empty). A bad message never closes the socket and never
 reaches another session. The limits are `[web]` in the config (`oxbot config`).
+
+What closes a socket, with a close code and a reason the tab can show:
+
+- 1013 the server already runs `max_sessions` games: try again later (the slot is taken
+  before the first await, so a burst of connections never gets past the limit);
+- 1008 a page from another origin, or a Host that is not this server's (DNS rebinding):
+  see `Origins` and `allowed_origins`; a tab sending more than `max_messages_per_second`;
+  a tab that has not read `max_outbox_bytes` of messages;
+- 1001 a tab quiet for `idle_timeout` seconds, or a session older than `max_session_seconds`.
+
+A message's size and JSON depth are checked before it is parsed, and errors quote at most an
+excerpt of it. Closing a session stops its robot's threads.
 """
 
 from __future__ import annotations
@@ -37,12 +49,16 @@ import asyncio
 import base64
 import binascii
 import contextlib
+import ctypes
 import io
+import ipaddress
 import itertools
 import json
 import logging
+import re
 import threading
 import time
+import urllib.parse
 from collections.abc import Callable
 from importlib import resources
 from typing import Any, Protocol
@@ -54,8 +70,9 @@ from PIL import Image, UnidentifiedImageError
 
 from oxbot.config import ListeningConfig, OxbotConfig, WebConfig
 from oxbot.errors import ConfigError, InvalidInputError, OxbotError
+from oxbot.image_size import check_pixels
 from oxbot.robot.listening import HandsFreeListener
-from oxbot.robot.messages import to_json
+from oxbot.robot.messages import Frame, PersonFrame, SpeechAudio, to_json
 from oxbot.speech.audio import Audio, to_wav_bytes
 
 log = logging.getLogger(__name__)
@@ -106,11 +123,15 @@ def decode_image(payload: object, limits: WebConfig) -> np.ndarray:
         raw = base64.b64decode(payload, validate=True)
     except (binascii.Error, ValueError):
         raise InvalidInputError("'image' is not valid base64") from None
+    # the header's size first: a small PNG can declare gigabytes of pixels
+    size = check_pixels(raw, "'image'", limits.max_image_side**2)
+    if size is None:
+        raise InvalidInputError("'image' is not a readable PNG or JPEG image")
     try:
         with Image.open(io.BytesIO(raw)) as image:
             if image.format not in ("PNG", "JPEG", "WEBP"):
                 raise InvalidInputError(f"images must be PNG, JPEG or WebP, not {image.format}")
-            width, height = image.size  # read from the header, before decoding any pixels
+            width, height = size
             if max(width, height) > limits.max_image_side:
                 raise InvalidInputError(
                     f"image is {width}x{height}; the largest side accepted is "
@@ -134,7 +155,7 @@ def decode_pcm(payload: object, rate: object, limits: WebConfig, what: str) -> n
     if rate != limits.audio_rate:
         raise InvalidInputError(
             f"{what} must be {limits.audio_rate} Hz mono 16-bit PCM; got rate "
-            f"{rate!r} (the page resamples with AudioContext({{sampleRate: "
+            f"{excerpt(rate)} (the page resamples with AudioContext({{sampleRate: "
             f"{limits.audio_rate}}}))"
         )
     if not isinstance(payload, str):
@@ -181,6 +202,60 @@ STREAM_PIECE_SECONDS = 0.1
 """How much of the hands-free stream the page sends at a time (told in Hello)."""
 
 
+def check_raw(text: str, limits: WebConfig) -> None:
+    """InvalidInputError if a message is too long or nested too deep to parse; neither is
+    parsed to find out."""
+    if len(text) > limits.max_message_bytes:
+        raise InvalidInputError(
+            f"message is {len(text)} bytes; the limit is {limits.max_message_bytes}"
+        )
+    if json_depth(text, limits.max_json_depth) > limits.max_json_depth:
+        raise InvalidInputError(
+            f"message nests JSON more than {limits.max_json_depth} deep; the protocol's "
+            "messages are flat objects"
+        )
+
+
+_JSON_STRING = re.compile(r'"[^"\\]*(?:\\.[^"\\]*)*"')
+_OPENS, _CLOSES = b"[{", b"]}"
+
+
+def json_depth(text: str, limit: int) -> int:
+    """How deep the JSON in `text` nests arrays and objects (exact when it is over `limit`;
+    any value not over it when it is not), without parsing it: Python's parser recurses and
+    fails on 100,000 levels."""
+    if text.count("[") + text.count("{") <= limit:  # every message the page sends
+        return 0
+    skeleton = _JSON_STRING.sub("", text).encode("utf-8", "replace")  # brackets in strings
+    codes = np.frombuffer(skeleton, np.uint8)
+    steps = np.isin(codes, list(_OPENS)).astype(np.int32) - np.isin(codes, list(_CLOSES))
+    return int(np.cumsum(steps).max(initial=0))
+
+
+def excerpt(value: object, length: int = 40) -> str:
+    """`repr(value)`, cut to about `length` characters: errors never echo a whole input."""
+    text = repr(value)
+    return text if len(text) <= length else f"{text[:length]}… ({len(text)} characters)"
+
+
+class MessageRate:
+    """A token bucket: `rate` messages a second on average, in bursts of up to `rate`."""
+
+    def __init__(self, rate: float, clock: Callable[[], float] = time.monotonic) -> None:
+        self.rate, self.clock = rate, clock
+        self.tokens, self.last = rate, clock()
+
+    def allow(self) -> bool:
+        """Whether one more message may come now (and count it if so)."""
+        now = self.clock()
+        self.tokens = min(self.rate, self.tokens + (now - self.last) * self.rate)
+        self.last = now
+        if self.tokens < 1:
+            return False
+        self.tokens -= 1
+        return True
+
+
 # --- one session per tab ---
 
 
@@ -199,6 +274,9 @@ class Session:
         self.listening = listening if listening is not None else ListeningConfig()
         self.listener: HandsFreeListener | None = None  # made at the first hands-free piece
         self.outbox: asyncio.Queue[str | None] = asyncio.Queue()
+        self.outbox_bytes = 0  # what waits in the outbox: bounded by limits.max_outbox_bytes
+        self.ended = asyncio.Event()
+        self.end_reason: tuple[int, str] | None = None
         self._loop = asyncio.get_running_loop()
         self._subscription = robot.bus.subscribe()
         self._closing = threading.Event()
@@ -222,40 +300,71 @@ class Session:
                 self.listener.close()
             self._bridge.join(2.0)
 
+    def end(self, code: int, reason: str) -> None:
+        """Ask for the session to end, closing the socket with `code` and `reason` (the first
+        reason given wins). Call it on the event loop."""
+        if self.end_reason is None:
+            self.end_reason = (code, reason)
+            self.ended.set()
+
     def _forward(self) -> None:
         """Bus → socket, in publish order (runs in its own thread)."""
         while not self._closing.is_set():
             message = self._subscription.get(timeout=0.1)
-            if message is None:
+            if message is None or isinstance(message, ECHOES):
                 continue
             try:
                 text = to_json(message)
             except (TypeError, ValueError) as exc:  # a message the page cannot take
                 log.warning("session %d: cannot send a %s: %s", self.id, type(message), exc)
                 continue
-            self._loop.call_soon_threadsafe(self.outbox.put_nowait, text)
+            with contextlib.suppress(RuntimeError):  # the loop closed: the server is stopping
+                self._loop.call_soon_threadsafe(self.deliver, text)
+
+    def deliver(self, text: str) -> None:
+        """Queue `text` for the tab; a tab that has not read `max_outbox_bytes` of them ends
+        its session, so that they never pile up in memory. Call it on the event loop."""
+        if self.end_reason is not None:
+            return
+        # one message alone always fits: the limit is on what piles up behind it
+        if self.outbox_bytes and self.outbox_bytes + len(text) > self.limits.max_outbox_bytes:
+            self.end(
+                1008,
+                f"closed: the tab read none of the last {self.outbox.qsize()} messages "
+                "(web.max_outbox_bytes)",
+            )
+            return
+        self.outbox_bytes += len(text)
+        self.outbox.put_nowait(text)
 
     def error(self, message: str, about: str = "", code: str = "") -> None:
         self.errors += 1
-        self.outbox.put_nowait(_error_text(message, about, code))
+        if len(message) > MAX_ERROR_CHARS:  # a backstop: messages quote excerpts only
+            message = message[:MAX_ERROR_CHARS] + "…"
+        self.deliver(_error_text(message, about, code))
 
     def handle(self, text: str) -> None:
         """Act on one message from the tab; an InvalidInputError says what was wrong."""
-        if len(text) > self.limits.max_message_bytes:
-            raise InvalidInputError(
-                f"message is {len(text)} bytes; the limit is {self.limits.max_message_bytes}"
-            )
+        self.dispatch(self.parse(text))
+
+    def parse(self, text: str) -> dict:
+        """The message in `text`, checked for size and depth before it is parsed."""
+        check_raw(text, self.limits)
         try:
             message = json.loads(text)
         except json.JSONDecodeError as exc:
             raise InvalidInputError(f"message is not JSON ({exc})") from None
         if not isinstance(message, dict) or not isinstance(message.get("type"), str):
             raise InvalidInputError('a message is a JSON object with a "type" string')
+        return message
+
+    def dispatch(self, message: dict) -> None:
+        """Hand a parsed message to its handler."""
         kind = message["type"]
         handler = getattr(self, f"_on_{kind}", None) if kind in CLIENT_TYPES else None
         if handler is None:
             raise InvalidInputError(
-                f"unknown message type {kind!r}; known: {', '.join(CLIENT_TYPES)}"
+                f"unknown message type {excerpt(kind)}; known: {', '.join(CLIENT_TYPES)}"
             )
         if kind in GAME_TYPES and self.robot.finished:
             raise GameOver(
@@ -319,6 +428,11 @@ GAME_TYPES = ("frame",)
 robot, which listens for "new game", "again!" after its goodbye."""
 OFF_LOOP_TYPES = ("listen", "listen_off")
 """The ones handled off the event loop: the VAD (loaded at the first piece) runs on each."""
+ECHOES = (Frame, PersonFrame, SpeechAudio)
+"""What the tab itself sent, as the robot's bus carries it: not sent back (a sheet frame is
+megabytes of raw pixels as JSON)."""
+MAX_ERROR_CHARS = 400
+"""The longest Error message sent to a tab."""
 
 
 # --- the app ---
@@ -363,6 +477,9 @@ def create_app(
     app = FastAPI(title="oxbot", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     sessions: dict[int, Session] = {}
     app.state.sessions = sessions
+    app.state.slots = Slots(limits.max_sessions)
+    app.state.starting = asyncio.Semaphore(ROBOTS_STARTING)
+    app.state.origins = Origins(limits)
     app.state.limits = limits
     app.state.listening = config.speech.listening
 
@@ -377,7 +494,7 @@ def create_app(
         return Response(_static(name), media_type=STATIC_TYPES[name])
 
     @app.get("/health")
-    def health() -> dict:
+    async def health() -> dict:  # on the event loop: no worker thread to wait for
         return {"ok": True, "sessions": len(sessions), "speed_factor": speed_factor}
 
     @app.websocket("/ws")
@@ -394,44 +511,203 @@ async def _game_session(
     websocket: WebSocket, app: FastAPI, make_robot: Callable[[], RobotLike], ready: threading.Event
 ) -> None:
     """One tab's game, from the socket's opening to its closing."""
+    slots: Slots = app.state.slots
+    # both decided before the first await, so that a burst of connections cannot all pass
+    refusal = app.state.origins.refusal(websocket)
+    admitted = refusal is None and slots.take()
+    try:
+        await websocket.accept()
+        if refusal is not None:
+            log.warning("refused a game socket: %s", refusal)
+            await _close(websocket, 1008, refusal)
+            return
+        if not admitted:
+            busy = f"the server is busy ({slots.limit} games, web.max_sessions); try again later"
+            await websocket.send_text(_error_text(busy))
+            await _close(websocket, 1013, busy)
+            return
+        await _serve_session(websocket, app, make_robot, ready)
+    except CLIENT_GONE as exc:
+        log.debug("a tab went away while its session opened or closed: %r", exc)
+    finally:
+        if admitted:
+            slots.give_back()
+
+
+async def _serve_session(
+    websocket: WebSocket, app: FastAPI, make_robot: Callable[[], RobotLike], ready: threading.Event
+) -> None:
+    """An admitted tab's game: its robot made, run and stopped."""
     sessions: dict[int, Session] = app.state.sessions
     limits: WebConfig = app.state.limits
-    await websocket.accept()
-    if len(sessions) >= limits.max_sessions:
-        await websocket.send_text(_error_text(f"the server is full ({len(sessions)} games)"))
-        await websocket.close(code=1013)
-        return
     if not ready.is_set():
         await websocket.send_text(
             json.dumps({"type": "Status", "data": {"message": "The robot is waking up…"}})
         )
         await asyncio.to_thread(ready.wait)
+    async with app.state.starting:
+        try:
+            robot = await asyncio.to_thread(make_robot)
+        except Exception as exc:  # the robot cannot be built: say why, to this tab only
+            log.exception("cannot create a robot")
+            await websocket.send_text(_error_text(f"the robot cannot start: {exc}"))
+            await _close(websocket, 1011, "the robot cannot start")
+            return
+        session = Session(robot, limits, app.state.listening)
+        sessions[session.id] = session
+        log.info("session %d opened (%d running)", session.id, len(sessions))
     try:
-        robot = await asyncio.to_thread(make_robot)
-    except Exception as exc:  # the robot cannot be built: say why, to this tab only
-        log.exception("cannot create a robot")
-        await websocket.send_text(_error_text(f"the robot cannot start: {exc}"))
-        await websocket.close(code=1011)
-        return
-    session = Session(robot, limits, app.state.listening)
-    sessions[session.id] = session
-    log.info("session %d opened (%d running)", session.id, len(sessions))
-    sender = None
-    try:
-        # the robot starts first (its greeting waits in the outbox), so that a frame sent
-        # on Hello is never forgotten by the robot's first NewGame
-        await asyncio.to_thread(session.start)
+        async with app.state.starting:
+            # the robot starts first (its greeting waits in the outbox), so that a frame
+            # sent on Hello is never forgotten by the robot's first NewGame
+            await asyncio.to_thread(session.start)
         await websocket.send_text(json.dumps({"type": "Hello", "data": _hello(session, app)}))
-        sender = asyncio.create_task(_send_all(websocket, session))
-        await _receive_all(websocket, session)
-    except WebSocketDisconnect:
-        pass
+        code, reason = await _run(websocket, session)
+        if code:
+            log.info("session %d: %s", session.id, reason)
+            await _close(websocket, code, reason)
     finally:
-        if sender is not None:
-            sender.cancel()
         sessions.pop(session.id, None)
+        # stops the robot's threads (run in a worker: it joins them)
         await asyncio.to_thread(session.close)
+        if not sessions:
+            await asyncio.to_thread(give_memory_back)
         log.info("session %d closed (%d running)", session.id, len(sessions))
+
+
+async def _run(websocket: WebSocket, session: Session) -> tuple[int, str]:
+    """Receive from and send to the tab until either side ends the session; the close code
+    and reason the server ends it with, or (0, "") if the tab went away."""
+    limits = session.limits
+    tasks = {
+        asyncio.create_task(_send_all(websocket, session)),
+        asyncio.create_task(_receive_all(websocket, session)),
+        asyncio.create_task(session.ended.wait()),
+    }
+    try:
+        done, _ = await asyncio.wait(
+            tasks, timeout=limits.max_session_seconds, return_when=asyncio.FIRST_COMPLETED
+        )
+    finally:
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+    if not done:
+        session.end(
+            1001,
+            f"closed after {limits.max_session_seconds:g} s (web.max_session_seconds); "
+            "reload the page to play again",
+        )
+    return session.end_reason or (0, "")
+
+
+ROBOTS_STARTING = 2
+"""Robots built or started at once: a burst of tabs starts its robots a few at a time, so
+that their threads never starve the event loop (and /health, and the games under way)."""
+
+CLIENT_GONE = (WebSocketDisconnect, OSError, RuntimeError)
+"""What sending to or receiving from a tab that has gone raises (uvicorn's ClientDisconnected
+is an OSError; Starlette raises RuntimeError once the socket is closed)."""
+
+
+async def _close(websocket: WebSocket, code: int, reason: str) -> None:
+    """Close the socket with `code` and `reason`, if the tab is still there to be told."""
+    # a close frame's reason holds at most 123 bytes
+    reason = reason.encode()[:123].decode(errors="ignore")
+    with contextlib.suppress(*CLIENT_GONE):
+        await websocket.close(code, reason)
+
+
+class Slots:
+    """The sessions' slots, at most `limit` taken: taken and given back on the event loop,
+    with no await between looking and taking, so that the limit holds under any burst."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self.taken = 0
+
+    def take(self) -> bool:
+        if self.taken >= self.limit:
+            return False
+        self.taken += 1
+        return True
+
+    def give_back(self) -> None:
+        self.taken -= 1
+
+
+class Origins:
+    """Which pages may open the game socket: those served under a Host that cannot be a DNS
+    rebinding (an IP address, localhost, this server's configured name, an allowed origin's
+    host), from the same origin as that Host or an origin in `web.allowed_origins`. A client
+    that sends no Origin is not a browser page, and may."""
+
+    def __init__(self, limits: WebConfig) -> None:
+        self.allowed = {
+            _origin_key(o)
+            for o in (o.strip() for o in limits.allowed_origins.split(","))
+            if o and _origin_key(o) is not None
+        }
+        self.hosts = {"localhost"} | {host for host, _ in self.allowed}
+        if limits.host not in ("0.0.0.0", "::", ""):
+            self.hosts.add(limits.host.lower())
+
+    def refusal(self, websocket: WebSocket) -> str | None:
+        """Why this socket is refused (for its close reason and the log), or None."""
+        host = websocket.headers.get("host", "")
+        default_port = 443 if websocket.url.scheme == "wss" else 80
+        served = _host_key(host, default_port)
+        if served is None or not (served[0] in self.hosts or _is_ip(served[0])):
+            return (
+                f"Host {excerpt(host)} is not this server's; add its page's origin to "
+                "web.allowed_origins"
+            )
+        origin = websocket.headers.get("origin")
+        if not origin or served == _origin_key(origin):
+            return None
+        if _origin_key(origin) in self.allowed:
+            return None
+        return (
+            f"pages from {excerpt(origin)} may not play here; add the origin to web.allowed_origins"
+        )
+
+
+def _origin_key(origin: str) -> tuple[str, int] | None:
+    """(host, port) of an origin such as http://127.0.0.1:8000, or None if malformed."""
+    scheme, _, rest = origin.strip().lower().partition("://")
+    if scheme not in ("http", "https"):
+        return None  # also "null", the origin of files and sandboxed frames
+    return _host_key(rest, 443 if scheme == "https" else 80)
+
+
+def _host_key(host: str, default_port: int) -> tuple[str, int] | None:
+    """(host, port) of a Host header such as 127.0.0.1:8000 or [::1], or None if malformed."""
+    try:
+        parts = urllib.parse.urlsplit("//" + host.strip().lower())
+        port = parts.port
+    except ValueError:
+        return None
+    if not parts.hostname or parts.path or parts.username is not None:
+        return None
+    return parts.hostname, port if port is not None else default_port
+
+
+def _is_ip(host: str) -> bool:
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        return False
+    return True
+
+
+def give_memory_back() -> None:
+    """Hand the memory freed by closed sessions back to the system.
+
+    A session's robot runs several threads, and glibc's malloc keeps what each thread's arena
+    freed for reuse: after a burst of sessions the server would stay tens of MB bigger for good.
+    Elsewhere than glibc this does nothing."""
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
 
 
 def _warm_up(ready: threading.Event, config: OxbotConfig) -> None:
@@ -479,16 +755,34 @@ async def _send_all(websocket: WebSocket, session: Session) -> None:
             text = await session.outbox.get()
             if text is None:
                 return
+            session.outbox_bytes -= len(text)
             await websocket.send_text(text)
     except Exception as exc:  # the tab went away; the receiver sees it and ends the session
         log.debug("session %d: sending stopped: %r", session.id, exc)
 
 
 async def _receive_all(websocket: WebSocket, session: Session) -> None:
-    """Socket → robot, until the tab closes. Bad messages get an Error on this socket."""
+    """Socket → robot, until the tab closes, goes quiet or floods. Bad messages get an Error
+    on this socket."""
+    limits = session.limits
+    rate = MessageRate(limits.max_messages_per_second)
     while True:
-        event = await websocket.receive()
+        try:
+            event = await asyncio.wait_for(websocket.receive(), limits.idle_timeout)
+        except TimeoutError:
+            session.end(
+                1001,
+                f"closed after {limits.idle_timeout:g} s without a message (web.idle_timeout)",
+            )
+            return
         if event["type"] == "websocket.disconnect":
+            return
+        if not rate.allow():
+            session.end(
+                1008,
+                f"closed: more than {limits.max_messages_per_second:g} messages a second "
+                "(web.max_messages_per_second)",
+            )
             return
         text = event.get("text")
         if text is None:
@@ -499,13 +793,19 @@ async def _receive_all(websocket: WebSocket, session: Session) -> None:
             )
             continue
         started = time.perf_counter()
+        kind = ""
         try:
-            if _heavy(text):  # decoding a sheet image: keep it off the event loop
-                await asyncio.to_thread(session.handle, text)
+            if len(text) > HEAVY_CHARS:  # parsing and decoding an image: off the event loop
+                message = await asyncio.to_thread(session.parse, text)
             else:
-                session.handle(text)
+                message = session.parse(text)
+            kind = message["type"] if message["type"] in CLIENT_TYPES else ""
+            if len(text) > HEAVY_CHARS or kind in OFF_LOOP_TYPES:
+                await asyncio.to_thread(session.dispatch, message)
+            else:
+                session.dispatch(message)
         except OxbotError as exc:
-            session.error(str(exc), about=_kind(text), code=getattr(exc, "code", ""))
+            session.error(str(exc), about=kind, code=getattr(exc, "code", ""))
         except Exception as exc:  # a robot bug must not end the tab's game or another's
             log.exception("session %d: message failed", session.id)
             session.error(f"the server failed on this message: {type(exc).__name__}: {exc}")
@@ -514,18 +814,8 @@ async def _receive_all(websocket: WebSocket, session: Session) -> None:
         )
 
 
-def _heavy(text: str) -> bool:
-    """Messages whose decoding (a sheet image) or handling (the VAD) takes long enough to
-    keep off the event loop."""
-    return len(text) > 20_000 or _kind(text) in OFF_LOOP_TYPES
-
-
-def _kind(text: str) -> str:
-    try:
-        kind = json.loads(text).get("type", "")
-    except (ValueError, AttributeError):
-        return ""
-    return kind if isinstance(kind, str) else ""
+HEAVY_CHARS = 20_000
+"""Messages longer than this (a sheet image) are parsed and handled off the event loop."""
 
 
 @contextlib.contextmanager
@@ -540,7 +830,9 @@ def serving_in_background(app: FastAPI, host: str = "127.0.0.1", port: int = 0):
         with socket.socket() as probe:
             probe.bind((host, 0))
             port = probe.getsockname()[1]
-    config = uvicorn.Config(app, host=host, port=port, log_level="warning", ws_max_size=2**24)
+    config = uvicorn.Config(
+        app, host=host, port=port, log_level="warning", **socket_options(app.state.limits)
+    )
     server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, name="oxbot-web-server", daemon=True)
     thread.start()
@@ -570,7 +862,14 @@ def serve(config: OxbotConfig | None = None) -> None:
     check_port_free(host, port)
     app = create_app(config)
     log.info("oxbot: open http://%s:%d in a browser to play", host, port)
-    uvicorn.run(app, host=host, port=port, log_level="info", ws_max_size=16 * 1024 * 1024)
+    uvicorn.run(app, host=host, port=port, log_level="info", **socket_options(config.web))
+
+
+def socket_options(limits: WebConfig) -> dict[str, int]:
+    """uvicorn's WebSocket limits: what one socket may buffer before the app reads it."""
+    # a message up to twice the limit still gets an Error naming the limit; a larger one
+    # is refused by the protocol (close code 1009); at most 4 wait unread per socket
+    return {"ws_max_size": 2 * limits.max_message_bytes, "ws_max_queue": 4}
 
 
 def check_port_free(host: str, port: int) -> None:

@@ -178,3 +178,33 @@ def test_phrasings_are_read_by_act_and_checked(domain_dir):
     phrases.write_text(phrases.read_text(encoding="utf-8") + "\n[Dance]\ncha cha\n")
     with pytest.raises(DataError, match=r"user_phrases.txt:\d+: unknown user act \[Dance\]"):
         load_domain(domain_dir)
+
+
+@pytest.mark.parametrize(
+    "content",
+    [
+        b"\xff\xfe\x00garbage\x00" * 100,
+        b"SYS:[" + b"[" * 100_000 + b']"hello"\n',
+        b'SYS:[Greet]"' + b"[who=rob what=draw " * 10_000 + b'"\n',
+        b"x" * 1_000_000,
+    ],
+    ids=["binary", "deep brackets", "many tags", "one long line"],
+)
+def test_malformed_domain_files_are_data_errors(domain_dir, content):
+    (domain_dir / "templates.txt").write_bytes(content)
+    with pytest.raises(DataError, match=r"templates\.txt"):
+        load_domain(domain_dir)
+
+
+def test_a_folder_or_unreadable_domain_file_is_a_data_error(domain_dir, monkeypatch):
+    (domain_dir / "dialogues.txt").unlink()
+    (domain_dir / "dialogues.txt").mkdir()
+    with pytest.raises(DataError, match=r"dialogues\.txt is a folder"):
+        load_domain(domain_dir)
+
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(type(domain_dir), "read_text", refuse)
+    with pytest.raises(DataError, match=r"templates\.txt cannot be read \(Permission denied\)"):
+        load_domain(domain_dir)

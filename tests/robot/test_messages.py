@@ -7,6 +7,7 @@ from oxbot.robot.messages import (
     MESSAGE_TYPES,
     ArmStroke,
     BoardSeen,
+    ComponentLost,
     Decision,
     DialogueEnded,
     Frame,
@@ -30,6 +31,7 @@ EXAMPLES = [
     DialogueEnded(outcome="draw"),
     DialogueEnded(outcome=None),
     NewGame(robot_starts=False),
+    ComponentLost(component="ArmComponent", part="arm", error="hung for 5.1 s", essential=True),
 ]
 
 
@@ -56,7 +58,10 @@ def test_messages_are_immutable():
         '{"type": "GameMove", "data": {"who": "usr"}}',
         '{"type": "Frame", "data": {"image": "not base64!"}}',
         '{"type": "BoardSeen", "data": {"labels": [], "cells": [42]}}',
+        "[" * 100_000 + "]" * 100_000,
+        '{"type": "BoardSeen", "data": {"labels": ' + "[" * 5_000 + "]" * 5_000 + "}}",
     ],
+    ids=["not json", "unknown type", "missing field", "not base64", "cells", "deep", "deep field"],
 )
 def test_malformed_messages_are_refused_clearly(text):
     with pytest.raises(InvalidInputError, match="message"):

@@ -244,6 +244,7 @@ const handlers = {
     addNote(`Game over: ${d.outcome || "unfinished"}.`);
   },
   ComponentFailed(d) { addNote(`${d.component} failed: ${d.error}`); },
+  ComponentLost(d) { addNote(`${d.component} is off until a new game: ${d.error}`); },
   Status(d) { setStatus(d.message); },
   Error(d) {
     // the server's words are for programs; a person is told what to do
