@@ -5,18 +5,20 @@ max-pool 3x3 stride 3 → SVM output with 3 labels. The paper's toolkit (ConvNet
 uses 5x5 kernels with padding 2 and a multi-class hinge loss for its "svm" layer; here that is
 `nn.MultiMarginLoss`, and the output layer is a linear map to one score per label.
 
-oxbot (issue 15): the output layer has a fourth score, "partial", after the paper's three, for
-ink that is not a whole symbol (an arc, one stroke, a plus, a tick, a scribble). `predict`
-keeps SPEC §5's three labels and says "nothing" for it: a partial cell is no move. `read`
-gives all four with a confidence: the softmax of the hinge scores divided by a temperature
-fitted on held-out images (`fit_temperature`), saved in the model's metadata.
+oxbot (issue 15): `read` gives each cell's label with a confidence: the softmax of the hinge
+scores divided by a temperature fitted on held-out images (`fit_temperature`), saved in the
+model's metadata. The shipped model has the paper's three outputs. Trained with
+`[perception] partial_output` (experimental), the output layer has a fourth score, "partial",
+after them, for ink that is not a whole symbol (an arc, one stroke, a plus, a tick); `predict`
+keeps SPEC §5's three labels and says "nothing" for it. A model file says how many outputs it
+has, and `load` builds the network to match.
 
 The classifier has scikit-learn's shape: configured in `__init__`, learned by `fit`, and
 `predict` takes a batch:
 
     clf = load_classifier()                  # the shipped model
     clf.predict(cells)                       # uint8 (N, 40, 40) -> ["circle", "nothing", ...]
-    clf.read(cells)                          # -> [CellReading("partial", 0.97), ...]
+    clf.read(cells)                          # -> [CellReading("circle", 0.99, 0.08), ...]
     clf = SymbolClassifier(PerceptionConfig()).fit(images, labels)
     clf.save("perceiver.pt")                 # atomic; load with load_classifier(path)
 """
@@ -75,6 +77,7 @@ class SymbolNet(nn.Module):
         kernel_size: int = 5,
         pool1: int = 2,
         pool2: int = 3,
+        outputs: int = len(LABELS),
     ) -> None:
         super().__init__()
         pad = kernel_size // 2  # "same" convolutions, as ConvNetJS's pad 2 for 5x5
@@ -89,7 +92,7 @@ class SymbolNet(nn.Module):
         side = (image_size // pool1) // pool2
         if side < 1:
             raise InvalidInputError(f"image_size {image_size} is too small for the two poolings")
-        self.svm = nn.Linear(conv2_filters * side * side, len(OUTPUTS))
+        self.svm = nn.Linear(conv2_filters * side * side, outputs)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.svm(self.features(x).flatten(1))
@@ -283,12 +286,19 @@ class SymbolClassifier:
     def _build(self) -> SymbolNet:
         with torch.random.fork_rng(devices=[]):  # seeded init without touching global state
             torch.manual_seed(self.seed)
-            net = SymbolNet(**{f: getattr(self.config, f) for f in ARCHITECTURE_FIELDS})
+            architecture = {f: getattr(self.config, f) for f in ARCHITECTURE_FIELDS}
+            net = SymbolNet(**architecture, outputs=len(self.outputs))
         return net.eval()
 
     @property
     def image_size(self) -> int:
         return self.config.image_size
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """The network's outputs in score order: SPEC §1's three labels, then "partial" when
+        the model was trained with `partial_output` (issue 15, experimental)."""
+        return OUTPUTS if self.config.partial_output else LABELS
 
     def fit(
         self,
@@ -304,6 +314,11 @@ class SymbolClassifier:
         y = torch.from_numpy(label_indices(labels))
         if len(y) != len(cells):
             raise InvalidInputError(f"{len(cells)} images but {len(y)} labels; give one each")
+        if len(y) and int(y.max()) >= len(self.outputs):
+            raise InvalidInputError(
+                f"labels include {PARTIAL!r}, which this classifier has no output for; "
+                f"its outputs are {', '.join(self.outputs)} (see partial_output)"
+            )
         with torch_threads(self.config.threads):
             self._fit(cells, y, progress)
         return self
@@ -342,7 +357,8 @@ class SymbolClassifier:
         self.metadata.update(trained_images=len(x), final_loss=float(loss.item()))
 
     def decision_function(self, cells: Any) -> np.ndarray:
-        """The SVM layer's score of each output for each cell, float32 (N, 4), OUTPUTS order."""
+        """The SVM layer's score of each output for each cell, float32 (N, K), in the order of
+        `outputs` (K = 3, or 4 with partial)."""
         x = to_input(check_cells(cells, self.image_size))
         # A frame's 9 cells take well under a millisecond on one thread; spreading so little
         # work over threads costs more than it saves, many times more when cores are shared.
@@ -352,10 +368,11 @@ class SymbolClassifier:
     def predict(self, cells: Any) -> list[str]:
         """The label of each cell of a batch: uint8 (N, 40, 40) dark-on-light -> N strings.
 
-        SPEC §5's labels only: a cell the network reads as partial is "nothing" (no move).
+        SPEC §5's labels only: a cell a four-output network reads as partial is "nothing" (no
+        move).
         """
         scores = self.decision_function(cells)
-        return [spec_label(OUTPUTS[i]) for i in scores.argmax(axis=1)]
+        return [spec_label(self.outputs[i]) for i in scores.argmax(axis=1)]
 
     @property
     def temperature(self) -> float:
@@ -363,16 +380,19 @@ class SymbolClassifier:
         return float(self.metadata.get("temperature", 1.0))
 
     def probabilities(self, cells: Any) -> np.ndarray:
-        """Calibrated probability of each output for each cell, float64 (N, 4)."""
+        """Calibrated probability of each output for each cell, float64 (N, K), as
+        `decision_function`."""
         return softmax(self.decision_function(cells), self.temperature)
 
     def read(self, cells: Any) -> list[CellReading]:
-        """Each cell's label among OUTPUTS (partial included) with its calibrated confidence."""
+        """Each cell's label among `outputs` with its calibrated confidence and ink. A
+        three-output model never says "partial" here (`BoardReader`'s single-stroke rule may)."""
         checked = check_cells(cells, self.image_size)
         p = self.probabilities(checked)
         ink = ink_share(checked)
         best = p.argmax(axis=1)
-        return [CellReading(OUTPUTS[k], float(p[i, k]), float(ink[i])) for i, k in enumerate(best)]
+        names = self.outputs
+        return [CellReading(names[k], float(p[i, k]), float(ink[i])) for i, k in enumerate(best)]
 
     def fit_temperature(self, cells: Any, labels: Sequence[str] | np.ndarray) -> float:
         """Fit the softmax temperature on held-out labelled cells (least negative log
@@ -390,8 +410,10 @@ class SymbolClassifier:
 
         A whole symbol read as partial is a move the robot does not see, and SPEC §1's
         accuracy counts it wrong; partial ink read as a symbol is what the tracker's
-        confidence and still-ink checks are for.
+        confidence and still-ink checks are for. Four-output models only.
         """
+        if PARTIAL not in self.outputs:
+            raise InvalidInputError("this classifier has no partial output to lower")
         scores = self.decision_function(cells).astype(np.float64)
         y = label_indices(labels)
         whole = scores[y < 2]
@@ -405,7 +427,7 @@ class SymbolClassifier:
         return offset
 
     def score(self, cells: Any, labels: Sequence[str] | np.ndarray) -> float:
-        """Accuracy on labelled cells, over all four outputs."""
+        """Accuracy on labelled cells, over all the network's outputs."""
         y = label_indices(labels)
         return float((self.decision_function(cells).argmax(axis=1) == y).mean())
 
@@ -420,7 +442,7 @@ class SymbolClassifier:
             "format": FORMAT,
             "format_version": FORMAT_VERSION,
             "labels": list(LABELS),
-            "outputs": list(OUTPUTS),
+            "outputs": list(self.outputs),
             "architecture": {f: getattr(self.config, f) for f in ARCHITECTURE_FIELDS},
             "config": dataclasses.asdict(self.config),
             "seed": self.seed,
@@ -452,10 +474,11 @@ class SymbolClassifier:
                 f"model file {path} has labels {payload.get('labels')}; this oxbot reads "
                 f"{list(LABELS)}; {remedy}"
             )
-        if payload.get("outputs", list(LABELS)) != list(OUTPUTS):
+        outputs = payload.get("outputs", list(LABELS))  # files before issue 15 have three
+        if outputs not in (list(LABELS), list(OUTPUTS)):
             raise ModelFileError(
-                f"model file {path} has outputs {payload.get('outputs', list(LABELS))}; this "
-                f"oxbot reads {list(OUTPUTS)}: retrain it with `oxbot train perceiver`"
+                f"model file {path} has outputs {outputs}; this oxbot reads {list(LABELS)} "
+                f"or {list(OUTPUTS)}; {remedy}"
             )
         known = {f.name for f in dataclasses.fields(PerceptionConfig)}
         with artifacts.checked(path, what, remedy):
@@ -463,7 +486,11 @@ class SymbolClassifier:
             metadata = dict(payload.get("metadata", {}))
             seed = int(payload.get("seed", 0))
         try:
-            config = dataclasses.replace(PerceptionConfig(**saved), **payload["architecture"])
+            config = dataclasses.replace(
+                PerceptionConfig(**saved),
+                **payload["architecture"],
+                partial_output=outputs == list(OUTPUTS),
+            )
             clf = cls(config, seed=seed)
             clf.net.load_state_dict(payload["state_dict"])
         except (KeyError, TypeError, ValueError, RuntimeError, AttributeError) as exc:
