@@ -25,11 +25,6 @@ these photos (98.5%, 197/200; SPEC §2's goal is 98%): two photos of slack for t
 floating point in another build of OpenCV or torch."""
 
 
-@pytest.mark.xfail(
-    reason="issue 15: with the 4-output perceiver 94.0% of held-out photos have all 9 right "
-    "(98.5% before): some open circles read partial; see the issue 15c report",
-    strict=False,
-)
 def test_all_9_cells_right_in_most_held_out_photos():
     """All 9 cells right in at least HELD_OUT_FLOOR of 200 photos of the style the reader was
     not tuned on (SPEC §2 goal: 98%)."""

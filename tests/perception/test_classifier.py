@@ -37,9 +37,10 @@ def test_network_is_the_papers_architecture():
     assert (conv2.out_channels, conv2.kernel_size, conv2.padding) == (16, (5, 5), (2, 2))
     assert isinstance(relu1, nn.ReLU) and isinstance(relu2, nn.ReLU)
     assert (pool1.kernel_size, pool1.stride, pool2.kernel_size, pool2.stride) == (2, 2, 3, 3)
-    # the paper's three labels, then oxbot's "partial" (issue 15), kept after them
-    assert (net.svm.in_features, net.svm.out_features) == (16 * 6 * 6, 4)
-    assert net(torch.zeros(2, 1, 40, 40)).shape == (2, 4)
+    assert (net.svm.in_features, net.svm.out_features) == (16 * 6 * 6, 3)
+    assert net(torch.zeros(2, 1, 40, 40)).shape == (2, 3)
+    # issue 15's experimental variant: "partial" after the paper's three labels, kept there
+    assert SymbolNet(outputs=4)(torch.zeros(2, 1, 40, 40)).shape == (2, 4)
     assert OUTPUTS[:3] == LABELS == ("circle", "cross", "nothing") and OUTPUTS[3] == "partial"
 
 
@@ -152,22 +153,48 @@ def test_predict_leaves_torch_threads_as_they_were(shipped, cells):
     assert torch.get_num_threads() == before
 
 
-def test_read_gives_partial_for_an_arc_and_predict_says_nothing(shipped):
+def test_the_shipped_model_has_three_outputs_and_never_reads_partial(shipped):
     rng = np.random.default_rng(5)
     arcs = np.stack([draw_partial(paper((40, 40), rng), rng, (19.5, 19.5), 28) for _ in range(9)])
+    assert shipped.outputs == LABELS
+    assert shipped.decision_function(arcs).shape == (9, 3)
     readings = shipped.read(arcs)
-    # the partial output is lowered so whole symbols stay whole (training.WHOLE_AS_PARTIAL):
-    # most synthesised partial shapes still read partial, not all
-    assert sum(r.label == "partial" for r in readings) >= 5, readings
-    for r, label in zip(readings, shipped.predict(arcs), strict=True):
-        assert label == ("nothing" if r.label == "partial" else r.label)
-        assert r.spec_label == label
+    assert all(r.label in LABELS for r in readings), readings
+    assert [r.spec_label for r in readings] == shipped.predict(arcs)
+
+
+def _four_output_model(seed=3):
+    """An untrained classifier with issue 15's partial output, made to win it always."""
+    clf = SymbolClassifier(PerceptionConfig(partial_output=True), seed=seed)
+    with torch.no_grad():
+        clf.net.svm.bias[3] += 5.0
+    return clf
+
+
+def test_a_four_output_model_reads_partial_and_predict_says_nothing(cells, tmp_path):
+    clf = _four_output_model()
+    assert clf.outputs == OUTPUTS
+    assert all(r.label == "partial" for r in clf.read(cells[0]))
+    assert clf.predict(cells[0]) == ["nothing"] * len(cells[0])  # a partial cell is no move
+    again = load_classifier(clf.save(tmp_path / "four.pt"))
+    assert again.outputs == OUTPUTS and again.config.partial_output
+    np.testing.assert_array_equal(
+        again.decision_function(cells[0]), clf.decision_function(cells[0])
+    )
+
+
+def test_a_three_output_model_cannot_learn_or_lower_partial(cells):
+    clf = SymbolClassifier()
+    with pytest.raises(InvalidInputError, match="no output for"):
+        clf.fit(cells[0][:4], ["circle", "cross", "nothing", "partial"])
+    with pytest.raises(InvalidInputError, match="no partial output"):
+        clf.lower_partial(*cells, share=0.0)
 
 
 def test_read_confidences_are_calibrated_probabilities(shipped, cells):
     images, labels = cells
     readings = shipped.read(images)
-    assert [r.spec_label for r in readings] == labels  # a speck may be partial: no move
+    assert [r.spec_label for r in readings] == labels
     assert all(0.25 <= r.confidence <= 1.0 for r in readings)
     assert 0.05 <= shipped.temperature <= 5.0  # fitted on held-out images, not left at 1
     assert shipped.temperature != 1.0
@@ -181,6 +208,14 @@ def test_read_confidences_are_calibrated_probabilities(shipped, cells):
     assert ink["nothing"] < 0.5 * min(ink["circle"], ink["cross"]), ink
 
 
+def test_the_shipped_temperature_is_fitted_on_the_calibration_stream(shipped):
+    from oxbot.perception.training import calibrate
+
+    fresh = load_classifier()
+    fresh.metadata.pop("temperature")
+    assert calibrate(fresh, load_seeds()) == {"temperature": shipped.temperature}
+
+
 def test_fit_temperature_minimises_the_held_out_loss():
     clf = SymbolClassifier()
     images = np.full((8, 40, 40), 230, np.uint8)
@@ -188,20 +223,22 @@ def test_fit_temperature_minimises_the_held_out_loss():
     assert clf.metadata["temperature"] == t and clf.temperature == t
 
 
-def test_a_three_output_model_file_is_refused(tmp_path):
-    old = tmp_path / "old.pt"
-    payload = torch.load(shipped_model_path(), weights_only=True)
-    payload.pop("outputs")
-    torch.save(payload, old)
-    with pytest.raises(ModelFileError, match="retrain it"):
-        load_classifier(old)
+def test_model_files_say_how_many_outputs_they_have(tmp_path):
+    payload = artifacts.load(shipped_model_path(), "perceiver", 2, "model", "", lambda p: True)
+    assert payload["outputs"] == list(LABELS)
+    odd = tmp_path / "odd.pt"
+    del payload["outputs"]  # as saved before issue 15: three outputs
+    artifacts.save(odd, "perceiver", 2, payload)
+    assert load_classifier(odd).outputs == LABELS
+    payload["outputs"] = [*LABELS, "smudge"]
+    artifacts.save(odd, "perceiver", 2, payload)
+    with pytest.raises(ModelFileError, match="has outputs"):
+        load_classifier(odd)
 
 
 def test_lower_partial_keeps_whole_symbols_whole(cells):
     images, labels = cells
-    clf = SymbolClassifier(seed=3)  # untrained: its partial output wins at random
-    with torch.no_grad():
-        clf.net.svm.bias[3] += 5.0  # and now always
+    clf = _four_output_model()
     assert all(r.label == "partial" for r in clf.read(images))
     offset = clf.lower_partial(images, labels, share=0.0)
     assert offset > 0 and clf.metadata["partial_offset"] == offset

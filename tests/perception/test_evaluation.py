@@ -16,20 +16,12 @@ def shipped():
     return load_classifier()
 
 
-@pytest.mark.xfail(
-    reason="issue 15: the 4-output perceiver reads 99.2% (SPEC §1 goal 99.9%)",
-    strict=False,
-)
 def test_shipped_model_reaches_the_papers_accuracy_on_1000_generated_images(shipped):
     result = evaluate_generated(shipped)
     assert result.images == 1000
     assert result.accuracy >= 0.999, result.confusion
 
 
-@pytest.mark.xfail(
-    reason="issue 15: the 4-output perceiver reads 98.5% (SPEC §1 goal 99.5%)",
-    strict=False,
-)
 def test_shipped_model_reads_the_handwriting_fonts_it_never_saw(shipped):
     result = evaluate_fonts(shipped, n=1500)
     assert result.images == 1500

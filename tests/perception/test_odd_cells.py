@@ -40,44 +40,44 @@ def test_the_generators_are_reproducible_and_dark_on_light():
         partial_cell("square", np.random.default_rng(0))
 
 
-# Issue 15's targets. The shipped network misses them (bench/bench_cells.py: 565 of 1,400
-# partial shapes read as a symbol, 98.4% of blanks as nothing); kept here, marked, so that a
-# model which meets them shows up as XPASS.
-SHORT_OF_TARGET = pytest.mark.xfail(
-    reason="issue 15: the paper-sized network misses this target; see bench/bench_cells.py",
+# Issue 15's targets. The shipped perceiver has the paper's three outputs and misses them
+# (bench/bench_cells.py, 1,400 of each, seed 15: all 1,400 partial shapes read as a symbol, 1,207
+# of them at confidence >= 0.9; 957 = 68.4% of blanks read as nothing; here 210 of 210, 177
+# confident, and 138 of 210). The experimental 4-output perceiver (`[perception]
+# partial_output`) got 565 of 1,400 and 98.4% but fell short of SPEC §1, so it does not ship.
+# Kept here, marked, so that a model which meets them shows up as XPASS.
+
+
+@pytest.mark.xfail(
+    reason="issue 15: the shipped 3-output perceiver reads every partial shape as a symbol "
+    "(1,400 of 1,400, 1,207 confident; bench/bench_cells.py)",
     strict=False,
 )
-
-
-@SHORT_OF_TARGET
 def test_half_drawn_and_wrong_shapes_never_read_as_a_symbol(shipped, partial_set):
     cells, kinds = partial_set
     read = [k for k, label in zip(kinds, shipped.predict(cells), strict=True) if label != "nothing"]
     assert read == [], Counter(read)
 
 
-@SHORT_OF_TARGET
+@pytest.mark.xfail(
+    reason="issue 15: the shipped 3-output perceiver reads 68.4% of used paper's blanks as "
+    "nothing (squared, ruled and ghosts as circles or crosses; bench/bench_cells.py)",
+    strict=False,
+)
 def test_blank_cells_of_used_paper_read_as_nothing(shipped, empty_set):
     cells, _ = empty_set
     labels = shipped.predict(cells)
     assert sum(label == "nothing" for label in labels) >= 0.995 * len(labels)
 
 
-def test_strokes_plus_signs_and_ticks_are_mostly_no_symbol(shipped, partial_set):
-    # What the shipped model does reach (on main every one of these read as a symbol):
-    # 3 of 30 plus signs, 1 of 30 strokes and 8 of 30 ticks read as a symbol here.
-    cells, kinds = partial_set
-    labels = shipped.predict(cells)
-    read = Counter(k for k, label in zip(kinds, labels, strict=True) if label != "nothing")
-    assert read["stroke"] + read["plus"] <= 8, read
-    assert read["tick"] <= 12, read
-    assert sum(read.values()) <= 0.5 * len(cells), read
-
-
-def test_blank_cells_of_used_paper_mostly_read_as_nothing(shipped, empty_set):
-    # 206 of 210 here (on main 68% of such cells read as nothing).
+def test_dotted_paper_remnants_and_smudges_read_as_nothing(shipped, empty_set):
+    # What the shipped model does reach: all 105 of these kinds here (and 700 of 700 in
+    # bench/bench_cells.py); squared and ruled paper and erased ghosts are the misses above.
     cells, kinds = empty_set
     labels = shipped.predict(cells)
-    assert sum(label == "nothing" for label in labels) >= 0.97 * len(labels)
-    by_kind = Counter(k for k, label in zip(kinds, labels, strict=True) if label != "nothing")
-    assert by_kind["squared"] + by_kind["ruled"] + by_kind["dotted"] <= 2, by_kind
+    wrong = Counter(
+        k
+        for k, label in zip(kinds, labels, strict=True)
+        if k in ("dotted", "remnants", "smudge") and label != "nothing"
+    )
+    assert sum(wrong.values()) <= 1, wrong
