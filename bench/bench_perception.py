@@ -45,7 +45,7 @@ def main() -> None:
     for _ in range(args.repeats):
         started = time.perf_counter()
         rng = np.random.default_rng([config.seed, TRAIN_STREAM])
-        images, labels = generate(seeds, args.images, rng)
+        images, labels = generate(seeds, args.images, rng, partial=config.partial_output)
         generated = time.perf_counter()
         clf = SymbolClassifier(config).fit(images, labels)
         fitting.append(time.perf_counter() - generated)

@@ -6,14 +6,29 @@ clf.predict(cells)               # uint8 (N, 40, 40) dark-on-light -> list of N 
 
 from oxbot.perception import read_board
 read_board(frame)                # uint8 (H, W, 3) RGB or (H, W) gray photo -> 9 labels
+
+Beside SPEC §5 (issue 15): clf.read(cells) and read_cells(frame) give `CellReading`s, whose
+label may also be "partial" (ink that is not a whole symbol), with a calibrated confidence.
 """
 
-from oxbot.perception.board import read_board
-from oxbot.perception.classifier import SymbolClassifier, load_classifier
-from oxbot.perception.synth import LABELS, Pen, draw_cell, draw_symbol, paper, symbol_strokes
+from oxbot.perception.board import read_board, read_cells
+from oxbot.perception.classifier import CellReading, SymbolClassifier, load_classifier
+from oxbot.perception.synth import (
+    LABELS,
+    OUTPUTS,
+    PARTIAL,
+    Pen,
+    draw_cell,
+    draw_symbol,
+    paper,
+    symbol_strokes,
+)
 
 __all__ = [
     "LABELS",
+    "OUTPUTS",
+    "PARTIAL",
+    "CellReading",
     "Pen",
     "SymbolClassifier",
     "draw_cell",
@@ -21,5 +36,6 @@ __all__ = [
     "load_classifier",
     "paper",
     "read_board",
+    "read_cells",
     "symbol_strokes",
 ]

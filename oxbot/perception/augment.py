@@ -8,6 +8,12 @@ grid lines that grid removal leaves at a cell's border.
 
     images, labels = generate(load_seeds(), 10_000, np.random.default_rng(0))
     # images: uint8 (10000, 40, 40); labels: int64 (10000,), indices into LABELS
+
+Issue 15 (experimental, `[perception] partial_output`): with `partial=True` blank cells also come
+on squared, dotted or ruled paper and with erased marks, and a fourth class, "partial" (index 3
+of OUTPUTS), is ink that is not a whole symbol: a seed's circle with a sector cut away, or a
+synthesised arc, stroke, plus or tick. Without it the images are those of SPEC §1's three labels
+the shipped model was trained on.
 """
 
 from __future__ import annotations
@@ -17,7 +23,24 @@ import numpy as np
 
 from oxbot.errors import DataError
 from oxbot.perception.seeds import LabelledImages
-from oxbot.perception.synth import LABELS, add_clutter, add_grid_remnants, darken, paper
+from oxbot.perception.synth import (
+    LABELS,
+    OUTPUTS,
+    PARTIAL,
+    Pen,
+    add_clutter,
+    add_ghost,
+    add_grid_remnants,
+    add_texture,
+    darken,
+    ink_mask,
+    paper,
+    partial_strokes,
+)
+
+TRAINING_PARTIALS = ("arc", "stroke", "plus", "tick")
+"""The synthesised partial shapes trained on. Scribbles and corners are left out: the small
+network then mistook more whole crosses (unequal, sketchy, cursive) for partial ink."""
 
 _BORDER = 2  # pixels at a seed's border ignored as drawing: grid remnants live there
 
@@ -107,12 +130,49 @@ def _move_blank(drawing: _Drawing, rng: np.random.Generator, size: int) -> np.nd
     return ink if ink.shape == (size, size) else cv2.resize(ink, (size, size))
 
 
-def _finish(image: np.ndarray, rng: np.random.Generator, label: str) -> np.ndarray:
-    """What the camera and the sheet add: remnants, clutter, blur, noise, lighting."""
+def _cut_to_arc(ink: np.ndarray, keep: float, rng: np.random.Generator) -> np.ndarray:
+    """A circle's ink with all but `keep` of its turn (from a random angle) erased."""
+    ys, xs = np.nonzero(ink > 0.15)
+    if xs.size == 0:
+        return ink
+    cx, cy = (xs.min() + xs.max()) / 2, (ys.min() + ys.max()) / 2
+    yy, xx = np.mgrid[0 : ink.shape[0], 0 : ink.shape[1]]
+    angle = (np.arctan2(yy - cy, xx - cx) - rng.uniform(0, 2 * np.pi)) % (2 * np.pi)
+    return np.where(angle < 2 * np.pi * keep, ink, 0.0).astype(np.float32)
+
+
+def _partial(
+    drawings: dict[str, list[_Drawing]], rng: np.random.Generator, size: int
+) -> np.ndarray:
+    """Ink that is not a whole symbol: a third of the time a seed's circle cut to an arc,
+    else a synthesised arc, stroke, plus or tick (`TRAINING_PARTIALS`). A seed's cross cut
+    in half is left out: it looks too much like a cross with one short stroke, a whole one."""
+    if rng.random() < 1 / 3:
+        items = drawings["circle"]
+        ink = _place_symbol(items[rng.integers(len(items))], rng, size)
+        # up to a half turn and a bit: open circles reach 0.8
+        return _cut_to_arc(ink, rng.uniform(0.12, 0.55), rng)
+    width = rng.uniform(0.35, 0.9) * size
+    slack = max(size - width * 1.1, 0.0) / 2
+    centre = (size - 1) / 2 + rng.uniform(-slack, slack, size=2)
+    pen = Pen.random(rng, width)
+    half = max(width / 2 - pen.width / 2, 1.0)
+    kind = TRAINING_PARTIALS[int(rng.integers(len(TRAINING_PARTIALS)))]
+    strokes = [s * half + centre for s in partial_strokes(rng, kind)]
+    return _inside(ink_mask((size, size), strokes, pen, rng), size)
+
+
+def _finish(
+    image: np.ndarray, rng: np.random.Generator, label: str, partial: bool = False
+) -> np.ndarray:
+    """What the camera and the sheet add: remnants, clutter, blur, noise, lighting; with
+    `partial` (issue 15's data) also erased marks on blank cells."""
     if rng.random() < 0.6:
         image = add_grid_remnants(image, rng, probability=0.35)
     if label == "nothing" and rng.random() < 0.4:
         image = add_clutter(image, rng)
+    if partial and label == "nothing" and rng.random() < 0.25:
+        image = add_ghost(image, rng)
     out = image.astype(np.float32)
     if rng.random() < 0.4:
         out = cv2.GaussianBlur(out, (0, 0), rng.uniform(0.3, 1.1))
@@ -123,11 +183,12 @@ def _finish(image: np.ndarray, rng: np.random.Generator, label: str) -> np.ndarr
 
 
 def generate(
-    seeds: LabelledImages, n: int, rng: np.random.Generator, size: int = 40
+    seeds: LabelledImages, n: int, rng: np.random.Generator, size: int = 40, partial: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """`n` new labelled cells from the seeds, classes balanced and shuffled.
 
-    Returns uint8 (n, size, size) images and int64 (n,) label indices into `LABELS`.
+    Returns uint8 (n, size, size) images and int64 (n,) label indices into `OUTPUTS`: the
+    three of `LABELS`, and with `partial` also PARTIAL (3).
     """
     if n <= 0:
         raise DataError(f"asked to generate {n} images; ask for at least 1")
@@ -137,20 +198,32 @@ def generate(
     for label, items in drawings.items():
         if not items:
             raise DataError(f"seed folder {seeds.folder} has no {label!r} images to generate from")
-    labels = rng.permutation(np.arange(n) % len(LABELS)).astype(np.int64)
+    classes = len(OUTPUTS) if partial else len(LABELS)
+    labels = rng.permutation(np.arange(n) % classes).astype(np.int64)
     images = np.empty((n, size, size), np.uint8)
     for i, index in enumerate(labels):
-        label = LABELS[index]
-        items = drawings[label]
-        drawing = items[rng.integers(len(items))]
-        if label == "nothing":
-            ink = _move_blank(drawing, rng, size)
+        label = OUTPUTS[index]
+        if label == PARTIAL:
+            ink = _partial(drawings, rng, size)
+        elif label == "nothing":
+            items = drawings[label]
+            ink = _move_blank(items[rng.integers(len(items))], rng, size)
         else:
-            ink = _place_symbol(drawing, rng, size)
+            items = drawings[label]
+            ink = _place_symbol(items[rng.integers(len(items))], rng, size)
+            if partial and label == "circle" and rng.random() < 0.3:
+                # An open circle is still one (SPEC §1): taught beside the arcs of "partial",
+                # so that a gap of a fifth of a turn does not make a circle partial.
+                ink = _cut_to_arc(ink, rng.uniform(0.8, 0.97), rng)
         # Lighter or darker ink, but never so faint that a person could not see the drawing.
         factor = rng.uniform(0.55, 1.4)
         if label != "nothing":
             factor = max(factor, 0.45 / max(float(ink.max()), 1e-3))
         ink = np.clip(ink * factor, 0.0, 1.0)
-        images[i] = _finish(darken(paper((size, size), rng), ink), rng, label)
+        sheet = paper((size, size), rng)
+        # Squared, dotted or ruled paper, under any label: issue 15's data only, so that the
+        # three-output images stay those the shipped model was trained and measured on.
+        if partial and rng.random() < 0.3:
+            sheet = add_texture(sheet, rng)
+        images[i] = _finish(darken(sheet, ink), rng, label, partial)
     return images, labels

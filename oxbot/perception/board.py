@@ -5,8 +5,13 @@ classify each as circle, cross or nothing. Here the grid is found first (`grid.p
 seen from above (`rectify.py`), the grid lines painted over and the 9 cells cut (`cells.py`),
 and the cells go to the classifier in one batch:
 
-    from oxbot.perception import read_board
+    from oxbot.perception import read_board, read_cells
     read_board(frame)   # uint8 (H, W, 3) RGB or (H, W) gray -> ["nothing", "cross", ...]
+    read_cells(frame)   # -> [CellReading("nothing", 0.99, 0.0), CellReading("partial", ...)]
+
+`read_board` keeps SPEC §5's three labels; `read_cells` (and `BoardReader.read`'s
+`BoardReading.readings`) say also "partial" for ink that is not a whole symbol, with the
+classifier's calibrated confidence and the cell's ink.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ import numpy as np
 
 from oxbot.game.board import CELL_NAMES, SIZE
 from oxbot.perception.cells import SHEET_CELL, cut_cells_around_ink, remove_grid_lines
+from oxbot.perception.classifier import CellReading, ink_share
 from oxbot.perception.grid import Grid, as_gray, find_grid
 from oxbot.perception.rectify import rectify
 from oxbot.perception.seeds import write_png
@@ -38,6 +44,12 @@ class Classifier(Protocol):
     def predict(self, cells: np.ndarray) -> list[str]: ...
 
 
+class CellReader(Classifier, Protocol):
+    """A classifier that also gives `CellReading`s (`SymbolClassifier.read`)."""
+
+    def read(self, cells: np.ndarray) -> list[CellReading]: ...
+
+
 @dataclass(frozen=True)
 class BoardReading:
     """One frame's reading, with what the reader saw on the way, for debugging."""
@@ -53,6 +65,8 @@ class BoardReading:
     """The rectified sheet with the grid lines painted over."""
     cells: np.ndarray
     """The 9 cells the classifier saw, uint8 (9, 40, 40)."""
+    readings: tuple[CellReading, ...] = ()
+    """Each cell's reading among OUTPUTS (partial included) with its confidence and ink."""
 
 
 def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarray]:
@@ -106,18 +120,27 @@ class BoardReader:
     def read(self, frame: np.ndarray) -> BoardReading:
         """Find the grid in `frame`, cut the 9 cells and classify them in one batch.
 
-        A cell whose ink is a single stroke reads "nothing", whatever the classifier says: the
-        paper's classifier knows only whole symbols, and the first stroke of a cross must not
-        become a move while the person is still drawing.
+        A cell whose ink is a single stroke reads "partial" (so "nothing" in `labels`), whatever
+        the classifier says: the first stroke of a cross must not become a move while the
+        person is still drawing (a rule kept from before the network learnt "partial"; its
+        confidence is the rule's, 1).
         """
         cells, grid, sheet, cleaned = cut_board(frame)
-        labels = list(self.classifier.predict(cells))
+        if hasattr(self.classifier, "read"):
+            readings = list(self.classifier.read(cells))
+        else:  # a SPEC-only classifier: its labels, fully trusted
+            ink = ink_share(cells)
+            readings = [
+                CellReading(label, 1.0, float(ink[i]))
+                for i, label in enumerate(self.classifier.predict(cells))
+            ]
         stretched = ink_elongation(cells) > SINGLE_STROKE
-        labels = [
-            "nothing" if stretched[i] and label != "nothing" else label
-            for i, label in enumerate(labels)
+        readings = [
+            CellReading("partial", 1.0, r.ink) if stretched[i] and r.label != "nothing" else r
+            for i, r in enumerate(readings)
         ]
-        return BoardReading(tuple(labels), grid, sheet, cleaned, cells)
+        labels = tuple(r.spec_label for r in readings)
+        return BoardReading(labels, grid, sheet, cleaned, cells, tuple(readings))
 
 
 def ink_elongation(cells: np.ndarray) -> np.ndarray:
@@ -163,6 +186,12 @@ def read_board(frame: np.ndarray) -> list[str]:
     no whole 3x3 grid is in view, and `InvalidInputError` for an array that is not a photo.
     """
     return list(default_reader().read(frame).labels)
+
+
+def read_cells(frame: np.ndarray) -> list[CellReading]:
+    """The 9 cells' readings of the sheet in `frame`: label among circle, cross, nothing and
+    partial, calibrated confidence, ink share. Raises as `read_board`."""
+    return list(default_reader().read(frame).readings)
 
 
 def save_debug(

@@ -5,11 +5,20 @@ max-pool 3x3 stride 3 → SVM output with 3 labels. The paper's toolkit (ConvNet
 uses 5x5 kernels with padding 2 and a multi-class hinge loss for its "svm" layer; here that is
 `nn.MultiMarginLoss`, and the output layer is a linear map to one score per label.
 
+oxbot (issue 15): `read` gives each cell's label with a confidence: the softmax of the hinge
+scores divided by a temperature fitted on held-out images (`fit_temperature`), saved in the
+model's metadata. The shipped model has the paper's three outputs. Trained with
+`[perception] partial_output` (experimental), the output layer has a fourth score, "partial",
+after them, for ink that is not a whole symbol (an arc, one stroke, a plus, a tick); `predict`
+keeps SPEC §5's three labels and says "nothing" for it. A model file says how many outputs it
+has, and `load` builds the network to match.
+
 The classifier has scikit-learn's shape: configured in `__init__`, learned by `fit`, and
 `predict` takes a batch:
 
     clf = load_classifier()                  # the shipped model
     clf.predict(cells)                       # uint8 (N, 40, 40) -> ["circle", "nothing", ...]
+    clf.read(cells)                          # -> [CellReading("circle", 0.99, 0.08), ...]
     clf = SymbolClassifier(PerceptionConfig()).fit(images, labels)
     clf.save("perceiver.pt")                 # atomic; load with load_classifier(path)
 """
@@ -34,7 +43,7 @@ from torch import nn
 from oxbot import artifacts
 from oxbot.config import PerceptionConfig
 from oxbot.errors import InvalidInputError, ModelFileError
-from oxbot.perception.synth import LABELS
+from oxbot.perception.synth import LABELS, OUTPUTS, PARTIAL
 
 log = logging.getLogger(__name__)
 
@@ -68,6 +77,7 @@ class SymbolNet(nn.Module):
         kernel_size: int = 5,
         pool1: int = 2,
         pool2: int = 3,
+        outputs: int = len(LABELS),
     ) -> None:
         super().__init__()
         pad = kernel_size // 2  # "same" convolutions, as ConvNetJS's pad 2 for 5x5
@@ -82,7 +92,7 @@ class SymbolNet(nn.Module):
         side = (image_size // pool1) // pool2
         if side < 1:
             raise InvalidInputError(f"image_size {image_size} is too small for the two poolings")
-        self.svm = nn.Linear(conv2_filters * side * side, len(LABELS))
+        self.svm = nn.Linear(conv2_filters * side * side, outputs)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.svm(self.features(x).flatten(1))
@@ -175,18 +185,60 @@ def to_input(cells: np.ndarray) -> torch.Tensor:
     return torch.from_numpy(x.reshape(len(cells), 1, *cells.shape[1:]))
 
 
+INK_SHARE_LEVEL = 0.35
+"""oxbot: a pixel at least this far from paper to the darkest ink (`to_input`) counts as ink."""
+
+
+def ink_share(cells: np.ndarray) -> np.ndarray:
+    """Share of each uint8 cell's pixels that are ink, float64 (N,), on `to_input`'s scale."""
+    x = to_input(cells).numpy()
+    return (x > INK_SHARE_LEVEL).reshape(len(cells), -1).mean(axis=1).astype(np.float64)
+
+
 def label_indices(labels: Sequence[str] | np.ndarray) -> np.ndarray:
-    """Labels given as strings or indices, as int64 indices into LABELS."""
+    """Labels given as strings or indices, as int64 indices into OUTPUTS (LABELS, then
+    PARTIAL)."""
     array = np.asarray(labels)
     if array.dtype.kind in "iu":
-        if array.size and (array.min() < 0 or array.max() >= len(LABELS)):
-            raise InvalidInputError(f"label indices must be 0-{len(LABELS) - 1}")
+        if array.size and (array.min() < 0 or array.max() >= len(OUTPUTS)):
+            raise InvalidInputError(f"label indices must be 0-{len(OUTPUTS) - 1}")
         return array.astype(np.int64)
-    unknown = sorted({str(v) for v in array.tolist()} - set(LABELS))
+    unknown = sorted({str(v) for v in array.tolist()} - set(OUTPUTS))
     if unknown:
-        raise InvalidInputError(f"unknown labels {unknown}; labels are {', '.join(LABELS)}")
-    lookup = {label: i for i, label in enumerate(LABELS)}
+        raise InvalidInputError(f"unknown labels {unknown}; labels are {', '.join(OUTPUTS)}")
+    lookup = {label: i for i, label in enumerate(OUTPUTS)}
     return np.array([lookup[str(v)] for v in array.tolist()], np.int64)
+
+
+@dataclasses.dataclass(frozen=True)
+class CellReading:
+    """What the classifier makes of one cell, beside SPEC §5's bare label."""
+
+    label: str
+    """One of OUTPUTS: circle, cross, nothing, or partial (ink that is not a whole symbol)."""
+    confidence: float
+    """The calibrated probability of `label`, in (0, 1]."""
+    ink: float = 0.0
+    """Share of the cell's pixels that are ink, as the network sees them: a drawing under
+    way grows it from one reading to the next (the move tracker waits until it stops)."""
+
+    @property
+    def spec_label(self) -> str:
+        """The SPEC §5 label: a partial cell is "nothing" (no move)."""
+        return "nothing" if self.label == PARTIAL else self.label
+
+
+def spec_label(label: str) -> str:
+    """The SPEC §5 label of one of OUTPUTS: PARTIAL is "nothing", since it is no move."""
+    return "nothing" if label == PARTIAL else label
+
+
+def softmax(scores: np.ndarray, temperature: float) -> np.ndarray:
+    """Row-wise softmax of `scores / temperature`, float64."""
+    z = scores.astype(np.float64) / temperature
+    z -= z.max(axis=1, keepdims=True)
+    e = np.exp(z)
+    return e / e.sum(axis=1, keepdims=True)
 
 
 SMALL_BATCH = 64
@@ -234,12 +286,19 @@ class SymbolClassifier:
     def _build(self) -> SymbolNet:
         with torch.random.fork_rng(devices=[]):  # seeded init without touching global state
             torch.manual_seed(self.seed)
-            net = SymbolNet(**{f: getattr(self.config, f) for f in ARCHITECTURE_FIELDS})
+            architecture = {f: getattr(self.config, f) for f in ARCHITECTURE_FIELDS}
+            net = SymbolNet(**architecture, outputs=len(self.outputs))
         return net.eval()
 
     @property
     def image_size(self) -> int:
         return self.config.image_size
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """The network's outputs in score order: SPEC §1's three labels, then "partial" when
+        the model was trained with `partial_output` (issue 15, experimental)."""
+        return OUTPUTS if self.config.partial_output else LABELS
 
     def fit(
         self,
@@ -255,6 +314,11 @@ class SymbolClassifier:
         y = torch.from_numpy(label_indices(labels))
         if len(y) != len(cells):
             raise InvalidInputError(f"{len(cells)} images but {len(y)} labels; give one each")
+        if len(y) and int(y.max()) >= len(self.outputs):
+            raise InvalidInputError(
+                f"labels include {PARTIAL!r}, which this classifier has no output for; "
+                f"its outputs are {', '.join(self.outputs)} (see partial_output)"
+            )
         with torch_threads(self.config.threads):
             self._fit(cells, y, progress)
         return self
@@ -293,7 +357,8 @@ class SymbolClassifier:
         self.metadata.update(trained_images=len(x), final_loss=float(loss.item()))
 
     def decision_function(self, cells: Any) -> np.ndarray:
-        """The SVM layer's score of each label for each cell, float32 (N, 3)."""
+        """The SVM layer's score of each output for each cell, float32 (N, K), in the order of
+        `outputs` (K = 3, or 4 with partial)."""
         x = to_input(check_cells(cells, self.image_size))
         # A frame's 9 cells take well under a millisecond on one thread; spreading so little
         # work over threads costs more than it saves, many times more when cores are shared.
@@ -301,12 +366,68 @@ class SymbolClassifier:
             return self.net.scores(x).numpy()
 
     def predict(self, cells: Any) -> list[str]:
-        """The label of each cell of a batch: uint8 (N, 40, 40) dark-on-light -> N strings."""
+        """The label of each cell of a batch: uint8 (N, 40, 40) dark-on-light -> N strings.
+
+        SPEC §5's labels only: a cell a four-output network reads as partial is "nothing" (no
+        move).
+        """
         scores = self.decision_function(cells)
-        return [LABELS[i] for i in scores.argmax(axis=1)]
+        return [spec_label(self.outputs[i]) for i in scores.argmax(axis=1)]
+
+    @property
+    def temperature(self) -> float:
+        """Divides the hinge scores before the softmax of `read`; fitted by `fit_temperature`."""
+        return float(self.metadata.get("temperature", 1.0))
+
+    def probabilities(self, cells: Any) -> np.ndarray:
+        """Calibrated probability of each output for each cell, float64 (N, K), as
+        `decision_function`."""
+        return softmax(self.decision_function(cells), self.temperature)
+
+    def read(self, cells: Any) -> list[CellReading]:
+        """Each cell's label among `outputs` with its calibrated confidence and ink. A
+        three-output model never says "partial" here (`BoardReader`'s single-stroke rule may)."""
+        checked = check_cells(cells, self.image_size)
+        p = self.probabilities(checked)
+        ink = ink_share(checked)
+        best = p.argmax(axis=1)
+        names = self.outputs
+        return [CellReading(names[k], float(p[i, k]), float(ink[i])) for i, k in enumerate(best)]
+
+    def fit_temperature(self, cells: Any, labels: Sequence[str] | np.ndarray) -> float:
+        """Fit the softmax temperature on held-out labelled cells (least negative log
+        likelihood over a log grid), keep it in the metadata and return it."""
+        scores = self.decision_function(cells)
+        y = label_indices(labels)
+        grid = np.exp(np.linspace(np.log(0.02), np.log(5.0), 121))
+        nll = [-np.log(softmax(scores, t)[np.arange(len(y)), y] + 1e-12).mean() for t in grid]
+        self.metadata["temperature"] = float(grid[int(np.argmin(nll))])
+        return self.temperature
+
+    def lower_partial(self, cells: Any, labels: Sequence[str] | np.ndarray, share: float) -> float:
+        """Lower the "partial" output's bias until at most `share` of the labelled whole
+        symbols among `cells` read as partial; return by how much.
+
+        A whole symbol read as partial is a move the robot does not see, and SPEC §1's
+        accuracy counts it wrong; partial ink read as a symbol is what the tracker's
+        confidence and still-ink checks are for. Four-output models only.
+        """
+        if PARTIAL not in self.outputs:
+            raise InvalidInputError("this classifier has no partial output to lower")
+        scores = self.decision_function(cells).astype(np.float64)
+        y = label_indices(labels)
+        whole = scores[y < 2]
+        best_whole = whole[:, :3].max(axis=1)
+        margins = np.sort(whole[:, 3] - best_whole)[::-1]  # how far partial wins, worst first
+        allowed = int(share * len(whole))
+        offset = max(float(margins[allowed]) + 1e-3, 0.0) if allowed < len(margins) else 0.0
+        with torch.no_grad():
+            self.net.svm.bias[3] -= offset
+        self.metadata["partial_offset"] = offset
+        return offset
 
     def score(self, cells: Any, labels: Sequence[str] | np.ndarray) -> float:
-        """Accuracy on labelled cells."""
+        """Accuracy on labelled cells, over all the network's outputs."""
         y = label_indices(labels)
         return float((self.decision_function(cells).argmax(axis=1) == y).mean())
 
@@ -321,6 +442,7 @@ class SymbolClassifier:
             "format": FORMAT,
             "format_version": FORMAT_VERSION,
             "labels": list(LABELS),
+            "outputs": list(self.outputs),
             "architecture": {f: getattr(self.config, f) for f in ARCHITECTURE_FIELDS},
             "config": dataclasses.asdict(self.config),
             "seed": self.seed,
@@ -352,13 +474,23 @@ class SymbolClassifier:
                 f"model file {path} has labels {payload.get('labels')}; this oxbot reads "
                 f"{list(LABELS)}; {remedy}"
             )
+        outputs = payload.get("outputs", list(LABELS))  # files before issue 15 have three
+        if outputs not in (list(LABELS), list(OUTPUTS)):
+            raise ModelFileError(
+                f"model file {path} has outputs {outputs}; this oxbot reads {list(LABELS)} "
+                f"or {list(OUTPUTS)}; {remedy}"
+            )
         known = {f.name for f in dataclasses.fields(PerceptionConfig)}
         with artifacts.checked(path, what, remedy):
             saved = {k: v for k, v in dict(payload.get("config", {})).items() if k in known}
             metadata = dict(payload.get("metadata", {}))
             seed = int(payload.get("seed", 0))
         try:
-            config = dataclasses.replace(PerceptionConfig(**saved), **payload["architecture"])
+            config = dataclasses.replace(
+                PerceptionConfig(**saved),
+                **payload["architecture"],
+                partial_output=outputs == list(OUTPUTS),
+            )
             clf = cls(config, seed=seed)
             clf.net.load_state_dict(payload["state_dict"])
         except (KeyError, TypeError, ValueError, RuntimeError, AttributeError) as exc:

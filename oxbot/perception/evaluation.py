@@ -20,7 +20,7 @@ import numpy as np
 from oxbot.perception.augment import generate
 from oxbot.perception.classifier import SymbolClassifier, label_indices
 from oxbot.perception.seeds import LabelledImages, load_labelled_folder, load_seeds
-from oxbot.perception.synth import LABELS
+from oxbot.perception.synth import OUTPUTS
 
 TRAIN_STREAM = 1
 """Training images come from `np.random.default_rng([seed, TRAIN_STREAM])`."""
@@ -28,6 +28,8 @@ TEST_STREAM = 2
 """Test images come from `np.random.default_rng([seed, TEST_STREAM])`: never the training ones."""
 FONT_STREAM = 3
 """The font set comes from `np.random.default_rng([seed, FONT_STREAM])`."""
+CALIBRATION_STREAM = 4
+"""The held-out images the softmax temperature is fitted on (never training or test ones)."""
 
 
 @dataclass(frozen=True)
@@ -45,15 +47,16 @@ class Evaluation:
     recall: dict[str, float]
     """Per label: of the cells that had this label, the fraction given it."""
     confusion: list[list[int]]
-    """Counts; rows the true label, columns the predicted one, both in LABELS order."""
+    """Counts; rows the true label, columns the predicted one, both in OUTPUTS order (a
+    "partial" reading of a whole symbol or a blank counts as wrong)."""
 
     def to_dict(self) -> dict[str, Any]:
-        return {"labels": list(LABELS), **asdict(self)}
+        return {"labels": list(OUTPUTS), **asdict(self)}
 
     def summary(self) -> str:
         """One line for the terminal."""
         per_label = "  ".join(
-            f"{label} P {self.precision[label]:.2%} R {self.recall[label]:.2%}" for label in LABELS
+            f"{label} P {self.precision[label]:.2%} R {self.recall[label]:.2%}" for label in OUTPUTS
         )
         return f"{self.name}: {self.images} cells, accuracy {self.accuracy:.2%}  {per_label}"
 
@@ -67,7 +70,7 @@ def evaluate(
     """Measure `classifier` on labelled cells (labels as strings or indices)."""
     truth = label_indices(labels)
     predicted = classifier.decision_function(images).argmax(axis=1)
-    k = len(LABELS)
+    k = len(OUTPUTS)
     confusion = np.zeros((k, k), np.int64)
     np.add.at(confusion, (truth, predicted), 1)
     given, had = confusion.sum(axis=0), confusion.sum(axis=1)
@@ -79,17 +82,18 @@ def evaluate(
         name=name,
         images=len(truth),
         accuracy=float(diagonal.sum() / max(len(truth), 1)),
-        precision={label: float(p) for label, p in zip(LABELS, precision, strict=True)},
-        recall={label: float(r) for label, r in zip(LABELS, recall, strict=True)},
+        precision={label: float(p) for label, p in zip(OUTPUTS, precision, strict=True)},
+        recall={label: float(r) for label, r in zip(OUTPUTS, recall, strict=True)},
         confusion=confusion.tolist(),
     )
 
 
 def generated_test_set(
-    seeds: LabelledImages, n: int = 1000, seed: int = 0, size: int = 40
+    seeds: LabelledImages, n: int = 1000, seed: int = 0, size: int = 40, partial: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Fresh test cells generated from the seeds, from a stream training never draws from."""
-    return generate(seeds, n, np.random.default_rng([seed, TEST_STREAM]), size)
+    """Fresh test cells generated from the seeds, from a stream training never draws from;
+    SPEC §1's three labels, and with `partial` the fourth output too."""
+    return generate(seeds, n, np.random.default_rng([seed, TEST_STREAM]), size, partial)
 
 
 def evaluate_generated(

@@ -20,6 +20,11 @@ The public functions, each taking the random generator it draws from:
     draw_cell(label, rng, size=40) -> np.ndarray
         one whole cell: paper, then a symbol at a random place and size or, for "nothing",
         smudges, specks and shadows; grid remnants at the border for every label.
+    partial_strokes(rng) -> list[np.ndarray]
+        ink that is not a whole symbol yet (issue 15): an arc, one stroke, a plus, a tick,
+        a scribble, in the unit box like `symbol_strokes`.
+    add_texture(image, rng) / add_ghost(image, rng)
+        squared, dotted or ruled paper; a faint erased mark. Never a symbol.
 """
 
 from __future__ import annotations
@@ -31,6 +36,11 @@ import numpy as np
 
 from oxbot.errors import InvalidInputError
 from oxbot.game.board import LABELS
+
+PARTIAL = "partial"
+"""oxbot (issue 15): what the network calls ink that is not a whole symbol; not a SPEC label."""
+OUTPUTS: tuple[str, ...] = (*LABELS, PARTIAL)
+"""The network's outputs: SPEC §1's labels at 0-2 (kept there), then PARTIAL at 3."""
 
 _SUPERSAMPLE = 4  # strokes are drawn 4x larger, then averaged down: cheap anti-aliasing
 
@@ -310,3 +320,116 @@ def draw_cell(
         centre = tuple((size - 1) / 2 + rng.uniform(-slack, slack, size=2) * 0.8)
         draw_symbol(cell, label, rng, centre=centre, size=width)
     return add_grid_remnants(cell, rng, probability=remnants) if remnants > 0 else cell
+
+
+PARTIAL_KINDS = ("arc", "stroke", "plus", "tick", "scribble", "corner")
+"""The kinds of ink that are not a whole symbol, drawn by `partial_strokes`."""
+
+
+def partial_strokes(rng: np.random.Generator, kind: str | None = None) -> list[np.ndarray]:
+    """Ink that is not a whole symbol, as (K, 2) polylines in the unit box [-1, 1]^2.
+
+    What a person leaves while drawing or by mistake: an arc of up to 0.55 of a turn (a whole
+    circle here starts at 0.8 of a turn, `_circle_strokes`), one stroke, a
+    plus (a cross is diagonal), a tick, a scribble, two strokes meeting at a corner.
+    """
+    kind = kind if kind is not None else PARTIAL_KINDS[int(rng.integers(len(PARTIAL_KINDS)))]
+    u = np.linspace(0.0, 1.0, 24)[:, None]
+    if kind == "arc":
+        # Up to 0.55 of a turn: well below the open circles (0.8) that still read as one.
+        sweep = rng.uniform(0.12, 0.55)
+        t = rng.uniform(0, 2 * np.pi) + np.linspace(0, 2 * np.pi * sweep, 48)
+        aspect = rng.uniform(0.6, 1.0)
+        r = 1.0 + rng.uniform(-0.08, 0.08) * np.linspace(0, 1, t.size)
+        strokes = [np.stack([r * np.cos(t), r * aspect * np.sin(t)], axis=1)]
+        # An arc keeps the size of the circle it belongs to, not the unit box.
+        return [s * rng.uniform(0.8, 1.0) for s in strokes]
+    if kind == "stroke":
+        angle = rng.uniform(0, np.pi)
+        d = np.array([np.cos(angle), np.sin(angle)])
+        bend = rng.uniform(-0.2, 0.2) * np.array([-d[1], d[0]])
+        strokes = [(1 - u) ** 2 * -d + 2 * (1 - u) * u * bend + u**2 * d]
+    elif kind == "plus":
+        tilt = rng.uniform(-0.1, 0.1)  # within 6 degrees of upright: an X turned by 45
+        strokes = []
+        for base in (tilt, tilt + np.pi / 2):
+            d = np.array([np.cos(base), np.sin(base)])
+            c = rng.uniform(-0.1, 0.1, size=2)
+            strokes.append(c + (u * 2 - 1) * d * rng.uniform(0.8, 1.0))
+    elif kind == "tick":
+        low = np.array([rng.uniform(-0.4, 0.0), rng.uniform(0.5, 0.9)])
+        start = low + np.array([-rng.uniform(0.3, 0.6), -rng.uniform(0.3, 0.6)])
+        end = low + np.array([rng.uniform(0.8, 1.4), -rng.uniform(1.2, 1.8)])
+        strokes = [np.vstack([start + u * (low - start), low + u[1:] * (end - low)])]
+    elif kind == "scribble":
+        points = np.cumsum(rng.normal(0, 0.6, size=(int(rng.integers(4, 9)), 2)), axis=0)
+        t = np.linspace(0, len(points) - 1, 16 * len(points))
+        line = np.stack([np.interp(t, np.arange(len(points)), points[:, k]) for k in (0, 1)], 1)
+        strokes = [cv2.blur(line[None].astype(np.float32), (5, 1))[0].astype(np.float64)]
+    elif kind == "corner":  # an L or a V: two strokes meeting at their ends
+        corner = rng.uniform(-0.3, 0.3, size=2)
+        angles = rng.uniform(0, 2 * np.pi) + np.array([0.0, rng.uniform(0.5, 2.0)])
+        strokes = [corner + u * np.array([np.cos(a), np.sin(a)]) for a in angles]
+    else:
+        raise InvalidInputError(f"unknown partial kind {kind!r}; kinds are {PARTIAL_KINDS}")
+    scale, offset = _unit_box_transform(np.vstack(strokes))
+    return [(s - offset) * scale for s in strokes]
+
+
+def draw_partial(
+    canvas: np.ndarray, rng: np.random.Generator, centre: tuple[float, float], size: float
+) -> np.ndarray:
+    """Draw one `partial_strokes` shape into `canvas` (uint8 grayscale) in place."""
+    pen = Pen.random(rng, size)
+    half = max(size / 2 - pen.width / 2, 1.0)
+    strokes = [s * half + np.array(centre) for s in partial_strokes(rng)]
+    mask = ink_mask(canvas.shape, strokes, pen, rng)
+    canvas[:] = np.clip(canvas * (1.0 - pen.darkness * mask), 0, 255).astype(np.uint8)
+    return canvas
+
+
+def add_texture(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """The sheet's own print: squared, dotted or ruled paper, faint and regular."""
+    h, w = image.shape
+    kind = int(rng.integers(3))
+    step = rng.uniform(5.0, 12.0)
+    amount = np.zeros((h, w), np.float32)
+    angle = rng.uniform(-0.08, 0.08)  # the print is square to the grid, nearly
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    u = np.cos(angle) * xx + np.sin(angle) * yy + rng.uniform(0, step)
+    v = -np.sin(angle) * xx + np.cos(angle) * yy + rng.uniform(0, step)
+    width = rng.uniform(0.5, 1.3)
+
+    def near(coord: np.ndarray) -> np.ndarray:  # 1 on a printed line, falling off within `width`
+        dist = np.abs((coord + step / 2) % step - step / 2)
+        return np.clip(1.0 - dist / width, 0.0, 1.0)
+
+    if kind == 0:  # squared
+        amount = np.maximum(near(u), near(v))
+    elif kind == 1:  # dotted
+        amount = near(u) * near(v)
+        amount = np.clip(amount * 2.5, 0, 1)
+    else:  # ruled, sometimes with a margin line
+        amount = near(v)
+        if rng.random() < 0.2:
+            x = rng.uniform(0, w)
+            amount = np.maximum(amount, np.clip(1.0 - np.abs(xx - x) / width, 0, 1))
+    return darken(image, amount * rng.uniform(0.06, 0.3))
+
+
+def add_ghost(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A mark that was erased: a symbol or a stroke, faint, blurred and broken."""
+    h, w = image.shape
+    size = rng.uniform(0.4, 0.85) * min(h, w)
+    centre = ((w - 1) / 2 + rng.uniform(-4, 4), (h - 1) / 2 + rng.uniform(-4, 4))
+    roll = rng.random()
+    if roll < 0.7:
+        strokes = symbol_strokes(("circle", "cross")[int(rng.integers(2))], rng)
+    else:
+        strokes = partial_strokes(rng)
+    pen = Pen.random(rng, size)
+    half = max(size / 2 - pen.width / 2, 1.0)
+    mask = ink_mask((h, w), [s * half + np.array(centre) for s in strokes], pen, rng)
+    mask = cv2.GaussianBlur(mask, (0, 0), rng.uniform(0.6, 1.6))
+    mask *= rng.random(mask.shape, dtype=np.float32) > rng.uniform(0.0, 0.5)  # rubbed away
+    return darken(image, mask * rng.uniform(0.05, 0.18))

@@ -10,6 +10,10 @@ The tracker keeps the board it has accepted. Each reading is compared with it:
 - a symbol in an empty cell is a *new drawing*; the same new drawing(s) must be read
   `stable_readings` times in a row before anything happens, so a half-drawn symbol that the
   classifier reads differently from one frame to the next, or a one-frame flicker, is ignored;
+- given the classifier's `CellReading`s (issue 15), a new drawing counts only as a whole,
+  confident symbol (confidence ≥ `min_confidence`; "partial" ink never counts), and the
+  readings agree only while its ink stays the same (within `ink_tolerance`): a symbol still
+  being drawn keeps changing, so it is accepted once the pen has stopped;
 - a symbol that disappears (a hand over it, a misread frame) is ignored: paper does not
   forget, and the accepted board keeps it;
 - the robot's own drawings are known in advance (`robot_draws`), so they never become the
@@ -24,7 +28,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
@@ -33,7 +37,6 @@ from oxbot.errors import InvalidInputError, NoGridFound
 from oxbot.game.board import (
     CELL_NAMES,
     EMPTY,
-    LABELS,
     N_CELLS,
     PLURALS,
     ROBOT,
@@ -44,6 +47,10 @@ from oxbot.game.board import (
     to_move,
 )
 from oxbot.perception.sources import FrameSource
+from oxbot.perception.synth import OUTPUTS
+
+if TYPE_CHECKING:
+    from oxbot.perception.classifier import CellReading
 
 
 @dataclass(frozen=True)
@@ -96,7 +103,8 @@ class MoveTracker:
 
     `update(labels)` takes one reading (9 labels, row-major) and returns the event it
     completes, if any; `update(None)` records a frame in which no board could be read, which
-    breaks any run of identical readings.
+    breaks any run of identical readings. `update(labels, cells)` also takes the 9 cells'
+    `CellReading`s, for the confidence and ink checks.
     """
 
     def __init__(
@@ -118,6 +126,7 @@ class MoveTracker:
         self._board: list[str] = ["nothing"] * N_CELLS
         self._robot_cells: set[int] = set()
         self._candidate: tuple[tuple[int, str], ...] = ()
+        self._candidate_ink: tuple[float, ...] = ()
         self._count = 0
         self._readings = 0
 
@@ -148,35 +157,57 @@ class MoveTracker:
         self._board[index] = self.robot_symbol
         self._robot_cells.add(index)
 
-    def update(self, labels: Sequence[str] | None) -> TrackerEvent | None:
-        """Feed one reading; return the move or impossible event it completes, else None."""
+    def update(
+        self, labels: Sequence[str] | None, cells: Sequence[CellReading] | None = None
+    ) -> TrackerEvent | None:
+        """Feed one reading; return the move or impossible event it completes, else None.
+
+        `labels` are 9 of OUTPUTS ("partial" counts as nothing); `cells`, if given, the 9
+        cells' readings: a new symbol then also needs their confidence and still ink.
+        """
         self._readings += 1
         if labels is None:
             self._candidate, self._count = (), 0
             return None
-        changes = self._changes(labels)
+        if cells is not None and len(cells) != N_CELLS:
+            raise InvalidInputError(f"a board reading has {N_CELLS} cells; got {len(cells)}")
+        changes = self._changes(labels, cells)
         if not changes:
             self._candidate, self._count = (), 0
             return None
-        if changes == self._candidate:
+        ink = tuple(cells[c].ink for c, _ in changes) if cells is not None else ()
+        if changes == self._candidate and self._ink_still(ink):
             self._count += 1
         else:
-            self._candidate, self._count = changes, 1
+            self._candidate, self._candidate_ink, self._count = changes, ink, 1
         if self._count != self.config.stable_readings:
             return None  # not yet seen often enough, or already dealt with
         return self._judge(changes)
 
-    def _changes(self, labels: Sequence[str]) -> tuple[tuple[int, str], ...]:
-        """The (cell, label) pairs where the reading adds to the accepted board."""
-        if len(labels) != N_CELLS or any(label not in LABELS for label in labels):
+    def _ink_still(self, ink: tuple[float, ...]) -> bool:
+        """Whether the new drawing's ink is what it was at the run's first reading."""
+        tolerance = self.config.ink_tolerance
+        return all(
+            abs(now - first) <= tolerance * max(first, 1e-6)
+            for now, first in zip(ink, self._candidate_ink, strict=True)
+        )
+
+    def _changes(
+        self, labels: Sequence[str], cells: Sequence[CellReading] | None
+    ) -> tuple[tuple[int, str], ...]:
+        """The (cell, label) pairs where the reading adds a whole, confident symbol to the
+        accepted board."""
+        if len(labels) != N_CELLS or any(label not in OUTPUTS for label in labels):
             raise InvalidInputError(
-                f"a board reading is {N_CELLS} labels from {', '.join(LABELS)}; "
+                f"a board reading is {N_CELLS} labels from {', '.join(OUTPUTS)}; "
                 f"got {list(labels)!r}"
             )
         changes = []
         for cell, (seen, known) in enumerate(zip(labels, self._board, strict=True)):
-            if seen == "nothing" or seen == known:
+            if seen in ("nothing", "partial") or seen == known:
                 continue  # unchanged, or a symbol that disappeared: paper does not forget
+            if cells is not None and cells[cell].confidence < self.config.min_confidence:
+                continue  # not sure it is a whole symbol: no drawing yet
             changes.append((cell, seen))
         return tuple(changes)
 

@@ -24,7 +24,8 @@ import numpy as np
 
 from oxbot.config import TrackerConfig
 from oxbot.errors import FrameSourceError, NoGridFound
-from oxbot.perception.board import BoardReader, default_reader
+from oxbot.perception.board import BoardReader, BoardReading, default_reader
+from oxbot.perception.classifier import CellReading
 from oxbot.perception.sources import FrameSource
 from oxbot.perception.tracker import AcceptedDrawing, ImpossibleEvent, MoveTracker
 from oxbot.robot.bus import Bus, Component
@@ -83,8 +84,8 @@ class GameMoveComponent(Component):
         self._lock = threading.Lock()
         self._latest: np.ndarray | None = None
         self._version = 0  # counts pushed frames, so a frame is read only once
-        self._cached: tuple[int, tuple[str, ...] | None, tuple[bytes, ...]] | None = None
-        self._last_seen: tuple[tuple[str, ...], int] | None = None
+        self._cached: tuple[int, BoardReading | None, tuple[bytes, ...]] | None = None
+        self._last_seen: tuple[tuple[str, ...], int, tuple[str, ...]] | None = None
         self._off = False
 
     @property
@@ -116,19 +117,41 @@ class GameMoveComponent(Component):
         current = self._next_frame()
         if current is None:
             return
-        labels, cells = self._read(*current)
-        event = self.tracker.update(labels)
+        reading, cells = self._read(*current)
+        if reading is None:
+            event = self.tracker.update(None)
+        else:  # the cells' readings: a new symbol must be whole, confident and still
+            event = self.tracker.update(reading.labels, reading.readings or None)
         accepted = isinstance(event, AcceptedDrawing)
-        seen = (labels or (), self.config.stable_readings if accepted else self.tracker.agreeing)
+        labels = reading.labels if reading is not None else ()
+        readings = tuple(self._shown(r) for r in reading.readings) if reading is not None else ()
+        agreeing = self.config.stable_readings if accepted else self.tracker.agreeing
+        seen = (labels, agreeing, readings)
         if seen != self._last_seen:
             self._last_seen = seen
-            self.bus.publish(BoardSeen(labels=seen[0], agreeing=seen[1], cells=cells))
+            confidences = tuple(round(r.confidence, 3) for r in reading.readings) if reading else ()
+            self.bus.publish(
+                BoardSeen(
+                    labels=labels,
+                    agreeing=agreeing,
+                    cells=cells,
+                    readings=readings,
+                    confidences=confidences,
+                )
+            )
         if accepted:
             log.info("accepted %s", event)
             self.bus.publish(move_message(event))
         elif isinstance(event, ImpossibleEvent):
             log.info("impossible: %s", event)
             self.bus.publish(BoardProblem(reason=event.message, kind=event.kind))
+
+    def _shown(self, reading: CellReading) -> str:
+        """A cell's label as the page shows it: a symbol too unsure to become a move
+        (below `min_confidence`) is shown as partial, since that is how the tracker takes it."""
+        if reading.label in ("circle", "cross") and reading.confidence < self.config.min_confidence:
+            return "partial"
+        return reading.label
 
     def restart(self) -> None:
         with self._lock:
@@ -173,18 +196,19 @@ class GameMoveComponent(Component):
 
     def _read(
         self, frame: np.ndarray, version: int
-    ) -> tuple[tuple[str, ...] | None, tuple[bytes, ...]]:
-        """The frame's labels (None: no grid) and crops; a pushed frame is read only once."""
+    ) -> tuple[BoardReading | None, tuple[bytes, ...]]:
+        """The frame's reading (None: no grid) and crops; a pushed frame is read only once."""
         cached = self._cached
         if cached is not None and cached[0] == version:
             return cached[1], cached[2]
         if self.reader is None:
             self.reader = default_reader()
+        reading: BoardReading | None
         try:
             reading = self.reader.read(frame)
-            labels, cells = reading.labels, encode_cells(reading.cells)
+            cells = encode_cells(reading.cells)
         except NoGridFound:
-            labels, cells = None, ()
+            reading, cells = None, ()
         if version >= 0:
-            self._cached = (version, labels, cells)
-        return labels, cells
+            self._cached = (version, reading, cells)
+        return reading, cells

@@ -116,6 +116,12 @@ class BoardSeen(Message):
     agreeing: int = 0
     cells: tuple[bytes, ...] = ()
     format: Literal["png"] = "png"
+    readings: tuple[str, ...] = ()
+    """Each cell's reading among circle, cross, nothing and partial (ink that is not a whole
+    symbol, or a symbol read with less than `[tracker] min_confidence`, which cannot become a
+    move); empty when no grid was found."""
+    confidences: tuple[float, ...] = ()
+    """The classifier's calibrated confidence in each of `readings`."""
 
 
 @dataclass(frozen=True)

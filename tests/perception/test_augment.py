@@ -69,3 +69,10 @@ def test_a_seed_with_no_drawing_is_reported(seeds):
     )
     with pytest.raises(DataError, match="'circle' seed has no visible drawing"):
         generate(broken, 10, np.random.default_rng(0))
+
+
+def test_partial_adds_a_fourth_balanced_class(seeds):
+    images, labels = generate(seeds, 400, np.random.default_rng(0), partial=True)
+    counts = np.bincount(labels, minlength=4)
+    assert counts.sum() == 400 and counts[3] > 0 and labels.max() == 3
+    assert np.median(images[labels == 3]) > 120  # ink on light paper, like the rest

@@ -6,11 +6,11 @@ from torch import nn
 from oxbot import artifacts
 from oxbot.config import PerceptionConfig
 from oxbot.errors import InvalidInputError, ModelFileError
-from oxbot.perception import LABELS, SymbolClassifier, load_classifier
+from oxbot.perception import LABELS, OUTPUTS, SymbolClassifier, load_classifier
 from oxbot.perception.augment import generate
 from oxbot.perception.classifier import SymbolNet, shipped_model_path
 from oxbot.perception.seeds import load_seeds
-from oxbot.perception.synth import draw_cell
+from oxbot.perception.synth import draw_cell, draw_partial, paper
 
 
 @pytest.fixture(scope="module")
@@ -39,6 +39,9 @@ def test_network_is_the_papers_architecture():
     assert (pool1.kernel_size, pool1.stride, pool2.kernel_size, pool2.stride) == (2, 2, 3, 3)
     assert (net.svm.in_features, net.svm.out_features) == (16 * 6 * 6, 3)
     assert net(torch.zeros(2, 1, 40, 40)).shape == (2, 3)
+    # issue 15's experimental variant: "partial" after the paper's three labels, kept there
+    assert SymbolNet(outputs=4)(torch.zeros(2, 1, 40, 40)).shape == (2, 4)
+    assert OUTPUTS[:3] == LABELS == ("circle", "cross", "nothing") and OUTPUTS[3] == "partial"
 
 
 def test_inference_scores_are_the_trained_networks(shipped):
@@ -148,3 +151,96 @@ def test_predict_leaves_torch_threads_as_they_were(shipped, cells):
     shipped.predict(cells[0][:9])
     shipped.predict(np.concatenate([cells[0]] * 4))  # a big batch keeps the caller's threads
     assert torch.get_num_threads() == before
+
+
+def test_the_shipped_model_has_three_outputs_and_never_reads_partial(shipped):
+    rng = np.random.default_rng(5)
+    arcs = np.stack([draw_partial(paper((40, 40), rng), rng, (19.5, 19.5), 28) for _ in range(9)])
+    assert shipped.outputs == LABELS
+    assert shipped.decision_function(arcs).shape == (9, 3)
+    readings = shipped.read(arcs)
+    assert all(r.label in LABELS for r in readings), readings
+    assert [r.spec_label for r in readings] == shipped.predict(arcs)
+
+
+def _four_output_model(seed=3):
+    """An untrained classifier with issue 15's partial output, made to win it always."""
+    clf = SymbolClassifier(PerceptionConfig(partial_output=True), seed=seed)
+    with torch.no_grad():
+        clf.net.svm.bias[3] += 5.0
+    return clf
+
+
+def test_a_four_output_model_reads_partial_and_predict_says_nothing(cells, tmp_path):
+    clf = _four_output_model()
+    assert clf.outputs == OUTPUTS
+    assert all(r.label == "partial" for r in clf.read(cells[0]))
+    assert clf.predict(cells[0]) == ["nothing"] * len(cells[0])  # a partial cell is no move
+    again = load_classifier(clf.save(tmp_path / "four.pt"))
+    assert again.outputs == OUTPUTS and again.config.partial_output
+    np.testing.assert_array_equal(
+        again.decision_function(cells[0]), clf.decision_function(cells[0])
+    )
+
+
+def test_a_three_output_model_cannot_learn_or_lower_partial(cells):
+    clf = SymbolClassifier()
+    with pytest.raises(InvalidInputError, match="no output for"):
+        clf.fit(cells[0][:4], ["circle", "cross", "nothing", "partial"])
+    with pytest.raises(InvalidInputError, match="no partial output"):
+        clf.lower_partial(*cells, share=0.0)
+
+
+def test_read_confidences_are_calibrated_probabilities(shipped, cells):
+    images, labels = cells
+    readings = shipped.read(images)
+    assert [r.spec_label for r in readings] == labels
+    assert all(0.25 <= r.confidence <= 1.0 for r in readings)
+    assert 0.05 <= shipped.temperature <= 5.0  # fitted on held-out images, not left at 1
+    assert shipped.temperature != 1.0
+    p = shipped.probabilities(images)
+    np.testing.assert_allclose(p.sum(axis=1), 1.0, rtol=1e-9)
+    # ink: little on a blank (specks, remnants), more on a symbol
+    ink = {
+        name: np.median([r.ink for r, label in zip(readings, labels, strict=True) if label == name])
+        for name in LABELS
+    }
+    assert ink["nothing"] < 0.5 * min(ink["circle"], ink["cross"]), ink
+
+
+def test_the_shipped_temperature_is_fitted_on_the_calibration_stream(shipped):
+    from oxbot.perception.training import calibrate
+
+    fresh = load_classifier()
+    fresh.metadata.pop("temperature")
+    assert calibrate(fresh, load_seeds()) == {"temperature": shipped.temperature}
+
+
+def test_fit_temperature_minimises_the_held_out_loss():
+    clf = SymbolClassifier()
+    images = np.full((8, 40, 40), 230, np.uint8)
+    t = clf.fit_temperature(images, ["nothing"] * 8)
+    assert clf.metadata["temperature"] == t and clf.temperature == t
+
+
+def test_model_files_say_how_many_outputs_they_have(tmp_path):
+    payload = artifacts.load(shipped_model_path(), "perceiver", 2, "model", "", lambda p: True)
+    assert payload["outputs"] == list(LABELS)
+    odd = tmp_path / "odd.pt"
+    del payload["outputs"]  # as saved before issue 15: three outputs
+    artifacts.save(odd, "perceiver", 2, payload)
+    assert load_classifier(odd).outputs == LABELS
+    payload["outputs"] = [*LABELS, "smudge"]
+    artifacts.save(odd, "perceiver", 2, payload)
+    with pytest.raises(ModelFileError, match="has outputs"):
+        load_classifier(odd)
+
+
+def test_lower_partial_keeps_whole_symbols_whole(cells):
+    images, labels = cells
+    clf = _four_output_model()
+    assert all(r.label == "partial" for r in clf.read(images))
+    offset = clf.lower_partial(images, labels, share=0.0)
+    assert offset > 0 and clf.metadata["partial_offset"] == offset
+    whole = [r for r, label in zip(clf.read(images), labels, strict=True) if label != "nothing"]
+    assert all(r.label != "partial" for r in whole)

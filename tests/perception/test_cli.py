@@ -67,7 +67,7 @@ def test_train_then_evaluate_a_model_on_a_labelled_folder(tmp_path):
     results = json.loads(evaluated.stdout)
     assert [r["name"] for r in results] == ["generated", str(fonts)]
     assert [r["images"] for r in results] == [150, 30]
-    assert all(0 <= r["accuracy"] <= 1 and len(r["confusion"]) == 3 for r in results)
+    assert all(0 <= r["accuracy"] <= 1 and len(r["confusion"]) == 4 for r in results)
 
 
 def test_bad_seed_folder_and_model_give_one_clear_line(tmp_path):

@@ -46,11 +46,17 @@ class FixedScores:
 def test_confusion_matrix_precision_and_recall_are_counted_right():
     truth = ["circle", "circle", "cross", "nothing", "nothing", "nothing"]
     result = evaluate(FixedScores([0, 1, 1, 2, 2, 0]), np.zeros((6, 40, 40), np.uint8), truth)
-    assert result.confusion == [[1, 1, 0], [0, 1, 0], [1, 0, 2]]
+    # four columns: a whole symbol or a blank read as "partial" is counted, and wrong
+    assert result.confusion == [[1, 1, 0, 0], [0, 1, 0, 0], [1, 0, 2, 0], [0, 0, 0, 0]]
     assert result.accuracy == pytest.approx(4 / 6)
-    assert result.precision == {"circle": 0.5, "cross": 0.5, "nothing": 1.0}
-    assert result.recall == {"circle": 0.5, "cross": 1.0, "nothing": pytest.approx(2 / 3)}
-    assert result.to_dict()["labels"] == list(LABELS)
+    assert result.precision == {"circle": 0.5, "cross": 0.5, "nothing": 1.0, "partial": 1.0}
+    assert result.recall == {
+        "circle": 0.5,
+        "cross": 1.0,
+        "nothing": pytest.approx(2 / 3),
+        "partial": 1.0,
+    }
+    assert result.to_dict()["labels"] == [*LABELS, "partial"]
 
 
 def test_a_labelled_folder_of_big_colour_pngs_is_measured(shipped, tmp_path):
@@ -69,4 +75,4 @@ def test_a_labelled_folder_of_big_colour_pngs_is_measured(shipped, tmp_path):
     result = evaluate_folder(shipped, tmp_path)
     assert result.images == 6 and result.name == str(tmp_path)
     assert result.accuracy == 1.0
-    assert result.confusion[2] == [0, 0, 0]  # no blanks in this folder
+    assert result.confusion[2] == [0, 0, 0, 0]  # no blanks in this folder

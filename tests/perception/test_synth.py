@@ -4,11 +4,15 @@ import pytest
 from oxbot.errors import InvalidInputError
 from oxbot.perception.synth import (
     LABELS,
+    PARTIAL_KINDS,
     Pen,
+    add_ghost,
     add_grid_remnants,
+    add_texture,
     draw_cell,
     draw_symbol,
     paper,
+    partial_strokes,
     symbol_strokes,
 )
 
@@ -88,3 +92,24 @@ def test_bad_label_and_canvas_are_refused():
         draw_cell("square", np.random.default_rng(0))
     with pytest.raises(InvalidInputError, match="uint8 grayscale canvas"):
         draw_symbol(np.zeros((40, 40, 3), np.uint8), "cross", np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("kind", PARTIAL_KINDS)
+def test_partial_strokes_fill_the_unit_box(kind):
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        points = np.vstack(partial_strokes(rng, kind))
+        assert np.abs(points).max() <= 1.0 + 1e-6
+        assert points.shape[1] == 2
+
+
+def test_textured_and_ghosted_paper_stays_faint():
+    rng = np.random.default_rng(3)
+    for _ in range(30):
+        sheet = paper((40, 40), rng)
+        for marked in (add_texture(sheet, rng), add_ghost(sheet, rng)):
+            assert marked.dtype == np.uint8 and marked.shape == (40, 40)
+            # never darker than the faintest pen (darkness 0.3) takes away
+            assert (marked.astype(float) >= sheet.astype(float) * 0.69 - 1).all()
+    with pytest.raises(InvalidInputError, match="unknown partial kind"):
+        partial_strokes(rng, "square")

@@ -6,6 +6,7 @@ from oxbot.config import TrackerConfig
 from oxbot.errors import InvalidInputError, NoGridFound
 from oxbot.game.board import LABELS
 from oxbot.perception.board import read_board
+from oxbot.perception.classifier import CellReading
 from oxbot.perception.sources import PushedFrames, VideoFileSource
 from oxbot.perception.tracker import AcceptedDrawing, ImpossibleEvent, MoveTracker, watch
 from oxbot.testing.render import TUNING_STYLE, random_scene
@@ -262,3 +263,53 @@ def test_watch_reads_a_live_source_once_per_period():
         )
     assert [e.where for e in events] == ["middle"]
     assert naps == pytest.approx([0.1] * 5)  # one reading every 100 ms (paper §2.1)
+
+
+def cell_readings(labels, confidence=0.99, ink=None):
+    """CellReadings for a board reading: each cell's label, one confidence, ink 0.1 where a
+    symbol or partial ink is (or as given per cell)."""
+    ink = ink or {}
+    return [
+        CellReading(label, confidence, ink.get(i, 0.0 if label == "nothing" else 0.1))
+        for i, label in enumerate(labels)
+    ]
+
+
+def test_tracker_never_accepts_a_partial_cell():
+    tracker = MoveTracker(robot_starts=False, check_turns=False)
+    half = board(middle="partial")
+    assert feed(tracker, *[half] * 10) == [None] * 10
+    assert [tracker.update(half, cell_readings(half)) for _ in range(10)] == [None] * 10
+    assert tracker.board == tuple(EMPTY)
+
+
+def test_tracker_needs_a_confident_whole_symbol():
+    config = TrackerConfig(min_confidence=0.9)
+    tracker = MoveTracker(robot_starts=False, config=config, check_turns=False)
+    seen = board(middle="circle")
+    unsure = [tracker.update(seen, cell_readings(seen, confidence=0.6)) for _ in range(6)]
+    assert unsure == [None] * 6 and tracker.agreeing == 0
+    events = [tracker.update(seen, cell_readings(seen, confidence=0.95)) for _ in range(3)]
+    assert isinstance(events[2], AcceptedDrawing) and events[2].where == "middle"
+
+
+def test_tracker_waits_until_the_ink_stops_changing():
+    tracker = MoveTracker(robot_starts=False, config=TrackerConfig(ink_tolerance=0.1))
+    seen = board(middle="circle")
+    # The pen is still going round: the circle's ink grows at every reading.
+    growing = [
+        tracker.update(seen, cell_readings(seen, ink={4: 0.10 + 0.02 * k})) for k in range(6)
+    ]
+    assert growing == [None] * 6 and tracker.agreeing == 1
+    # The pen has lifted: three readings of the same ink (within 10%) make the move.
+    still = [tracker.update(seen, cell_readings(seen, ink={4: v})) for v in (0.3, 0.305, 0.298)]
+    assert still[:2] == [None, None] and isinstance(still[2], AcceptedDrawing)
+
+
+def test_tracker_settings_are_checked():
+    from oxbot.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="min_confidence"):
+        TrackerConfig(min_confidence=1.5)
+    with pytest.raises(ConfigError, match="ink_tolerance"):
+        TrackerConfig(ink_tolerance=-0.1)

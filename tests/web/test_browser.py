@@ -234,3 +234,90 @@ def play_a_whole_game_then_answer_by_voice(page: Page) -> None:
     )
     troubles = [n for n in notes if "camera" in n or "failed" in n or "server:" in n]
     assert all("game is over" in n for n in troubles), troubles
+
+
+def arc_path(page: Page, where: str, start_deg: float, end_deg: float) -> list[tuple[float, float]]:
+    """Page coordinates along an arc of the circle a person draws in cell `where`."""
+    from oxbot.testing.sheet import SIDE, unit_to_canvas
+
+    box = page.get_by_test_id("board").bounding_box()
+    t = np.deg2rad(np.linspace(start_deg, end_deg, 40))
+    unit = np.stack([0.5 + 0.3 * np.cos(t), 0.5 + 0.3 * np.sin(t)], axis=1)
+    points = unit_to_canvas(where, unit) * (box["width"] / SIDE) + (box["x"], box["y"])
+    return [(float(x), float(y)) for x, y in points]
+
+
+def test_a_half_drawn_circle_is_never_a_move(page: Page):
+    """The person starts (circles). Half a circle, pen held down, sends nothing; left alone
+    after the pen lifts, the robot reads "partial" and makes no move of it; the circle
+    finished, it is a move."""
+    from oxbot.config import load_config
+    from tests.web.conftest import running_server
+
+    config = load_config(
+        None,
+        [
+            "robot.speed_factor=8",
+            "robot.answer_timeout=16",
+            "robot.move_timeout=240",
+            "game.robot_starts=false",
+        ],
+    )
+    # a tab beside the first test's, on a server of its own where the person starts
+    with running_server(config=config) as url:
+        first, page = page, page.context.new_page()
+        try:
+            page.goto(url + "/")
+            page.get_by_test_id("start").click()
+            wait_for_act(page, "Request(playGame)")
+            assert page.evaluate("window.oxbot.hello")["user_symbol"] == "circle"
+            page.get_by_test_id("say").fill("yes let's play")
+            page.get_by_test_id("say").press("Enter")
+            wait_for_act(page, "Request(userGameMove)")
+            cell = "middle"
+            label = "document.querySelectorAll('[data-testid=cells] > div')[4].dataset.label"
+
+            # half a circle, the pen still down: nothing goes to the robot
+            sent = page.evaluate("window.oxbot.stats.framesSent")
+            path = arc_path(page, cell, 0, 180)
+            page.mouse.move(*path[0])
+            page.mouse.down()
+            for x, y in path[1:]:
+                page.mouse.move(x, y)
+            page.wait_for_timeout(1_200)
+            assert page.evaluate("window.oxbot.stats.framesSent") == sent
+            assert page.evaluate("window.oxbot.stats.moves.length") == 0
+
+            # the pen lifts and the arc is left alone: read as partial, never a move
+            page.mouse.up()
+            page.wait_for_function(f"['partial', 'circle'].includes({label})", timeout=10_000)
+            page.wait_for_timeout(1_500)  # many more readings than the 3 a move needs
+            if page.evaluate("window.oxbot.stats.moves.length") and page.evaluate(label) != (
+                "partial"
+            ):
+                pytest.xfail(
+                    "issue 15: the shipped 3-output perceiver reads half a circle as a circle "
+                    "(bench/bench_cells.py: 200 of 200 semicircles, 197 at >= 0.9), so it "
+                    "becomes a move"
+                )
+            assert page.evaluate("window.oxbot.stats.moves.length") == 0
+            assert page.evaluate(label) == "partial"
+            page.screenshot(path=ARTIFACTS / "07-half-drawn-circle.png", full_page=True)
+
+            # the circle closed with a second stroke: now it is the person's move
+            path = arc_path(page, cell, 170, 370)
+            page.mouse.move(*path[0])
+            page.mouse.down()
+            for x, y in path[1:]:
+                page.mouse.move(x, y)
+            page.mouse.up()
+            page.wait_for_function("window.oxbot.stats.moves.length > 0", timeout=10_000)
+            move = page.evaluate("window.oxbot.stats.moves[0]")
+            assert (move["who"], move["where"]) == ("usr", cell)
+            assert page.evaluate(label) == "circle"
+        except Exception:
+            page.screenshot(path=ARTIFACTS / "failure-half-drawn.png", full_page=True)
+            raise
+        finally:
+            page.close()
+            first.bring_to_front()

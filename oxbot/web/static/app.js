@@ -15,8 +15,7 @@ const state = {
   grid: [],              // the grid's strokes (canvas pixels)
   committed: [],         // the person's strokes that became moves
   pending: [],           // the person's strokes since the last accepted move
-  drawing: null,         // the stroke under the pen
-  drawingAccepted: false, // its symbol was accepted before the pen lifted
+  drawing: null,         // the stroke under the pen (never sent: a move waits for the pen to lift)
   robotCells: new Set(), // cells the robot's arm drew in (on the overlay, not in the image)
   dirty: false,          // the sheet changed since the last frame sent
   sound: true, camera: null, cameraTimer: null,
@@ -98,9 +97,8 @@ board.addEventListener("pointermove", (e) => {
 });
 function endStroke() {
   if (!state.drawing) return;
-  // a stroke still under way when its symbol was accepted belongs to that move
-  (state.drawingAccepted ? state.committed : state.pending).push(state.drawing);
-  state.drawing = null; state.drawingAccepted = false;
+  state.pending.push(state.drawing);
+  state.drawing = null;
   redrawSheet();
   state.stats.lastStrokeEnd = performance.now();
   sendFrame();          // the finished stroke goes out at once, not at the next tick
@@ -110,6 +108,8 @@ board.addEventListener("pointercancel", () => { state.stats.cancels++; endStroke
 
 function sendFrame() {
   if (state.ended) return;   // after the goodbye the robot no longer watches the sheet
+  // a symbol is whole only once the pen lifts: the sheet goes out then (endStroke)
+  if (state.drawing) { state.dirty = true; return; }
   if (!send({ type: "frame", image: sheetImage() })) return;
   state.dirty = false; state.stats.framesSent++;
 }
@@ -175,7 +175,7 @@ function startOrNewGame() {
 
 function resetSheet() {
   state.grid = newGrid(); state.committed = []; state.pending = []; state.drawing = null;
-  state.drawingAccepted = false; state.robotCells = new Set(); state.lastSeen = null;
+  state.robotCells = new Set(); state.lastSeen = null; showCells(null);
   state.ended = false; octx.clearRect(0, 0, SIDE, SIDE); redrawSheet();
   showProblem(""); $("turn").textContent = ""; enableAnswers(!!state.hello);
 }
@@ -232,7 +232,6 @@ const handlers = {
     state.stats.moves.push({ ...d, at: performance.now() });
     if (d.who === "usr") {
       state.committed.push(...state.pending); state.pending = [];
-      state.drawingAccepted = state.drawing !== null;
       showProblem(""); $("turn").textContent = "";
     }
   },
@@ -557,8 +556,22 @@ function stopCamera() {
 
 // --- what the robot sees ------------------------------------------------------------------
 
+// SPEC §5's `cells`: the robot's current reading of each cell, "partial" for ink that is not
+// a whole symbol yet
+const CELL_MARKS = { circle: "O", cross: "X", nothing: "", partial: "~" };
+function showCells(d) {
+  const cells = $("cells"), readings = d && d.readings ? d.readings : [];
+  for (let i = 0; i < cells.children.length; i++) {
+    const div = cells.children[i], label = readings[i] || "nothing";
+    div.dataset.label = label; div.textContent = CELL_MARKS[label] ?? "?";
+    div.title = d && d.confidences && d.confidences[i] !== undefined
+      ? `${label} (${Math.round(100 * d.confidences[i])}%)` : label;
+  }
+}
+
 function showSeen(d) {
   state.lastSeen = d;
+  showCells(d);
   const crops = $("crops");
   const names = state.hello ? state.hello.cells : [];
   if (crops.children.length !== names.length) {
