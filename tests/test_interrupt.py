@@ -21,10 +21,18 @@ from oxbot import artifacts
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="SIGINT to a child is POSIX")
 
 
+def _default_sigint() -> None:
+    # A job started in the background (`make test &`, nohup, some CI runners) inherits SIGINT
+    # ignored, and oxbot then leaves it ignored, as a user who ran it so would want: the child
+    # starts as from a terminal.
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(args: list[str], cwd) -> tuple[subprocess.Popen, "queue.Queue[str]"]:
     proc = subprocess.Popen(
         [sys.executable, "-m", "oxbot.cli", *args],
         cwd=cwd,
+        preexec_fn=_default_sigint,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
