@@ -271,25 +271,37 @@ def see(
     """Print the board read from each photo of the game sheet (O circles, X crosses)."""
 
     from oxbot.game.board import render_labels
-    from oxbot.perception.board import default_reader, save_debug
+    from oxbot.perception.board import default_reader, save_debug, save_refusal
     from oxbot.perception.sources import load_image
 
     failed = 0
     for path in images:
+        frame = None
         try:
             frame = load_image(path)
             reading = default_reader().read(frame)
         except OxbotError as exc:
             failed += 1
             err_console.print(f"[bold red]error:[/] {escape(f'{path}: {exc}')}", soft_wrap=True)
+            if debug is not None and frame is not None:
+                typer.echo(f"wrote {save_refusal(frame, str(exc), debug, path.stem)}")
             continue
         typer.echo(f"{path}: {' '.join(reading.labels)}")
         typer.echo(render_labels(reading.labels))
+        typer.echo(cell_confidences(reading.readings))
         if debug is not None:
             written = save_debug(reading, frame, debug, path.stem)
             typer.echo(f"wrote {len(written)} images to {debug}/{path.stem}_*.png")
     if failed:
         raise typer.Exit(2)
+
+
+def cell_confidences(readings) -> str:
+    """Each cell's reading (partial included) and its confidence, as three rows."""
+    from oxbot.game.board import SIZE
+
+    cells = [f"{r.label:>7s} {r.confidence:4.2f}" for r in readings]
+    return "\n".join("  ".join(cells[row : row + SIZE]) for row in range(0, len(cells), SIZE))
 
 
 # --- dialogue commands (issue 5) ---

@@ -212,6 +212,10 @@ def save_debug(
         for line in (lattice[k, :], lattice[:, k]):
             pts = np.round(line * 16).astype(np.int32).reshape(-1, 1, 2)
             cv2.polylines(overlay, [pts], False, color, thickness, cv2.LINE_AA, shift=4)
+    for i, reading_i in enumerate(reading.readings):
+        r, c = divmod(i, SIZE)
+        corner = lattice[r : r + 2, c : c + 2].reshape(-1, 2)
+        _label(overlay, f"{reading_i.label} {reading_i.confidence:.2f}", corner.min(axis=0), corner)
     images = {
         f"{stem}_grid.png": cv2.cvtColor(overlay, cv2.COLOR_RGB2BGR),
         f"{stem}_sheet.png": reading.sheet,
@@ -224,3 +228,38 @@ def save_debug(
         write_png(folder / name, image)
         written.append(folder / name)
     return written
+
+
+def save_refusal(frame: np.ndarray, reason: str, folder: str | Path, stem: str) -> Path:
+    """Write `<stem>_refused.png` in `folder`: the frame the reader refused, with why across
+    its top, so that a folder of debug images shows the refused frames beside the read ones."""
+    overlay = frame.copy() if frame.ndim == 3 else cv2.cvtColor(frame, cv2.COLOR_GRAY2RGB)
+    height, width = overlay.shape[:2]
+    scale = max(0.4, width / 1400)
+    lines, line = [], ""
+    for word in reason.split():  # wrap to the frame's width
+        wider = f"{line} {word}".strip()
+        (w, _), _ = cv2.getTextSize(wider, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+        if w > width - 20 and line:
+            lines.append(line)
+            wider = word
+        line = wider
+    lines.append(line)
+    step = int(30 * scale) + 6
+    cv2.rectangle(overlay, (0, 0), (width, min(height, step * len(lines) + 8)), (255, 255, 255), -1)
+    for k, text in enumerate(lines):
+        position = (10, step * (k + 1))
+        cv2.putText(overlay, text, position, cv2.FONT_HERSHEY_SIMPLEX, scale, (200, 0, 0), 1)
+    path = Path(folder) / f"{stem}_refused.png"
+    write_png(path, cv2.cvtColor(overlay, cv2.COLOR_RGB2BGR))
+    return path
+
+
+def _label(image: np.ndarray, text: str, origin: np.ndarray, corners: np.ndarray) -> None:
+    """`text` in the upper left of the cell with these corners, sized to the cell."""
+    cell = float(np.ptp(corners[:, 0]))
+    scale = max(0.3, cell / 260)
+    (w, h), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+    x, y = (int(v) + 3 for v in origin)
+    cv2.rectangle(image, (x, y), (x + w + 2, y + h + base + 2), (255, 255, 255), -1)
+    cv2.putText(image, text, (x + 1, y + h + 1), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 200), 1)

@@ -153,6 +153,23 @@ def test_see_prints_the_board_of_each_photo_and_writes_debug_images(tmp_path):
     assert f"sheet_cell4_{CELL_NAMES[4]}_circle.png" in written
     cell = cv2.imread(str(debug / "sheet_cell1_uppermiddle_cross.png"), cv2.IMREAD_GRAYSCALE)
     assert cell.shape == (40, 40)
+    # each cell's reading with its confidence, in three rows; the same written on the grid image
+    rows = [line.split() for line in result.stdout.splitlines() if line.count(".") == 3]
+    assert len(rows) == 6 and rows[1][2:4] == ["circle", rows[1][3]]
+    assert all(0.0 < float(c) <= 1.0 for row in rows for c in row[1::2])
+    grid = cv2.imread(str(debug / "sheet_grid.png"))
+    assert not np.array_equal(grid, cv2.imread(str(path)))  # drawn on
+
+
+def test_see_debug_writes_a_refused_frame_with_the_reason(tmp_path):
+    blank = tmp_path / "blank.png"
+    cv2.imwrite(str(blank), np.full((480, 640, 3), 235, np.uint8))
+    debug = tmp_path / "seen"
+    result = oxbot("see", str(blank), "--debug", str(debug))
+    assert result.returncode == 2 and "no grid in view" in result.stderr
+    refused = cv2.imread(str(debug / "blank_refused.png"))
+    assert refused.shape == (480, 640, 3)
+    assert (refused[:40] != 235).any() and (refused[200:] == 235).all()  # the reason, on top
 
 
 def test_see_reports_unreadable_photos_and_goes_on(tmp_path):
