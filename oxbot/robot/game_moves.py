@@ -84,7 +84,7 @@ class GameMoveComponent(Component):
         self._lock = threading.Lock()
         self._latest: np.ndarray | None = None
         self._version = 0  # counts pushed frames, so a frame is read only once
-        self._cached: tuple[int, BoardReading | None, tuple[bytes, ...]] | None = None
+        self._cached: tuple[int, tuple[BoardReading | None, tuple[bytes, ...], str]] | None = None
         self._last_seen: tuple[tuple[str, ...], int, tuple[str, ...]] | None = None
         self._off = False
 
@@ -117,7 +117,7 @@ class GameMoveComponent(Component):
         current = self._next_frame()
         if current is None:
             return
-        reading, cells = self._read(*current)
+        reading, cells, refusal = self._read(*current)
         if reading is None:
             event = self.tracker.update(None)
         else:  # the cells' readings: a new symbol must be whole, confident and still
@@ -126,7 +126,7 @@ class GameMoveComponent(Component):
         labels = reading.labels if reading is not None else ()
         readings = tuple(self._shown(r) for r in reading.readings) if reading is not None else ()
         agreeing = self.config.stable_readings if accepted else self.tracker.agreeing
-        seen = (labels, agreeing, readings)
+        seen = (labels, agreeing, readings, refusal)
         if seen != self._last_seen:
             self._last_seen = seen
             confidences = tuple(round(r.confidence, 3) for r in reading.readings) if reading else ()
@@ -137,6 +137,7 @@ class GameMoveComponent(Component):
                     cells=cells,
                     readings=readings,
                     confidences=confidences,
+                    refusal=refusal,
                 )
             )
         if accepted:
@@ -196,19 +197,21 @@ class GameMoveComponent(Component):
 
     def _read(
         self, frame: np.ndarray, version: int
-    ) -> tuple[BoardReading | None, tuple[bytes, ...]]:
-        """The frame's reading (None: no grid) and crops; a pushed frame is read only once."""
+    ) -> tuple[BoardReading | None, tuple[bytes, ...], str]:
+        """The frame's reading (None: no grid), crops, and why no grid was found ("" when one
+        was); a pushed frame is read only once."""
         cached = self._cached
         if cached is not None and cached[0] == version:
-            return cached[1], cached[2]
+            return cached[1]
         if self.reader is None:
             self.reader = default_reader()
         reading: BoardReading | None
+        refusal = ""
         try:
             reading = self.reader.read(frame)
             cells = encode_cells(reading.cells)
-        except NoGridFound:
-            reading, cells = None, ()
+        except NoGridFound as exc:
+            reading, cells, refusal = None, (), str(exc)
         if version >= 0:
-            self._cached = (version, reading, cells)
-        return reading, cells
+            self._cached = (version, (reading, cells, refusal))
+        return reading, cells, refusal

@@ -122,6 +122,8 @@ class BoardSeen(Message):
     move); empty when no grid was found."""
     confidences: tuple[float, ...] = ()
     """The classifier's calibrated confidence in each of `readings`."""
+    refusal: str = ""
+    """Why no grid was found, in words saying what to do; empty when one was."""
 
 
 @dataclass(frozen=True)

@@ -58,6 +58,20 @@ def test_a_pushed_sheet_becomes_one_move_after_three_readings(scene):
     assert not [m for m in got if isinstance(m, BoardProblem)]
 
 
+def test_a_frame_without_a_grid_is_seen_with_the_reason_and_then_with_confidences(scene):
+    sheet, rng = scene
+    bus = LocalBus()
+    events = bus.subscribe(BoardSeen)
+    with GameMoveComponent(bus, robot_starts=True, config=TrackerConfig(period_s=0.05)) as vision:
+        vision.push(np.full((480, 640, 3), 235, np.uint8))  # a blank desk
+        blank = collect(events, lambda m: isinstance(m, BoardSeen))[-1]
+        vision.push(sheet.with_symbol(4, "circle", rng).photo(rng))
+        seen = collect(events, lambda m: isinstance(m, BoardSeen) and bool(m.labels))[-1]
+    assert blank.labels == () and "no grid in view" in blank.refusal
+    assert seen.refusal == "" and seen.readings[4] == "circle"
+    assert len(seen.confidences) == 9 and all(0.0 < c <= 1.0 for c in seen.confidences)
+
+
 def test_a_frame_message_is_read_like_a_pushed_frame_and_problems_are_reported(scene):
     sheet, rng = scene
     bus = LocalBus()

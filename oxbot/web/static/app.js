@@ -584,14 +584,19 @@ function showSeen(d) {
     }
   }
   for (let i = 0; i < names.length; i++) {
-    const div = crops.children[i], label = d.labels && d.labels.length ? d.labels[i] : "no grid";
+    const found = d.labels && d.labels.length;
+    const reading = found && d.readings && d.readings[i] ? d.readings[i] : null;
+    const label = reading || (found ? d.labels[i] : "no grid");
+    const sure = reading && d.confidences ? ` ${Math.round(100 * d.confidences[i])}%` : "";
+    const div = crops.children[i];
     if (d.cells && d.cells[i]) div.querySelector("img").src = `data:image/png;base64,${d.cells[i]}`;
     const mark = state.hello && state.hello.robot_symbol === "cross" ? "X" : "O";
     const robots = state.robotCells.has(names[i]) ? ` (robot's ${mark})` : "";
-    div.querySelector("div").textContent = `${names[i] || i}: ${label}${robots}`;
+    div.querySelector("div").textContent = `${names[i] || i}: ${label}${sure}${robots}`;
     div.className = `crop ${label}`;
     div.dataset.label = label;
   }
+  $("refusal").textContent = d.refusal || "";  // why no grid was found, in words
   const n = d.agreeing || 0;
   $("agreeing").querySelectorAll("i").forEach((dot, i) => dot.classList.toggle("on", i < n));
   const needed = state.hello ? state.hello.stable_readings : 3;
