@@ -212,10 +212,10 @@ def save_debug(
         for line in (lattice[k, :], lattice[:, k]):
             pts = np.round(line * 16).astype(np.int32).reshape(-1, 1, 2)
             cv2.polylines(overlay, [pts], False, color, thickness, cv2.LINE_AA, shift=4)
-    for i, reading_i in enumerate(reading.readings):
+    for i, cell_reading in enumerate(reading.readings):
         r, c = divmod(i, SIZE)
-        corner = lattice[r : r + 2, c : c + 2].reshape(-1, 2)
-        _label(overlay, f"{reading_i.label} {reading_i.confidence:.2f}", corner.min(axis=0), corner)
+        corners = lattice[r : r + 2, c : c + 2].reshape(-1, 2)
+        _label(overlay, f"{cell_reading.label} {cell_reading.confidence:.2f}", corners)
     images = {
         f"{stem}_grid.png": cv2.cvtColor(overlay, cv2.COLOR_RGB2BGR),
         f"{stem}_sheet.png": reading.sheet,
@@ -255,11 +255,11 @@ def save_refusal(frame: np.ndarray, reason: str, folder: str | Path, stem: str) 
     return path
 
 
-def _label(image: np.ndarray, text: str, origin: np.ndarray, corners: np.ndarray) -> None:
+def _label(image: np.ndarray, text: str, corners: np.ndarray) -> None:
     """`text` in the upper left of the cell with these corners, sized to the cell."""
     cell = float(np.ptp(corners[:, 0]))
     scale = max(0.3, cell / 260)
     (w, h), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
-    x, y = (int(v) + 3 for v in origin)
+    x, y = (int(v) + 3 for v in corners.min(axis=0))
     cv2.rectangle(image, (x, y), (x + w + 2, y + h + base + 2), (255, 255, 255), -1)
     cv2.putText(image, text, (x + 1, y + h + 1), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 200), 1)
