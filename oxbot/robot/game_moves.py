@@ -85,7 +85,7 @@ class GameMoveComponent(Component):
         self._latest: np.ndarray | None = None
         self._version = 0  # counts pushed frames, so a frame is read only once
         self._cached: tuple[int, tuple[BoardReading | None, tuple[bytes, ...], str]] | None = None
-        self._last_seen: tuple[tuple[str, ...], int, tuple[str, ...]] | None = None
+        self._last_seen: tuple[tuple[str, ...], int, tuple[str, ...], str] | None = None
         self._off = False
 
     @property
