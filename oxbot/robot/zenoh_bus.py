@@ -23,6 +23,7 @@ robot (`BusVersionError`), a component that is up already (`ComponentAlreadyRunn
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -171,7 +172,8 @@ class ZenohBus:
         self.session = open_session(self.endpoints)
         self.zid = str(self.session.zid())
         try:
-            self._declared.append(self.session.declare_subscriber(self.prefix + "**", self._receive))
+            subscriber = self.session.declare_subscriber(self.prefix + "**", self._receive)
+            self._declared.append(subscriber)
             self.check_formats()
         except BaseException:
             self.close()
@@ -349,10 +351,8 @@ class ZenohBus:
         """Undeclare everything (liveliness tokens first: others see this process go) and close
         the session."""
         for declared in reversed(self._declared):
-            try:
+            with contextlib.suppress(zenoh.ZError):
                 declared.undeclare()
-            except zenoh.ZError:
-                pass
         self._declared.clear()
         if not self.session.is_closed():
             self.session.close()
@@ -450,8 +450,9 @@ class PartsWatcher:
         zids.discard(peer.zid)
         if not zids and peer.name not in self._down:
             self._down[peer.name] = time.monotonic()
-            log.warning("%s's process (pid %d) is gone; waiting for it to come back", peer.name,
-                        peer.pid)
+            log.warning(
+                "%s's process (pid %d) is gone; waiting for it to come back", peer.name, peer.pid
+            )
             self.bus.publish(ComponentFailed(component=component, error="its process ended"))
 
     def _give_up(self, name: str) -> None:
