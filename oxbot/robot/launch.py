@@ -160,10 +160,11 @@ def run_component(
 ) -> None:
     """Run component `name` of robot `robot` in this process until `stop` is set (or SIGTERM
     / SIGINT in the main thread). Raises the BusError or ConfigError that prevents it."""
-    import torch
-
-    torch.set_num_threads(1)  # one component per process: a core's share is enough
     component_class(name)  # an unknown name fails before any network work
+    if name in ("manager", "perception"):
+        import torch
+
+        torch.set_num_threads(1)  # one component per process: a core's share is enough
     stop = stop if stop is not None else threading.Event()
     if threading.current_thread() is threading.main_thread():
         for signum in (signal.SIGTERM, signal.SIGINT):

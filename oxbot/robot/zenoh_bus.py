@@ -196,6 +196,8 @@ class ZenohBus:
     def publish(self, message: Message) -> None:
         if not isinstance(message, Message):
             raise TypeError(f"only oxbot.robot.messages types travel on the bus, not {message!r}")
+        if self.session.is_closed():
+            raise BusError(f"the bus of robot {self.robot!r} is closed: nothing can be published")
         lossy = isinstance(message, LOSSY)
         self.session.put(
             self.prefix + message.topic,
