@@ -17,7 +17,12 @@ import pytest
 from websockets.sync.client import connect as ws_connect
 
 from oxbot.config import load_config
-from oxbot.errors import BusUnreachable, BusVersionError, ComponentAlreadyRunning
+from oxbot.errors import (
+    BusUnreachable,
+    BusVersionError,
+    ComponentAlreadyRunning,
+    InvalidInputError,
+)
 from oxbot.game.board import CELL_NAMES, EMPTY, outcome
 from oxbot.robot.launch import COMPONENTS, Launcher, LaunchFile
 from oxbot.robot.messages import (
@@ -37,11 +42,12 @@ from oxbot.robot.messages import (
     Utterance,
 )
 from oxbot.robot.remote import RemoteRobot
-from oxbot.robot.zenoh_bus import Endpoints, PartsWatcher, ZenohBus
+from oxbot.robot.zenoh_bus import BLOBS, Endpoints, PartsWatcher, ZenohBus, decode, encode
 from oxbot.speech.synthesis import Voice, synthesize
 from oxbot.web.server import create_app, serving_in_background
 from tests.robot.helpers import collect
 from tests.robot.test_headless_game import ANSWERS, EXPECTED_ACTS, Camera
+from tests.robot.test_messages import EXAMPLES
 
 CONFIG = load_config(
     None, ["robot.speed_factor=8", "robot.answer_timeout=4", "robot.move_timeout=60"]
@@ -324,3 +330,26 @@ def test_new_game_and_state_reach_a_late_joiner():
             assert late.game_so_far() == played
             turns = late.subscribe_with_history(DialogueAct)
             assert turns.drain() == [played[2]]
+
+
+@pytest.mark.parametrize("message", EXAMPLES, ids=lambda m: type(m).__name__)
+def test_messages_round_trip_through_the_wire_format(message):
+    payload, encoding = encode(message)
+    assert decode(payload, encoding == BLOBS) == message
+    carries_bytes = any(isinstance(getattr(message, f, None), bytes) for f in ("image", "audio"))
+    assert (encoding == BLOBS) == (carries_bytes or bool(getattr(message, "cells", ())))
+
+
+@pytest.mark.parametrize(
+    "payload",
+    [
+        b'{"type": "Frame", "data": {"image": {"blob": 0}}, "blobs": [5]}\nabc',
+        b'{"type": "Frame", "data": {"image": "text"}, "blobs": []}\n',
+        b'{"type": "Frame", "data": {"image": {"blob": 3}}, "blobs": [1]}\na',
+        b"no header",
+    ],
+    ids=["short", "not bytes", "no such blob", "no header"],
+)
+def test_malformed_wire_messages_are_refused_clearly(payload):
+    with pytest.raises(InvalidInputError, match="not a message of oxbot's bus"):
+        decode(payload, blobs=True)
