@@ -9,12 +9,17 @@ every process of a machine) to its arrival in the subscriber's queue, for messag
 apart (no queueing): a small one (HeadDirection) and a camera frame (640x480 RGB pixels,
 raw, as `Robot.show` sends them: 900 KB). Throughput is small messages published back to
 back, counted where they arrive. "added per hop" is Zenoh's figure minus the in-process one.
+
+Respawn: `oxbot robot --launch`'s seven component processes (`Launcher`), each killed with
+SIGKILL in turn (`--kills` rounds), timed from the kill to its new process's liveliness token.
 """
 
 from __future__ import annotations
 
 import argparse
 import multiprocessing
+import os
+import signal
 import socket
 import statistics
 import threading
@@ -22,8 +27,10 @@ import time
 
 import numpy as np
 
+from oxbot.config import load_config
 from oxbot.robot.bus import LocalBus
 from oxbot.robot.frames import frame_message
+from oxbot.robot.launch import COMPONENTS, Launcher, LaunchFile
 from oxbot.robot.messages import DialogueEnded, Frame, HeadDirection, Message
 from oxbot.robot.zenoh_bus import Endpoints, ZenohBus
 
@@ -144,9 +151,45 @@ def zenoh_cases(count: int) -> dict[str, object]:
                 child.kill()
 
 
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def respawn_times(rounds: int) -> dict[str, list[float]]:
+    """Seconds from kill -9 to the new process's liveliness token, per component."""
+    launch = LaunchFile(robot="bench-respawn", listen=(f"tcp/127.0.0.1:{free_port()}",))
+    # a tiny restart window: each kill counts alone, so each respawn waits the first backoff
+    config = load_config(None, ["robot.restart_limit=100", "robot.restart_window=0.01"])
+    launcher = Launcher(launch, config).start()
+    times: dict[str, list[float]] = {name: [] for name in COMPONENTS}
+    try:
+        with ZenohBus(launch.robot, launch.child_endpoints()) as bus:
+            joined: dict[str, tuple[float, int]] = {}
+            bus.watch(lambda p, up: up and joined.__setitem__(p.name, (time.monotonic(), p.pid)))
+            deadline = time.monotonic() + 120
+            while set(joined) != set(COMPONENTS) and time.monotonic() < deadline:
+                time.sleep(0.1)
+            time.sleep(1.0)  # every model loaded
+            for _ in range(rounds):
+                for name in COMPONENTS:
+                    pid = joined[name][1]
+                    killed = time.monotonic()
+                    os.kill(pid, signal.SIGKILL)
+                    while joined[name][1] == pid and time.monotonic() - killed < 30:
+                        time.sleep(0.005)
+                    times[name].append(joined[name][0] - killed)
+                    time.sleep(0.3)
+    finally:
+        launcher.stop()
+    return times
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--messages", type=int, default=2000, help="small messages per case")
+    parser.add_argument("--kills", type=int, default=3, help="kill -9 rounds (0: none)")
     args = parser.parse_args()
     local = LocalBus()
     in_process = run_cases(local, local.subscribe, args.messages)
@@ -162,6 +205,10 @@ def main() -> None:
     for label, result in (("in-process", in_process), ("zenoh", across)):
         rate, got, sent = result["throughput"]  # type: ignore[misc]
         print(f"throughput {label}: {rate:,.0f} small messages/s ({got} of {sent} arrived)")
+    if args.kills:
+        print(f"kill -9 to back up (its new liveliness token), s, {args.kills} kills: median / max")
+        for name, seconds in respawn_times(args.kills).items():
+            print(f"  {name:14s} {statistics.median(seconds):.2f} / {max(seconds):.2f}")
 
 
 if __name__ == "__main__":
