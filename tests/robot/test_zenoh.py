@@ -39,6 +39,7 @@ from oxbot.robot.messages import (
     HeadMove,
     NewGame,
     SpeakingFinished,
+    SpeakingStarted,
     Utterance,
 )
 from oxbot.robot.remote import RemoteRobot
@@ -206,9 +207,12 @@ def test_a_game_over_seven_processes_survives_kill_9_and_a_late_page_gets_it():
             kills: dict[str, tuple[int, float]] = {}
 
             def kill(name: str) -> None:
-                pid = {p.name: p.pid for p in bus.alive()}[name]
+                pid = comebacks[name][1]
                 os.kill(pid, signal.SIGKILL)
                 kills[name] = (pid, time.monotonic())
+                killed_at[name] = len(log)
+
+            killed_at: dict[str, int] = {}  # name -> its kill's place in the log
 
             log: list = []
             page: list[dict] = []
@@ -230,7 +234,11 @@ def test_a_game_over_seven_processes_survives_kill_9_and_a_late_page_gets_it():
                         break
                     if isinstance(message, ArmDone):
                         camera.add(CELL_NAMES.index(message.where), "circle")
-                    if isinstance(message, Utterance) and "voice" not in kills:
+                    if (
+                        isinstance(message, SpeakingStarted)
+                        and len(message.text) > 20
+                        and "voice" not in kills
+                    ):
                         kill("voice")  # mid-sentence: the manager waits, then asks again
                     if isinstance(message, ArmCommand) and "arm" not in kills:
                         kill("arm")  # mid-drawing
@@ -251,6 +259,11 @@ def test_a_game_over_seven_processes_survives_kill_9_and_a_late_page_gets_it():
                 camera.join(1)
                 if page_thread is not None:
                     page_thread.join(20)
+                # a manager process that dies loses the dialogue: its respawn ends it in words
+                remote.new_game()
+                collect(events, lambda m: isinstance(m, DialogueAct) and m.speaker == "sys", 20)
+                kill("manager")
+                second = collect(events, lambda m: isinstance(m, DialogueEnded), 10)
     finally:
         if camera is not None:
             camera.stopped.set()
@@ -264,14 +277,25 @@ def test_a_game_over_seven_processes_survives_kill_9_and_a_late_page_gets_it():
     assert "Confirm(playGame=yes)" in spoken and spoken <= set(EXPECTED_ACTS.values()), text
     assert not [m for m in log if isinstance(m, BoardProblem)], text
     # every killed component was respawned, a new process, within 2 s of the kill
-    assert set(kills) == {"voice", "arm", "perception"}
+    assert set(kills) == {"voice", "arm", "perception", "manager"}
     for name, (pid, killed) in kills.items():
         back, new_pid = comebacks[name]
         assert back > killed and new_pid != pid, f"{name} never came back"
         assert back - killed < 2.0, f"{name} back {back - killed:.2f} s after kill -9"
     assert {name for name, _ in launcher.respawns} == set(kills)
-    # the voice said again the sentence it died on; the arm drew again
-    assert any(isinstance(m, SpeakingFinished) for m in log)
+    # what a killed voice or arm had not finished was asked again, and then finished
+    for name, asked, done in (("voice", Utterance, SpeakingFinished), ("arm", ArmCommand, ArmDone)):
+        before, after = log[: killed_at[name]], log[killed_at[name] :]
+        request = [m for m in before if isinstance(m, asked)][-1]
+        finished_before = any(isinstance(m, done) for m in before[before.index(request) :])
+        if not finished_before:
+            again = [m for m in after if isinstance(m, asked) and m.stamp > request.stamp]
+            assert again and {k: v for k, v in vars(again[0]).items() if k != "stamp"} == {
+                k: v for k, v in vars(request).items() if k != "stamp"
+            }, f"{name} was not asked again"
+            assert any(isinstance(m, done) for m in after), f"{name} never finished"
+    goodbye = [m.text for m in second if isinstance(m, DialogueAct)]
+    assert goodbye[-1] == "Sorry, my mind stopped working, so we have to stop here. Goodbye."
     # the page opened mid-game got the dialogue so far and the board, then the rest
     page_turns = [d["data"]["text"] for d in page if d["type"] == "DialogueAct"]
     assert page_turns and page_turns == [t["text"] for t in transcript][: len(page_turns)]
