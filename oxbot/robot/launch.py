@@ -407,6 +407,10 @@ def endpoints_of(connect: list[str] | None, listen: list[str] | None, scouting: 
     return Endpoints(connect=tuple(connect or ()), listen=tuple(listen or ()), scouting=scouting)
 
 
+def _interrupt(*_: object) -> None:
+    raise KeyboardInterrupt
+
+
 def run_robot(
     config: OxbotConfig,
     launch: LaunchFile | None,
@@ -416,6 +420,8 @@ def run_robot(
 ) -> None:
     """`oxbot robot`: launch the processes of `launch` (if given) and, if `drive` is
     "terminal" or "web", drive the robot from here; else wait until Ctrl-C."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _interrupt)  # a service manager's stop, like Ctrl-C
     launcher = Launcher(launch, config).start() if launch is not None else None
     try:
         if drive is None:
