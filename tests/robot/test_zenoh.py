@@ -12,6 +12,7 @@ import sys
 import threading
 import time
 import uuid
+from pathlib import Path
 
 import pytest
 from websockets.sync.client import connect as ws_connect
@@ -50,6 +51,8 @@ from tests.robot.helpers import collect
 from tests.robot.test_headless_game import ANSWERS, EXPECTED_ACTS, Camera
 from tests.robot.test_messages import EXAMPLES
 
+REPO = str(Path(__file__).resolve().parents[2])
+"""The checkout under test, for the component processes' imports."""
 CONFIG = load_config(
     None, ["robot.speed_factor=8", "robot.answer_timeout=4", "robot.move_timeout=60"]
 )
@@ -102,7 +105,7 @@ def component_process(name: str, robot: str, *endpoint_args: str) -> subprocess.
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env={**os.environ, "PYTHONPATH": os.getcwd()},
+        env={**os.environ, "PYTHONPATH": REPO},
     )
 
 
@@ -331,7 +334,7 @@ def test_an_unknown_component_is_a_clear_error():
         capture_output=True,
         text=True,
         timeout=60,
-        env={**os.environ, "PYTHONPATH": os.getcwd()},
+        env={**os.environ, "PYTHONPATH": REPO},
     )
     assert result.returncode == 2
     assert "no component 'bogus'; choose one of manager, perception" in result.stderr
