@@ -188,13 +188,17 @@ def run_component(
         supervisor = Supervisor([component], bus, config.robot, on_lost=on_lost).start()
         log.info("%s is up for robot %r (pid %d)", name, robot, os.getpid())
         while not stop.wait(0.2):
-            pass
+            if supervisor.lost:  # its restart budget spent: a fresh process may do better
+                log.error("%s stays off; ending its process (a launcher respawns it)", name)
+                break
     finally:
         if watcher is not None:
             watcher.stop()
         if supervisor is not None:
             supervisor.stop()
         bus.close()
+    if supervisor is not None and supervisor.lost:
+        raise SystemExit(1)
 
 
 # --- launching a whole robot ---

@@ -14,8 +14,8 @@ Besides messages, each component process of a robot declares:
   withdraws as soon as the process is gone (its links close; a silent machine is dropped after
   the 1 s lease), so every process knows who is up (`alive`, `PartsWatcher`);
 - a queryable `oxbot/<robot>/state/<name>` answering the current game so far (`NewGame`,
-  `GameState`, `DialogueAct`, `DialogueEnded`), so a late joiner (a respawned component, a web
-  page opened mid-game) learns the board and the dialogue (`game_so_far`).
+  `GameState`, `DialogueAct`, `DialogueEnded`, `ArmStroke`), so a late joiner (a respawned
+  component, a web page opened mid-game) learns the board and the dialogue (`game_so_far`).
 
 Refusals are errors of oxbot.errors, raised at once: an endpoint nobody answers at
 (`BusUnreachable`, after `CONNECT_TIMEOUT`), a process of another message format on the same
@@ -51,6 +51,7 @@ from oxbot.errors import (
 from oxbot.robot.bus import LocalSubscription
 from oxbot.robot.messages import (
     MESSAGE_TYPES,
+    ArmStroke,
     ComponentFailed,
     ComponentJoined,
     ComponentLost,
@@ -85,8 +86,9 @@ def message_format() -> str:
 FORMAT = message_format()
 TOPICS: dict[str, type[Message]] = {cls.topic: cls for cls in MESSAGE_TYPES.values()}
 """Every message type by topic: the key expression names the type before any decoding."""
-RECORDED = (NewGame, GameState, DialogueAct, DialogueEnded)
-"""The messages that make the current game for a late joiner."""
+RECORDED = (NewGame, GameState, DialogueAct, DialogueEnded, ArmStroke)
+"""The messages that make the current game for a late joiner (the arm's strokes: so that a
+page opened mid-game draws the robot's symbols)."""
 LOSSY = (Frame, PersonFrame)
 """Camera frames come 10 times a second: under congestion an old one is dropped, not queued."""
 CONNECT_TIMEOUT = 3.0
@@ -372,8 +374,8 @@ class ZenohBus:
         query.reply(query.key_expr, json.dumps(record), attachment=self.FORMAT)
 
     def game_so_far(self) -> list[Message]:
-        """The current game's NewGame, GameStates, DialogueActs and DialogueEnded, oldest
-        first, as the most complete answer among the component processes has it."""
+        """The current game's NewGame, GameStates, DialogueActs, ArmStrokes and DialogueEnded,
+        oldest first, as the most complete answer among the component processes has it."""
         best: list[Message] = []
         for reply in self.session.get(self.prefix + "state/*", timeout=QUERY_TIMEOUT):
             if reply.ok is None:

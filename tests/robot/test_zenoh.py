@@ -304,6 +304,7 @@ def test_a_game_over_seven_processes_survives_kill_9_and_a_late_page_gets_it():
     assert page_turns and page_turns == [t["text"] for t in transcript][: len(page_turns)]
     assert any(d["type"] == "GameState" and d["data"]["board"] != [0] * 9 for d in page)
     assert any(d["type"] == "NewGame" for d in page), "the page missed the game's start"
+    assert any(d["type"] == "ArmStroke" for d in page), "the page cannot draw the robot's ink"
 
 
 def late_page(bus: ZenohBus, remote: RemoteRobot, got: list[dict]) -> threading.Thread:
