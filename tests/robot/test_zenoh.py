@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -22,10 +23,11 @@ from oxbot.errors import (
     BusUnreachable,
     BusVersionError,
     ComponentAlreadyRunning,
+    ConfigError,
     InvalidInputError,
 )
 from oxbot.game.board import CELL_NAMES, EMPTY, outcome
-from oxbot.robot.launch import COMPONENTS, Launcher, LaunchFile
+from oxbot.robot.launch import COMPONENTS, Launcher, LaunchFile, load_launch_file
 from oxbot.robot.messages import (
     ArmCommand,
     ArmDone,
@@ -381,3 +383,28 @@ def test_messages_round_trip_through_the_wire_format(message):
 def test_malformed_wire_messages_are_refused_clearly(payload):
     with pytest.raises(InvalidInputError, match="not a message of oxbot's bus"):
         decode(payload, blobs=True)
+
+
+def test_a_launch_file_is_read_and_its_mistakes_named(tmp_path):
+    good = tmp_path / "robot.toml"
+    good.write_text(
+        'robot = "kitchen"\nlisten = ["tcp/0.0.0.0:7447"]\ncomponents = ["manager", "arm"]\n'
+        '[perception]\ncamera = "0"\n'
+    )
+    launch = load_launch_file(good)
+    assert (launch.robot, launch.components, launch.cameras) == (
+        "kitchen",
+        ("manager", "arm"),
+        {"perception": "0"},
+    )
+    assert launch.child_endpoints().connect == ("tcp/127.0.0.1:7447",)
+    for text, says in (
+        ('robto = "x"\n', "unknown key 'robto'"),
+        ('components = ["manager", "legs"]\n', "no component 'legs'; choose one of manager"),
+        ("[arm]\nspeed = 2\n", "[arm] has only `camera`"),
+        ("robot = \n", "cannot read launch file"),
+    ):
+        bad = tmp_path / "bad.toml"
+        bad.write_text(text)
+        with pytest.raises(ConfigError, match=re.escape(says)):
+            load_launch_file(bad)
