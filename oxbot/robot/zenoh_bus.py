@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import json
 import logging
@@ -125,19 +126,26 @@ def encode(message: Message) -> tuple[bytes, zenoh.Encoding]:
     return b"".join([json.dumps(header).encode(), b"\n", *blobs]), BLOBS
 
 
+@functools.cache
+def _hints(cls: type[Message]) -> dict[str, typing.Any]:
+    return typing.get_type_hints(cls)
+
+
 def decode(payload: bytes, blobs: bool) -> Message:
     """The message `encode` made; InvalidInputError if it is not one."""
     if not blobs:
         return from_json(payload)
     try:
-        line, _, rest = payload.partition(b"\n")
-        header = json.loads(line)
+        end = payload.index(b"\n")
+        header = json.loads(payload[:end])
         cls = MESSAGE_TYPES[header["type"]]
         data, sizes = dict(header["data"]), [int(n) for n in header["blobs"]]
-        if sum(sizes) != len(rest) or any(n < 0 for n in sizes):
-            raise ValueError(f"blobs of {sum(sizes)} bytes announced, {len(rest)} sent")
-        starts = [sum(sizes[:i]) for i in range(len(sizes))]
-        pieces = [rest[a : a + n] for a, n in zip(starts, sizes, strict=True)]
+        sent = len(payload) - end - 1
+        if sum(sizes) != sent or any(n < 0 for n in sizes):
+            raise ValueError(f"blobs of {sum(sizes)} bytes announced, {sent} sent")
+        view = memoryview(payload)  # each blob copied once, out of the payload
+        starts = [end + 1 + sum(sizes[:i]) for i in range(len(sizes))]
+        pieces = [bytes(view[a : a + n]) for a, n in zip(starts, sizes, strict=True)]
 
         def unpack(value: typing.Any) -> typing.Any:
             if isinstance(value, dict) and set(value) == {"blob"}:
@@ -147,7 +155,7 @@ def decode(payload: bytes, blobs: bool) -> Message:
             return value
 
         fields = {k: unpack(v) for k, v in data.items()}
-        hints = typing.get_type_hints(cls)
+        hints = _hints(cls)
         for name, value in fields.items():
             if hints.get(name) is bytes and not isinstance(value, bytes):
                 raise TypeError(f"field {name!r} of a {cls.__name__} message is not bytes")
