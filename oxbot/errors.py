@@ -60,3 +60,19 @@ class TrainingInterrupted(OxbotError):
         super().__init__(message)
         self.checkpoint = checkpoint
         self.step = step
+
+
+class BusError(OxbotError):
+    """A robot's components cannot work together across processes (the Zenoh transport)."""
+
+
+class BusUnreachable(BusError):
+    """No Zenoh peer or router answers at the endpoints given (`--connect`)."""
+
+
+class BusVersionError(BusError):
+    """Another process of the robot speaks another version of the message format."""
+
+
+class ComponentAlreadyRunning(BusError):
+    """The component is already up in another process of the same robot."""

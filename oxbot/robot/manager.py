@@ -81,6 +81,7 @@ from oxbot.robot.messages import (
     ArmCommand,
     ArmDone,
     BoardProblem,
+    ComponentJoined,
     ComponentLost,
     Decision,
     DialogueAct,
@@ -145,6 +146,7 @@ class InteractionManagerComponent(Component):
         ArmDone,
         BoardProblem,
         ComponentLost,
+        ComponentJoined,
     )
     retries = (NewGame,)  # else it restarts deciding again from the dialogue so far
     period = 0.02
@@ -212,6 +214,8 @@ class InteractionManagerComponent(Component):
             self._problem(message.kind)
         elif isinstance(message, ComponentLost):
             self._lost(message)
+        elif isinstance(message, ComponentJoined):
+            self._rejoined(message)
         elif isinstance(message, SpeakingFinished):
             if self.phase is Phase.SPEAKING and message.text == self._speaking:
                 self._spoke()
@@ -411,6 +415,15 @@ class InteractionManagerComponent(Component):
         # no waiting for the voice or the arm to finish: either may be the part that is gone
         self.phase, self._broken, self._rematch = Phase.DONE, True, False
         self.bus.publish(DialogueEnded(outcome=self.state.outcome))
+
+    def _rejoined(self, message: ComponentJoined) -> None:
+        """A part's process came back (oxbot.robot.zenoh_bus): what died with its predecessor,
+        the sentence or drawing this manager waits for, is asked again."""
+        if message.part == "voice" and self.phase is Phase.SPEAKING:
+            self.bus.publish(Utterance(text=self._speaking, act=self.state.last_act))
+        elif message.part == "arm" and self.phase is Phase.DRAWING and self._arm_cell is not None:
+            symbol = symbol_of(ROBOT, self.state.robot_starts)
+            self.bus.publish(ArmCommand(where=CELL_NAMES[self._arm_cell], symbol=symbol))
 
     def _game_started(self) -> bool:
         return any(plays(act) for act in self.state.said)

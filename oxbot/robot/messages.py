@@ -268,6 +268,16 @@ class ComponentLost(Message):
     essential: bool
 
 
+@dataclass(frozen=True)
+class ComponentJoined(Message):
+    """A component's process joined the robot again after its predecessor's ended (across
+    processes, oxbot.robot.zenoh_bus): what it was asked and never answered must be asked again."""
+
+    topic: ClassVar[str] = "robot/joined"
+    component: str
+    part: str
+
+
 MESSAGE_TYPES: dict[str, type[Message]] = {cls.__name__: cls for cls in Message.__subclasses__()}
 """Every message type by class name, for decoding JSON."""
 

@@ -869,9 +869,12 @@ def serving_in_background(app: FastAPI, host: str = "127.0.0.1", port: int = 0):
         thread.join(15)
 
 
-def serve(config: OxbotConfig | None = None) -> None:
+def serve(
+    config: OxbotConfig | None = None, robot_factory: Callable[[], RobotLike] | None = None
+) -> None:
     """Run the page's server until interrupted (`oxbot play`), on `[web]` host and port
-    (localhost by default)."""
+    (localhost by default); each tab's robot from `robot_factory` when given (a robot whose
+    components run elsewhere: `oxbot robot --web`)."""
     import uvicorn
 
     from oxbot.speech.recognition import recognizer_factory
@@ -881,7 +884,7 @@ def serve(config: OxbotConfig | None = None) -> None:
     host, port = config.web.host, config.web.port
     recognizer_factory(config.speech.recognizer)  # a misnamed one fails now, not in each tab
     check_port_free(host, port)
-    app = create_app(config)
+    app = create_app(config, robot_factory)
     log.info("oxbot: open http://%s:%d in a browser to play", host, port)
     uvicorn.run(app, host=host, port=port, log_level="info", **socket_options(config.web))
 
