@@ -21,6 +21,7 @@ to NewGame, which starts a clean sheet.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import logging
 import threading
 
@@ -29,8 +30,10 @@ import numpy as np
 
 from oxbot.config import TrackerConfig
 from oxbot.errors import FrameSourceError, NoGridFound
+from oxbot.game.board import SIZE
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
-from oxbot.perception.classifier import CellReading
+from oxbot.perception.cells import CELL_SIZE, SHEET_CELL
+from oxbot.perception.classifier import CellReading, ink_share
 from oxbot.perception.guidance import Guidance, diagnose
 from oxbot.perception.sources import FrameSource
 from oxbot.perception.tracker import AcceptedDrawing, ImpossibleEvent, MoveTracker
@@ -57,6 +60,34 @@ def encode_cells(cells: np.ndarray) -> tuple[bytes, ...]:
 
 Read = tuple[BoardReading | None, tuple[bytes, ...], Guidance | None, tuple[float, ...]]
 """One frame's reading, crops, guidance (None: the board was read) and grid (BoardSeen.grid)."""
+
+
+def still_readings(reading: BoardReading) -> tuple[CellReading, ...]:
+    """The cells' readings with each cell's ink measured in the cell's fixed square of the
+    rectified sheet, for the tracker's check that the pen has stopped.
+
+    The classifier's crops are cut around the ink (`cut_cells_around_ink`), so their ink share
+    hardly grows once an arc spans its circle's width: a camera watching a circle drawn slowly
+    saw three agreeing readings at 75% of the stroke. In the cell's fixed square the ink grows
+    with every bit of stroke."""
+    if not reading.readings:
+        return ()
+    border, side = SHEET_CELL // 2, SHEET_CELL
+    squares = np.stack(
+        [
+            cv2.resize(
+                reading.cleaned[border + r * side : border + (r + 1) * side][
+                    :, border + c * side : border + (c + 1) * side
+                ],
+                (CELL_SIZE, CELL_SIZE),
+                interpolation=cv2.INTER_AREA,
+            )
+            for r in range(SIZE)
+            for c in range(SIZE)
+        ]
+    )
+    ink = ink_share(squares)
+    return tuple(dataclasses.replace(r, ink=float(ink[i])) for i, r in enumerate(reading.readings))
 
 
 def grid_shares(reading: BoardReading, frame: np.ndarray) -> tuple[float, ...]:
@@ -105,7 +136,9 @@ class GameMoveComponent(Component):
         self._cached: tuple[int, Read] | None = None
         self._last_seen: tuple | None = None
         self._off = False
-        self._corners: np.ndarray | None = None  # where the grid was last seen (shares)
+        # where the grid was last seen (shares), and in frames of which shape: another source
+        # (the page's camera after its canvas) has another picture
+        self._corners: tuple[np.ndarray, tuple[int, ...]] | None = None
         self._refused = 0  # readings in a row without a board
         self._told: set[str] = set()  # guidance kinds said since the board was last read
 
@@ -145,7 +178,7 @@ class GameMoveComponent(Component):
         if reading is None:
             event = self.tracker.update(None)
         else:  # the cells' readings: a new symbol must be whole, confident and still
-            event = self.tracker.update(reading.labels, reading.readings or None)
+            event = self.tracker.update(reading.labels, still_readings(reading) or None)
         accepted = isinstance(event, AcceptedDrawing)
         labels = reading.labels if reading is not None else ()
         readings = tuple(self._shown(r) for r in reading.readings) if reading is not None else ()
@@ -178,7 +211,8 @@ class GameMoveComponent(Component):
         """Count the readings without a board; say why once they last `guidance_seconds`."""
         if guidance is None:
             self._refused, self._told = 0, set()
-            self._corners = np.array(grid).reshape(4, 4, 2)[[0, 0, 3, 3], [0, 3, 3, 0]]
+            corners = np.array(grid).reshape(4, 4, 2)[[0, 0, 3, 3], [0, 3, 3, 0]]
+            self._corners = (corners, frame.shape[:2])
             return
         self._refused += 1
         if self._refused * self.period < self.config.guidance_seconds:
@@ -250,7 +284,9 @@ class GameMoveComponent(Component):
             reading = self.reader.read(frame)
             read = (reading, encode_cells(reading.cells), None, grid_shares(reading, frame))
         except NoGridFound as exc:
-            read = (None, (), diagnose(frame, str(exc), self._corners), ())
+            last = self._corners
+            corners = last[0] if last is not None and last[1] == frame.shape[:2] else None
+            read = (None, (), diagnose(frame, str(exc), corners), ())
         if version >= 0:
             self._cached = (version, read)
         return read

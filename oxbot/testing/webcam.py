@@ -162,11 +162,20 @@ class PaperVideo:
         reads it."""
         path = Path(path)
         width, height = self.size
+        planes: dict[tuple, tuple[np.ndarray, bytes]] = {}  # each distinct picture converted once
         with path.open("wb") as out:
             out.write(f"YUV4MPEG2 W{width} H{height} F{self.fps}:1 Ip A1:1 C420jpeg\n".encode())
-            for rgb in self.frames():
+            for index, (state, view) in enumerate(self._timeline):
+                key = (state, view)
+                if key not in planes:
+                    yuv = to_yuv420(stamp_index(self._render(dict(state), view), 0))
+                    luma = np.frombuffer(yuv[: width * height], np.uint8).reshape(height, width)
+                    planes[key] = (luma, yuv[width * height :])
+                luma, chroma = planes[key]
+                # the strip is grey: only the luma plane changes from frame to frame
                 out.write(b"FRAME\n")
-                out.write(to_yuv420(rgb))
+                out.write(stamp_index(luma, index, high=231, low=25).tobytes())
+                out.write(chroma)
         return path
 
 
@@ -195,16 +204,17 @@ def _hand_over(photo: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return photo * (1 - mask) + skin * mask
 
 
-def stamp_index(frame: np.ndarray, index: int) -> np.ndarray:
-    """`frame` with `index` written in the strip of blocks below the sheet: a white and a
-    black block to calibrate, then BITS blocks, most significant first (white is 1)."""
+def stamp_index(frame: np.ndarray, index: int, high: int = 250, low: int = 10) -> np.ndarray:
+    """`frame` (RGB, or one plane) with `index` written in the strip of blocks below the sheet:
+    a white and a black block to calibrate, then BITS blocks, most significant first (white,
+    `high`, is 1; black, `low`, is 0)."""
     out = frame.copy()
     h, w = out.shape[:2]
     left, top, block, tall = _STRIP
     bits = [1, 0] + [(index >> (BITS - 1 - k)) & 1 for k in range(BITS)]
     for k, bit in enumerate(bits):
         x0, x1 = round((left + k * block) * w), round((left + (k + 1) * block) * w)
-        out[round(top * h) : round((top + tall) * h), x0:x1] = 250 if bit else 10
+        out[round(top * h) : round((top + tall) * h), x0:x1] = high if bit else low
     return out
 
 
