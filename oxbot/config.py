@@ -482,7 +482,7 @@ class WebConfig:
     max_json_depth: int = 16
     """oxbot: deepest nesting of a message's JSON, checked before parsing (messages are 1 deep)."""
     https: str = "auto"
-    """oxbot (issue 17): serve the page over HTTPS with a self-signed certificate made on first
+    """oxbot: (issue 17) serve the page over HTTPS with a self-signed certificate made on first
     start ("on"), or plain HTTP ("off"); "auto" is on when `host` is not a loopback address,
     since browsers give the camera only to secure pages off localhost."""
     allowed_origins: str = ""

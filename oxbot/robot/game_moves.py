@@ -13,7 +13,8 @@ impossible ones. A frame without a readable board (a camera's) is diagnosed
 (`oxbot.perception.guidance`: too dark, blurred, a hand in the way, the sheet out of the
 picture): BoardSeen's `refusal` says what to do at once, and once the board has stayed
 unreadable for `guidance_seconds` a BoardProblem of the guidance's kind says it again, once
-per kind until the board is read again, for the robot to say out loud. Listens
+per kind every GUIDANCE_REPEAT_SECONDS until the board is read again, for the robot to say out
+loud. Listens
 to ArmCommand, because the tracker must know the robot's own drawings before they appear, and
 to NewGame, which starts a clean sheet.
 """
@@ -57,6 +58,10 @@ def encode_cells(cells: np.ndarray) -> tuple[bytes, ...]:
     """The classifier's 40x40 crops as PNGs, for a page to show."""
     return tuple(cv2.imencode(".png", cell)[1].tobytes() for cell in cells)
 
+
+GUIDANCE_REPEAT_SECONDS = 10.0
+"""oxbot: a board still unreadable for the same reason is told again after this long (the
+robot may have been talking, or the person not listening, the first time)."""
 
 Read = tuple[BoardReading | None, tuple[bytes, ...], Guidance | None, tuple[float, ...]]
 """One frame's reading, crops, guidance (None: the board was read) and grid (BoardSeen.grid)."""
@@ -140,7 +145,7 @@ class GameMoveComponent(Component):
         # (the page's camera after its canvas) has another picture
         self._corners: tuple[np.ndarray, tuple[int, ...]] | None = None
         self._refused = 0  # readings in a row without a board
-        self._told: set[str] = set()  # guidance kinds said since the board was last read
+        self._told: dict[str, float] = {}  # guidance kind -> when told, in refused seconds
 
     @property
     def off(self) -> bool:
@@ -166,7 +171,7 @@ class GameMoveComponent(Component):
                 self._cached = None
             self.tracker = MoveTracker(message.robot_starts, self.config)
             self._last_seen = None
-            self._refused, self._told = 0, set()
+            self._refused, self._told = 0, {}
 
     def tick(self) -> None:
         current = self._next_frame()
@@ -210,15 +215,18 @@ class GameMoveComponent(Component):
     def _guide(self, guidance: Guidance | None, frame: np.ndarray, grid: tuple) -> None:
         """Count the readings without a board; say why once they last `guidance_seconds`."""
         if guidance is None:
-            self._refused, self._told = 0, set()
+            self._refused, self._told = 0, {}
             corners = np.array(grid).reshape(4, 4, 2)[[0, 0, 3, 3], [0, 3, 3, 0]]
             self._corners = (corners, frame.shape[:2])
             return
         self._refused += 1
         if self._refused * self.period < self.config.guidance_seconds:
             return
-        if guidance.kind not in self._told:
-            self._told.add(guidance.kind)
+        refused = self._refused * self.period
+        # told again now and then: the robot may have been talking the first time
+        due = refused - self._told.get(guidance.kind, -GUIDANCE_REPEAT_SECONDS)
+        if due >= GUIDANCE_REPEAT_SECONDS:
+            self._told[guidance.kind] = refused
             log.info("cannot see the board: %s", guidance.text)
             self.bus.publish(BoardProblem(reason=guidance.text, kind=guidance.kind))
 
@@ -238,7 +246,7 @@ class GameMoveComponent(Component):
         # the game so far: what the tracker knows of the sheet, the last view of it
         self.tracker = copy.deepcopy(old.tracker)
         self.reader, self._off, self._last_seen = old.reader, old._off, old._last_seen
-        self._corners, self._refused, self._told = old._corners, old._refused, set(old._told)
+        self._corners, self._refused, self._told = old._corners, old._refused, dict(old._told)
         with old._lock:
             self._latest, self._version = old._latest, old._version
 

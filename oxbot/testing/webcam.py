@@ -46,7 +46,9 @@ STYLE = dataclasses.replace(
     blur_sigma=(0.3, 0.3),
     jpeg_quality=(90, 90),
     pen_width=(0.045, 0.05),
-    hand=dataclasses.replace(HandStyle(), symbol_size=(0.55, 0.65), symbol_offset=0.05),
+    hand=dataclasses.replace(
+        HandStyle(), symbols="sketch", symbol_size=(0.55, 0.65), symbol_offset=0.05
+    ),
 )
 """A tidy sheet under a steady camera: the tuning style of the board reader, upright (the grid
 finder for tilted photos is another issue's), so that every frame of the sheet is readable."""
