@@ -171,6 +171,7 @@ def play_on_paper(page: Page, video: PaperVideo, watcher: BusWatcher) -> None:
     # the grid in view: found, drawn over the video, guidance gone
     page.wait_for_function("window.oxbot.paper.grid !== null", timeout=10_000)
     assert page.get_by_test_id("guidance").is_hidden()
+    page.get_by_test_id("problem").wait_for(state="hidden", timeout=2_000)
 
     page.wait_for_function("window.oxbot.ended", timeout=90_000)
     page.wait_for_timeout(300)

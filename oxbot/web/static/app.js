@@ -235,6 +235,7 @@ const handlers = {
   GameState(d) { state.board = d.board || []; drawPaperMoves(); },
   BoardProblem(d) {
     showProblem(d.reason); addNote(d.reason);
+    if (GUIDANCE_KINDS.includes(d.kind)) { paper.guiding = true; return; }  // nothing to wipe
     // paper does not forget, but a page can: wipe the impossible ink (the strokes not yet
     // accepted, and the one under the pen) after a moment, so play can go on
     const wiped = new Set([...state.pending, state.drawing].filter(Boolean));
@@ -657,10 +658,11 @@ function showDecision(d) {
 // draw them for it, or leave them on the screen.
 const PAPER_PERIOD_MS = FRAME_PERIOD_MS, PAPER_SLOWEST_MS = 1000;
 const CELL_PX = 60, MIN_SEND_WIDTH = 320, MAX_SEND_WIDTH = 960, JPEG_QUALITY = 0.8;
+const GUIDANCE_KINDS = ["no_grid", "off_edge", "too_close", "too_dark", "blurred", "hand"];
 const BACKLOG_BYTES = 64 * 1024;   // more unsent than this: the link is slower than the frames
 const paper = {
   on: false, stream: null, deviceId: "", width: 480, period: PAPER_PERIOD_MS, lastSent: 0,
-  grid: null, seen: null, timer: null,
+  grid: null, seen: null, timer: null, guiding: false,
   stats: { sent: [], skipped: 0, opened: 0, errors: [] },
 };
 state.paper = paper;
@@ -790,6 +792,7 @@ function seenOnPaper(d) {
   }
   const guide = $("guidance");
   guide.hidden = !d.refusal; guide.textContent = d.refusal || "";
+  if (!d.refusal && paper.guiding) { paper.guiding = false; showProblem(""); }  // seen again
   drawPaperOverlay();
 }
 
