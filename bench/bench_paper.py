@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/bench_paper.py               # 2 games in Chromium, 640x480 video
     .venv/bin/python bench/bench_paper.py --games 4 --size 1280x720
+    .venv/bin/python bench/bench_paper.py --strokes     # how slow a circle may be drawn
 
 Issue 17's target: ≤ 0.6 s median with 640x480 video. A whole game is played in Debian's
 Chromium on a rendered sheet that its fake webcam films (`oxbot.testing.webcam`: symbols drawn
@@ -14,6 +15,11 @@ robot. For each of the person's moves:
   that frame (the video's own clock: frame k at t0 + k/fps, t0 from the earliest grabs);
 - *the robot's answer*: its next dialogue act shown in the page (the decision: "I take the
   ..."), and the start of its speech (SpeakingStarted, the synthesised audio arriving).
+
+`--strokes` measures instead, without a browser, when the tracker accepts a circle drawn over
+0.5-3 s, read once per video frame at the page's send width: the frames after (or, negative,
+before) the one completing the stroke, with the ink of the stillness check measured as the
+component does (each cell's fixed square) and as it did before (the classifier's crops).
 
 The robot's speech runs `--speed` times faster than real time, which shortens nothing measured
 here but the waits between moves. Prints medians; not a test.
@@ -131,12 +137,47 @@ def play(video: PaperVideo, y4m: Path, speed: float) -> dict[str, list[float]]:
     return out
 
 
+def stroke_table(width: int = 354) -> None:
+    """When a circle drawn at various speeds is accepted, relative to its last frame."""
+    import cv2
+
+    from oxbot.perception.board import default_reader
+    from oxbot.perception.tracker import AcceptedDrawing, MoveTracker
+    from oxbot.robot.game_moves import still_readings
+
+    print("circle drawn over: accepted N frames after its stroke ended (3 sheets each)")
+    for seconds in (0.5, 0.8, 1.2, 1.6, 2.0, 3.0):
+        row = {"fixed squares": [], "crops": []}
+        for seed in (1, 2, 3):
+            video = PaperVideo(seed=seed)
+            video.hold(0.3)
+            symbol = video.draw("middle", "circle", stroke_seconds=seconds)
+            video.hold(0.5)
+            frames = [
+                cv2.resize(f, (width, width * 3 // 4), interpolation=cv2.INTER_AREA)
+                for f in video.frames()
+            ]
+            readings = [default_reader().read(f) for f in frames]
+            for name, ink in (("fixed squares", still_readings), ("crops", None)):
+                tracker = MoveTracker(robot_starts=False)
+                for k, r in enumerate(readings):
+                    event = tracker.update(r.labels, ink(r) if ink else r.readings)
+                    if isinstance(event, AcceptedDrawing):
+                        row[name].append(k - symbol.complete_frame)
+                        break
+        print(f"  {seconds:3.1f} s: " + "   ".join(f"{n} {v}" for n, v in row.items()))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--games", type=int, default=2)
     parser.add_argument("--size", default="640x480", help="the fake webcam's video size")
     parser.add_argument("--speed", type=float, default=8.0)
+    parser.add_argument("--strokes", action="store_true", help="the slow-stroke table only")
     args = parser.parse_args()
+    if args.strokes:
+        stroke_table()
+        return
     size = tuple(int(v) for v in args.size.split("x"))
     results: dict[str, list[float]] = {}
     with tempfile.TemporaryDirectory() as folder:
