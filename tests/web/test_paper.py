@@ -251,11 +251,14 @@ def test_camera_troubles_are_told_once_and_the_game_goes_on_on_the_canvas(game_v
             assert page.get_by_test_id("board").is_visible()
             assert page.evaluate("window.oxbot.paper.stats.errors") == ["denied"]
 
-            # the camera stops mid-game: told, and the next move is drawn on the canvas
+            # the camera stops mid-game, after a move on paper: told, and the game goes on on
+            # the canvas, which shows the move made on paper
             page = context.new_page()
             start_game(page, url)
             page.get_by_test_id("paper").click()
-            page.wait_for_function("window.oxbot.paper.stats.sent.length > 3", timeout=10_000)
+            page.wait_for_function("window.oxbot.stats.moves.length > 0", timeout=20_000)
+            assert page.evaluate("window.oxbot.stats.moves[0].where") == "middle"
+            wait_for_act(page, "Request(userGameMove)", after=len(log_items(page)) - 1)
             page.evaluate(
                 "oxbot.paper.stream.getVideoTracks()[0].dispatchEvent(new Event('ended'))"
             )  # what Chromium fires when a camera is unplugged
@@ -265,10 +268,13 @@ def test_camera_troubles_are_told_once_and_the_game_goes_on_on_the_canvas(game_v
             assert "canvas" in message.inner_text()
             assert page.get_by_test_id("board").is_visible()
             assert page.get_by_test_id("paper").get_attribute("aria-pressed") == "false"
-            draw(page, "middle", "circle", np.random.default_rng(5))
-            page.wait_for_function("window.oxbot.stats.moves.length > 0", timeout=10_000)
-            move = page.evaluate("window.oxbot.stats.moves[0]")
-            assert (move["who"], move["where"]) == ("usr", "middle")
+            assert page.evaluate("[...oxbot.paperDrawn]") == ["middle"]
+            robots = [a[len(MOVE) : -1] for s, a, _ in log_items(page) if s == "sys" and MOVE in a]
+            free = next(c for c in ("upperleft", "upperright", "lowerleft") if c not in robots)
+            draw(page, free, "circle", np.random.default_rng(5))
+            page.wait_for_function("window.oxbot.stats.moves.length > 1", timeout=10_000)
+            move = page.evaluate("window.oxbot.stats.moves.at(-1)")
+            assert (move["who"], move["where"]) == ("usr", free)
             assert page.evaluate("window.oxbot.paper.stats.errors") == ["stopped"]
             page.screenshot(path=ARTIFACTS / "paper-03-camera-stopped.png", full_page=True)
 

@@ -24,6 +24,7 @@ const state = {
            acts: [], speaking: [] },
   board: [],             // the board as the robot's manager last announced it (GameState)
   robotStrokes: {},      // cell -> the arm's strokes there (unit square), for paper's overlay
+  paperDrawn: new Set(), // cells whose paper move is drawn on the canvas's overlay
 };
 window.oxbot = state;     // for tests and the curious: the page's state
 
@@ -180,7 +181,7 @@ function startOrNewGame() {
 function resetSheet() {
   state.grid = newGrid(); state.committed = []; state.pending = []; state.drawing = null;
   state.robotCells = new Set(); state.lastSeen = null; showCells(null);
-  state.robotStrokes = {}; state.board = []; state.paperDrawn = new Set();
+  state.robotStrokes = {}; state.board = []; state.paperDrawn = new Set(); paper.moves.clear();
   drawPaperOverlay(); $("paper-hint").hidden = true;
   state.ended = false; octx.clearRect(0, 0, SIDE, SIDE); redrawSheet();
   showProblem(""); $("turn").textContent = ""; enableAnswers(!!state.hello);
@@ -232,7 +233,7 @@ const handlers = {
   },
   ArmDone() {},
   BoardSeen(d) { showSeen(d); if (paper.on) seenOnPaper(d); },
-  GameState(d) { state.board = d.board || []; drawPaperMoves(); },
+  GameState(d) { state.board = d.board || []; },
   BoardProblem(d) {
     showProblem(d.reason); addNote(d.reason);
     if (GUIDANCE_KINDS.includes(d.kind)) { paper.guiding = true; return; }  // nothing to wipe
@@ -248,6 +249,7 @@ const handlers = {
   GameMove(d) {
     state.stats.moves.push({ ...d, at: performance.now() });
     if (d.who === "usr") {
+      if (paper.on) paper.moves.add(d.where);   // drawn on paper, not on the canvas
       state.committed.push(...state.pending); state.pending = [];
       showProblem(""); $("turn").textContent = "";
     }
@@ -663,6 +665,7 @@ const BACKLOG_BYTES = 64 * 1024;   // more unsent than this: the link is slower 
 const paper = {
   on: false, stream: null, deviceId: "", width: 480, period: PAPER_PERIOD_MS, lastSent: 0,
   grid: null, seen: null, timer: null, guiding: false,
+  moves: new Set(),      // the person's moves accepted while in paper mode (cell names)
   stats: { sent: [], skipped: 0, opened: 0, errors: [] },
 };
 state.paper = paper;
@@ -869,17 +872,17 @@ function showPaperHint(act) {
 function drawPaperMoves() {
   // the person's moves made on paper, shown on the canvas's overlay (never sent: the robot
   // already knows them) when the game goes on on the canvas
-  if (paper.on || !state.hello || !state.board.length) return;
-  const names = state.hello.cells, user = state.hello.user_symbol;
-  state.board.forEach((who, i) => {
-    if (who !== 2 || state.paperDrawn && state.paperDrawn.has(i)) return;
-    const box = cellBox(names[i]); if (!box) return;
+  if (paper.on || !state.hello) return;
+  const user = state.hello.user_symbol;
+  paper.moves.forEach((where) => {
+    if (state.paperDrawn.has(where)) return;
+    const box = cellBox(where); if (!box) return;
     const [l, t, r, b] = box, cx = (l + r) / 2, cy = (t + b) / 2, q = (r - l) * 0.28;
     octx.strokeStyle = "#64748b"; octx.lineWidth = PEN_WIDTH; octx.lineCap = "round"; octx.beginPath();
     if (user === "circle") octx.arc(cx, cy, q, 0, 2 * Math.PI);
     else { octx.moveTo(cx - q, cy - q); octx.lineTo(cx + q, cy + q); octx.moveTo(cx + q, cy - q); octx.lineTo(cx - q, cy + q); }
     octx.stroke();
-    (state.paperDrawn = state.paperDrawn || new Set()).add(i);
+    state.paperDrawn.add(where);
   });
 }
 
