@@ -433,12 +433,20 @@ def play(
         float | None,
         typer.Option(help="Run speech, the arm and the waits this much faster (default: 1)."),
     ] = None,
+    https: Annotated[
+        bool | None,
+        typer.Option(
+            "--https/--http",
+            help="Web page: HTTPS with a self-signed certificate, so that a phone's browser "
+            "lends the page its camera (default: HTTPS when --host is not a loopback address).",
+        ),
+    ] = None,
 ) -> None:
-    """Play with the whole robot: the web page at http://HOST:PORT, or --terminal."""
+    """Play with the whole robot: the web page at http(s)://HOST:PORT, or --terminal."""
     changes = {
         "game": {"robot_starts": robot_starts},
         "robot": {"speed_factor": speed},
-        "web": {"host": host, "port": port},
+        "web": {"host": host, "port": port, "https": {True: "on", False: "off"}.get(https)},
     }
     config = with_overrides(
         _config(ctx),
@@ -457,7 +465,7 @@ def play(
         return
     from oxbot.web.server import serve
 
-    serve(config)
+    serve(config, announce=typer.echo)
 
 
 # --- reproducing the paper: oxbot reproduce (issue 8) ---

@@ -445,7 +445,7 @@ def run_robot(
             else:
                 from oxbot.web.server import serve
 
-                serve(config, robot_factory=lambda: RemoteRobot(bus, config))
+                serve(config, announce=print, robot_factory=lambda: RemoteRobot(bus, config))
     finally:
         if launcher is not None:
             launcher.stop()
