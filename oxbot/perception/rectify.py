@@ -18,8 +18,10 @@ from oxbot.perception.cells import SHEET_CELL
 from oxbot.perception.grid import Grid
 
 
-def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
+def rectify(image: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
     """The grid seen from straight above: uint8 (SIZE*cell + 2*border,) * 2, paper evened out.
+
+    `image` is the frame, gray (H, W) or RGB (H, W, 3); colour is made gray by `ink_gray`.
 
     Each cell's quadrilateral is warped to a `cell` x `cell` square on its own; neighbouring
     cells share their edges, so the sheet is continuous across the grid lines. `border` > 0
@@ -27,6 +29,7 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 
     `border / cell` of the outer cells' sides), so that a symbol that sticks out of an outer
     cell is on the sheet whole.
     """
+    gray = ink_gray(image, grid) if image.ndim == 3 else image
     lattice = grid.lattice
     frame_cell = grid.cell_size()
     shrink = frame_cell > 1.6 * cell  # shrink first: a perspective warp does not average pixels
@@ -59,6 +62,24 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 
                 borderMode=cv2.BORDER_REPLICATE,
             )
     return even_out_light(sheet)
+
+
+def ink_gray(image: np.ndarray, grid: Grid) -> np.ndarray:
+    """An RGB frame as gray in which ink of any colour is dark: each channel scaled so that the
+    paper around the grid is equally light in all three, then the darkest channel kept. A blue
+    or green marker, faint in plain gray, is dark in the channel it absorbs; the paper's own
+    tint (cream, a bluish whiteboard) is divided out first so that it does not darken."""
+    h, w = image.shape[:2]
+    (x0, y0), (x1, y1) = grid.corners().min(axis=0), grid.corners().max(axis=0)
+    x0, x1 = int(np.clip(x0, 0, w - 1)), int(np.clip(x1, 1, w))
+    y0, y1 = int(np.clip(y0, 0, h - 1)), int(np.clip(y1, 1, h))
+    step = max(1, round(math.sqrt((x1 - x0) * (y1 - y0) / 4000)))  # a few thousand pixels
+    sample = image[y0:y1:step, x0:x1:step].reshape(-1, 3)
+    paper = np.percentile(sample, 90, axis=0) if len(sample) else np.full(3, 255.0)
+    gains = 255.0 / np.maximum(paper, 16.0)
+    gains /= gains.max()  # the brightest channel kept as it is: nothing saturates
+    r, g, b = (cv2.convertScaleAbs(image[..., k], alpha=float(gains[k])) for k in range(3))
+    return cv2.min(cv2.min(r, g), b)
 
 
 def _shrink_up_to(gray: np.ndarray, f: float, reach: np.ndarray) -> np.ndarray:
