@@ -26,7 +26,12 @@ import numpy as np
 
 from oxbot.errors import NoGridFound
 from oxbot.game.board import CELL_NAMES, SIZE
-from oxbot.perception.cells import SHEET_CELL, cut_cells_around_ink, remove_grid_lines
+from oxbot.perception.cells import (
+    SHEET_CELL,
+    cut_cells_around_ink,
+    remove_grid_lines,
+    wipe_background,
+)
 from oxbot.perception.classifier import CellReading, ink_share
 from oxbot.perception.grid import Grid, as_image, find_grid
 from oxbot.perception.rectify import rectify
@@ -85,7 +90,7 @@ def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarr
     border = SHEET_CELL // 2
     sheet = rectify(image, grid, border=border)
     cleaned = remove_grid_lines(sheet, border=border)
-    cells = deepen_faint_ink(cut_cells_around_ink(cleaned, border=border))
+    cells = deepen_faint_ink(wipe_background(cut_cells_around_ink(cleaned, border=border)))
     return cells, grid, sheet, cleaned
 
 

@@ -2,28 +2,32 @@
 
 Paper §3.1 "Game Move Recognition": grayscale → remove the grid → split into 9 images. The
 paper's arm camera saw a fixed grid from a fixed pose; here the grid may be anywhere in view,
-rotated up to ±15° and under mild perspective (SPEC §2), so it is found first:
+turned up to 45° (issue 15; SPEC §2 asks for ±15°) and in perspective, so it is found first:
 
-1. *Ink*: pixels clearly darker than the paper around them (a morphological closing estimates
-   the paper), on a copy of the frame at most `WORK_SIDE` pixels wide, shrunk so that thin
-   pen lines stay dark. Desk edges, shadows and lighting gradients are not thin and dark.
-2. *Lines*: the Hough transform proposes straight lines within 27° of horizontal or
-   vertical (the grid turns at most 15°), each family voted for only by ink whose stroke
-   runs its way, so that circles and crosses cannot crowd out the grid's lines; the grid
-   is a pair of near-parallel lines and a crossing pair whose ink runs along all four,
-   across the whole grid. Hand-drawn lines wobble, overshoot or stop short; the check asks
-   for ink along most of each line, and along most of its stretch beside the middle cell.
-3. *Fit*: each of the four lines is refitted to the ink near it, and each crossing to the
-   ink within a third of a cell of it, three times over, each time looking along the lines
-   through the last crossings (a hand-drawn line bends). The four crossings and one more
-   cell along each line give a 4x4 lattice of cell corners (`Grid`), in *cell units* (inner
-   lines at 1 and 2, cells filling [0, 3]²).
+1. *Ink*: pixels clearly darker than the paper around them in any colour channel (a
+   morphological closing estimates the paper), on a copy of the frame at most `WORK_SIDE`
+   pixels wide, shrunk so that thin pen lines stay dark. A thin blue or green marker line,
+   faint in gray, is dark in the channel it absorbs. Desk edges, shadows and lighting
+   gradients are not thin and dark.
+2. *Lines*: the Hough transform proposes straight lines in six bands of direction, each band
+   voted for only by ink whose stroke runs its way, so that circles and crosses cannot crowd
+   out the grid's lines; the grid is a pair of near-parallel lines and a pair crossing it near
+   a right angle, whichever way they are turned, whose ink runs along all four, across the
+   whole grid. Hand-drawn lines wobble, overshoot or stop short; the check asks for ink along
+   most of each line, and along most of its stretch beside the middle cell.
+3. *Fit*: each of the four lines is refitted to the ink near it that runs its way, and each
+   crossing to such ink within a third of a cell of it, three times over, each time looking
+   along the lines through the last crossings (a hand-drawn line bends). The four crossings
+   and one more cell along each line give a 4x4 lattice of cell corners (`Grid`), in *cell
+   units* (inner lines at 1 and 2, cells filling [0, 3]²). Of the pairs, the one nearer the
+   frame's vertical holds the columns.
 
-This module owns the frame's check (`as_gray`), the search (`find_grid`) and its result
-(`Grid`). `NoGridFound` is raised rather than a guess when no such four lines exist (a blank
-sheet, an empty desk) or when the grid runs off the frame. What follows the search is
-`rectify.py` (the grid seen from straight above) and `cells.py` (the grid lines painted over,
-nine 40x40 cells cut).
+This module owns the frame's check (`as_image`, `as_gray`), the search (`find_grid`) and its
+result (`Grid`). `NoGridFound` is raised rather than a guess when no such four lines exist (a
+blank sheet, an empty desk). A grid cut by the frame's edge is found as long as its four lines
+are; `Grid.in_view` says which cells are too far out of the frame to read. What follows the
+search is `rectify.py` (the grid seen from straight above) and `cells.py` (the grid lines
+painted over, nine 40x40 cells cut).
 """
 
 from __future__ import annotations
