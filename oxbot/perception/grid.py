@@ -61,9 +61,11 @@ _BAND_HALF = 16  # degrees either side of a band's direction its lines may run
 _BANDS = (0, 30, 60, 90, 120, 150)  # directions (degrees, 0 along x) lines are sought in
 _MAX_HOUGH = 200  # strongest Hough lines looked at (they come sorted by votes)
 _FINALISTS = 2  # best quadruples refitted to the ink before the final choice
-_MAX_GRIDS = 12  # quadruples of lines checked against the ink, best voted first
+_MAX_GRIDS = 40  # quadruples of lines checked against the ink, best voted first
 _PARALLEL = math.radians(12)  # the two lines of a pair differ by at most this angle
 _CROSSING = math.radians(30)  # the two pairs cross at 90° give or take this angle
+_MIN_IN_VIEW = 0.6  # least share of a line's length across the grid that must be in the frame
+_MIN_MIDDLE_IN_VIEW = 0.9  # the same for its stretch along the middle cell
 _MIN_SUPPORT = 0.35  # least share of a line's length across the grid that must be inked
 _MIN_MEAN_SUPPORT = 0.6  # least mean share over the four lines
 _MIN_MIDDLE_SUPPORT = 0.75  # least share of a line's stretch along the middle cell
@@ -504,7 +506,8 @@ def _line_support(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each of a stack of lattices (C, 4, 4, 2): the share of each of its four lines along
     which ink is found (C, 4), the same along the middle cell only (C, 4), and how close to
-    the lines the ink lies, 0-1 (C,). Only ink whose stroke runs the line's way counts: a line
+    the lines the ink lies, 0-1 (C,), all over the lines' stretches in the frame. Only ink
+    whose stroke runs the line's way counts: a line
     through a symbol crosses its strokes. (All candidates at once: numpy's cost per call,
     not per point, dominates.)"""
     ink = strokes.mask
@@ -529,18 +532,33 @@ def _line_support(
     )
     closeness = (hit * _CLOSENESS).max(axis=3)
     inked = hit.any(axis=3)
+    # A grid may run off the frame: only the stretches of line in view are judged (the ink
+    # mask is blank within 2 px of the frame's edge), as long as most of each line is.
+    centre = len(_ACROSS) // 2
+    cx, cy = x[..., centre], y[..., centre]
+    seen = (cx >= 2) & (cx < w - 2) & (cy >= 2) & (cy < h - 2)
+    in_view = seen.mean(axis=2)
+    middle_in_view = seen[:, :, _MIDDLE].mean(axis=2)
+    enough = (in_view >= _MIN_IN_VIEW) & (middle_in_view >= _MIN_MIDDLE_IN_VIEW)
+    support = np.where(enough, inked.sum(axis=2) / np.maximum(seen.sum(axis=2), 1), 0.0)
+    middle_support = np.where(
+        enough,
+        inked[:, :, _MIDDLE].sum(axis=2) / np.maximum(seen[:, :, _MIDDLE].sum(axis=2), 1),
+        0.0,
+    )
     # Half from the middle stretch, which every grid has: ink beyond the crossings may be a
     # symbol's as well as the line's, which may stop short there. (Summed one lattice at a
     # time: a sum over several axes adds in another order, and candidates that tie must
     # still tie.)
     middle, beyond = closeness[:, :, _MIDDLE], closeness[:, :, ~_MIDDLE]
+    seen_middle, seen_beyond = seen[:, :, _MIDDLE], seen[:, :, ~_MIDDLE]
     score = np.array(
         [
-            0.5 * (m.sum() / m.size) + 0.5 * (b.sum() / b.size)
-            for m, b in zip(middle, beyond, strict=True)
+            0.5 * (m.sum() / max(sm.sum(), 1)) + 0.5 * (b.sum() / max(sb.sum(), 1))
+            for m, b, sm, sb in zip(middle, beyond, seen_middle, seen_beyond, strict=True)
         ]
     )
-    return inked.mean(axis=2), inked[:, :, _MIDDLE].mean(axis=2), score
+    return support, middle_support, score
 
 
 @dataclass(frozen=True)
