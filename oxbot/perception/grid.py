@@ -803,9 +803,11 @@ def _principal_axis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     return mean, centered, np.array([-math.sin(along), math.cos(along)])
 
 
-IN_VIEW = 0.75
+IN_VIEW = 0.5
 """A cell is read when this share of its middle (the square from 0.2 to 0.8 of its sides,
-where a symbol is drawn) lies in the frame; further out it is reported out of view."""
+where a symbol is drawn) lies in the frame; further out it is reported out of view. Half, not
+more: the outer cells are extrapolated one middle cell along the lines, and may reach a
+third of a cell further out than drawn, under perspective most of all."""
 _MIDDLE_SAMPLES = np.linspace(0.2, 0.8, 7)
 
 
