@@ -22,7 +22,8 @@ turned up to 45° (issue 15; SPEC §2 asks for ±15°) and in perspective, so it
    units* (inner lines at 1 and 2, cells filling [0, 3]²). Of the pairs, the one nearer the
    frame's vertical holds the columns.
 
-This module owns the frame's check (`as_image`, `as_gray`), the search (`find_grid`) and its
+This module owns the frame's check (`as_image`, `as_gray`), colour made gray for reading the
+cells (`darkest_channel`), the search (`find_grid`) and its
 result (`Grid`). `NoGridFound` is raised rather than a guess when no such four lines exist (a
 blank sheet, an empty desk). A grid cut by the frame's edge is found as long as its four lines
 are; `Grid.in_view` says which cells are too far out of the frame to read. What follows the
@@ -162,10 +163,28 @@ def as_image(frame: object) -> np.ndarray:
     return np.ascontiguousarray(frame)
 
 
+def darkest_channel(image: np.ndarray, paper_region: np.ndarray | None = None) -> np.ndarray:
+    """An RGB image as gray in which ink of any colour is dark: each channel scaled so that the
+    paper (the brightest tenth of `paper_region`, by default the whole image) is equally light
+    in all three, then the darkest channel kept. A blue or green marker, faint in plain gray,
+    is dark in the channel it absorbs; the paper's own tint (cream, a bluish whiteboard) is
+    divided out first so that it does not darken."""
+    region = image if paper_region is None else paper_region
+    h, w = region.shape[:2]
+    step = max(1, round(math.sqrt(h * w / 4000)))  # a few thousand pixels
+    sample = region[::step, ::step].reshape(-1, 3)
+    paper = np.percentile(sample, 90, axis=0) if len(sample) else np.full(3, 255.0)
+    gains = 255.0 / np.maximum(paper, 16.0)
+    gains /= gains.max()  # the brightest channel kept as it is: nothing saturates
+    r, g, b = (cv2.convertScaleAbs(image[..., k], alpha=float(gains[k])) for k in range(3))
+    return cv2.min(cv2.min(r, g), b)
+
+
 def _ink_mask(image: np.ndarray, kernel: int = 7) -> tuple[np.ndarray, np.ndarray]:
     """uint8 mask (0/255) of thin dark strokes, pixels well below the paper's closing in any
     colour channel; and float32 darkness, the largest share of the paper's light a pixel
-    takes away in one channel (0 paper, 1 black), whose structure gives strokes' directions."""
+    takes away in one channel (0 paper, 1 black), whose structure gives strokes' directions.
+    Each channel against its own paper: a tinted sheet on a desk of another colour."""
     smooth = cv2.GaussianBlur(image, (3, 3), 0)
     paper = cv2.morphologyEx(smooth, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
     darker = cv2.subtract(paper, smooth).astype(np.float32)
@@ -372,11 +391,14 @@ def _best_grid(
     # so many of them, so that a cluttered sheet cannot blow the time budget.
     total = votes[va[p]] + votes[vb[p]] + votes[ha[q]] + votes[hb[q]]
     tried = np.argsort(-total, kind="stable")[:_MAX_GRIDS]
+    tried_fours = [
+        _order((lines[va[p[k]]], lines[vb[p[k]]]), (lines[ha[q[k]]], lines[hb[q[k]]]))
+        for k in tried
+    ]
     fours, lattices, totals = [], [], []
-    for k in tried:
-        pair = (lines[va[p[k]]], lines[vb[p[k]]])
-        four = _order(pair, (lines[ha[q[k]]], lines[hb[q[k]]]))
-        lattice = _lattice(*four, min_side=0.8 * min_spacing)
+    for k, four, lattice in zip(
+        tried, tried_fours, _lattices(tried_fours, 0.8 * min_spacing), strict=True
+    ):
         if lattice is not None:
             fours.append(four)
             lattices.append(lattice)
@@ -445,6 +467,42 @@ def _lattice(
     if sides.min() < min_side or not ((ratios > _RATIO_LOW) & (ratios < _RATIO_HIGH)).all():
         return None
     return _extend(inner)
+
+
+def _lattices(fours: list[Four], min_side: float) -> list[np.ndarray | None]:
+    """`_lattice` of each of many quadruples of lines at once (numpy's cost per call, not per
+    quadruple, dominates the candidates' checks)."""
+    if not fours:
+        return []
+    rho, theta = np.moveaxis(np.array(fours, np.float64), -1, 0)  # (C, 4) each
+    c, s = np.cos(theta), np.sin(theta)
+
+    def crossing(v: int, hz: int) -> np.ndarray:  # (C, 2); nan for parallel lines
+        det = c[:, v] * s[:, hz] - s[:, v] * c[:, hz]
+        det = np.where(np.abs(det) < 1e-6, np.nan, det)
+        x = (rho[:, v] * s[:, hz] - rho[:, hz] * s[:, v]) / det
+        y = (c[:, v] * rho[:, hz] - c[:, hz] * rho[:, v]) / det
+        return np.stack([x, y], axis=1)
+
+    # Left 0, right 1, top 2, bottom 3: crossings a, b (top), c, d (bottom), as `_lattice`.
+    a, b, cc, d = crossing(0, 2), crossing(1, 2), crossing(0, 3), crossing(1, 3)
+    middle = np.stack([a, b, d, cc], axis=1)  # clockwise (C, 4, 2)
+    edges = np.roll(middle, -1, axis=1) - middle
+    turns = (
+        edges[:, :, 0] * np.roll(edges, -1, axis=1)[:, :, 1]
+        - edges[:, :, 1] * np.roll(edges, -1, axis=1)[:, :, 0]
+    )
+    with np.errstate(invalid="ignore"):
+        convex = (turns > 0).all(axis=1) | (turns < 0).all(axis=1)
+        sides = np.sqrt(((middle - middle[:, [3, 0, 1, 2]]) ** 2).sum(axis=2))
+        ratios = sides[:, [0, 1, 0]] / sides[:, [2, 3, 1]]
+        ok = (
+            np.isfinite(middle).all(axis=(1, 2))
+            & convex
+            & (sides.min(axis=1) >= min_side)
+            & ((ratios > _RATIO_LOW) & (ratios < _RATIO_HIGH)).all(axis=1)
+        )
+    return [_extend([a[k], b[k], cc[k], d[k]]) if ok[k] else None for k in range(len(fours))]
 
 
 _RATIO_LOW = np.array([0.6, 0.6, 0.5], np.float32)

@@ -15,7 +15,7 @@ import numpy as np
 
 from oxbot.game.board import SIZE
 from oxbot.perception.cells import SHEET_CELL
-from oxbot.perception.grid import Grid
+from oxbot.perception.grid import Grid, darkest_channel
 
 
 def rectify(image: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
@@ -65,21 +65,13 @@ def rectify(image: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int =
 
 
 def ink_gray(image: np.ndarray, grid: Grid) -> np.ndarray:
-    """An RGB frame as gray in which ink of any colour is dark: each channel scaled so that the
-    paper around the grid is equally light in all three, then the darkest channel kept. A blue
-    or green marker, faint in plain gray, is dark in the channel it absorbs; the paper's own
-    tint (cream, a bluish whiteboard) is divided out first so that it does not darken."""
+    """An RGB frame as gray in which ink of any colour is dark (`darkest_channel`), the paper's
+    tint measured around the grid."""
     h, w = image.shape[:2]
     (x0, y0), (x1, y1) = grid.corners().min(axis=0), grid.corners().max(axis=0)
     x0, x1 = int(np.clip(x0, 0, w - 1)), int(np.clip(x1, 1, w))
     y0, y1 = int(np.clip(y0, 0, h - 1)), int(np.clip(y1, 1, h))
-    step = max(1, round(math.sqrt((x1 - x0) * (y1 - y0) / 4000)))  # a few thousand pixels
-    sample = image[y0:y1:step, x0:x1:step].reshape(-1, 3)
-    paper = np.percentile(sample, 90, axis=0) if len(sample) else np.full(3, 255.0)
-    gains = 255.0 / np.maximum(paper, 16.0)
-    gains /= gains.max()  # the brightest channel kept as it is: nothing saturates
-    r, g, b = (cv2.convertScaleAbs(image[..., k], alpha=float(gains[k])) for k in range(3))
-    return cv2.min(cv2.min(r, g), b)
+    return darkest_channel(image, image[y0:y1, x0:x1])
 
 
 def _shrink_up_to(gray: np.ndarray, f: float, reach: np.ndarray) -> np.ndarray:
