@@ -289,6 +289,9 @@ def _label(image: np.ndarray, text: str, corners: np.ndarray) -> None:
     cell = float(np.ptp(corners[:, 0]))
     scale = max(0.3, cell / 260)
     (w, h), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+    # Inside the frame, also for a cell the frame's edge cuts off.
+    height, width = image.shape[:2]
     x, y = (int(v) + 3 for v in corners.min(axis=0))
+    x, y = min(max(x, 0), max(width - w - 2, 0)), min(max(y, 0), max(height - h - base - 2, 0))
     cv2.rectangle(image, (x, y), (x + w + 2, y + h + base + 2), (255, 255, 255), -1)
     cv2.putText(image, text, (x + 1, y + h + 1), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 200), 1)

@@ -230,16 +230,21 @@ def test_printed_squares_dots_and_rules_are_no_symbols():
     assert misread <= 8
 
 
-def test_a_grid_cut_by_the_frame_edge_reads_the_cells_in_view():
+def photo_cut_at_the_left() -> np.ndarray:
+    """A photo whose grid's left column lies beyond the frame's left edge (cells 80 px, the
+    grid's left edge at -50 px), with a circle drawn there and four symbols in view."""
     width, height = TUNING_STYLE.size
     style = dataclasses.replace(TUNING_STYLE, perspective=0.0)
-    # The grid's left column beyond the frame's left edge (cells 80 px, left edge at -50 px).
     center = ((-50 + 0.25 * height) / width, 0.5)
     rng = np.random.default_rng(3)
     scene = random_scene(rng, style, grid_fraction=(0.5, 0.5), center=center, rotation=0)
     for cell, label in ((3, "circle"), (4, "cross"), (5, "circle"), (8, "cross")):
         scene = scene.with_symbol(cell, label, rng)
-    photo = scene.photo(rng)
+    return scene.photo(rng)
+
+
+def test_a_grid_cut_by_the_frame_edge_reads_the_cells_in_view():
+    photo = photo_cut_at_the_left()
     reading = default_reader().read(photo)
     assert [r.label for r in reading.readings] == [
         *("unseen", "nothing", "nothing"),
@@ -248,3 +253,11 @@ def test_a_grid_cut_by_the_frame_edge_reads_the_cells_in_view():
     ]
     with pytest.raises(NoGridFound, match="upperleft, middleleft, lowerleft out of view"):
         read_board(photo)
+
+
+def test_see_says_which_cells_are_out_of_view(tmp_path):
+    path = tmp_path / "cut.png"
+    cv2.imwrite(str(path), cv2.cvtColor(photo_cut_at_the_left(), cv2.COLOR_RGB2BGR))
+    result = oxbot("see", str(path))
+    assert result.returncode == 0, result.stderr
+    assert "out of view: upperleft, middleleft, lowerleft" in result.stdout
