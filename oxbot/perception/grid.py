@@ -223,10 +223,10 @@ def find_grid(frame: np.ndarray) -> Grid:
     min_spacing = MIN_GRID_SHARE * short / SIZE
     strokes = _Strokes.of(darkness, ink)
     lines = _hough_lines(strokes, votes=max(12, int(0.6 * SIZE * min_spacing)))
-    if len(lines) < 4:
+    if len(lines) < 4 or not _any_crossing(lines):
         raise NoGridFound(
-            "no grid in view: found no long pen lines (a blank sheet or an empty desk?); "
-            "draw the 3x3 grid with a dark pen and keep all of it in the picture"
+            "no grid in view: found no long pen lines crossing (a blank sheet or an empty "
+            "desk?); draw the 3x3 grid with a dark pen and keep all of it in the picture"
         )
     center = np.array(ink.shape[::-1], np.float64) / 2
     best = _best_grid(lines, strokes, min_spacing, short / 2, center)
@@ -288,6 +288,14 @@ def _hough_lines(strokes: _Strokes, votes: int) -> list[tuple[float, float, floa
     kept.sort(key=lambda line: -line[2])
     # Neighbouring bands overlap: a line found in both is kept once, with its larger vote.
     return _distinct([list(line) for line in kept], strokes.mask.shape, _MAX_LINES)
+
+
+def _any_crossing(lines: list[tuple[float, float, float]]) -> bool:
+    """Whether any two of the lines cross near a right angle, as a grid's do. (Lines found in
+    one direction only are a desk's grain or the edge of something, not yet a grid.)"""
+    theta = np.array([line[1] for line in lines])
+    crossing = np.abs(_angle_between(theta[:, None], theta[None, :]) - math.pi / 2)
+    return bool((crossing <= _CROSSING).any())
 
 
 def _distinct(
