@@ -30,7 +30,7 @@ from oxbot.game.board import N_CELLS
 from oxbot.perception.board import BoardReader, cut_board
 from oxbot.perception.cells import CELL_SIZE
 from oxbot.perception.classifier import load_classifier
-from oxbot.perception.grid import as_gray, find_grid
+from oxbot.perception.grid import as_image, find_grid
 from oxbot.testing.render import STYLES, TUNING_VARIANTS, render_photo
 
 
@@ -76,7 +76,7 @@ def main() -> None:
         right += reading.labels == photo.labels
         cells = reading.cells
     stages = {
-        "grid finding": lambda f: find_grid(as_gray(f)),
+        "grid finding": lambda f: find_grid(as_image(f)),
         "cells (all steps)": cut_board,
         "classify 9 cells": lambda _: reader.classifier.predict(cells),
     }

@@ -8,11 +8,14 @@ Reads `bench/data/real_boards/labels.csv` (one row per photo: file, board, split
 grid fraction, the 9 cell labels row by row from the upper left, notes; see
 `bench/data/real_boards/SOURCES.md`), runs `oxbot.read_board` once on every photo found in
 `bench/data/real_boards/images/`, and prints per split: boards fully right, refusals
-(NoGridFound and any other error), cells right, empty cells read as empty, symbols right, and
-one line per photo not fully right. The photos are not in git: a missing one is skipped with a
-message saying how to restore it. A cell labelled `unreadable` (a human cannot tell what it is)
-is left out of the cell counts, and a photo with such a cell out of "fully right" (it is
-counted apart). Measurement only: nothing here tunes anything, and nobody tunes on `test`.
+(NoGridFound and any other error), cells right, empty cells read as empty, symbols right, how
+many cells hold a symbol read wrong at least as surely as the move tracker needs (`[tracker]
+min_confidence`: a camera held still on such a sheet would have the tracker take a wrong
+move), and one line per photo not fully right. The photos are not in git: a missing one is
+skipped with a message saying how to restore it. A cell labelled `unreadable` (a human cannot
+tell what it is) is left out of the cell counts, and a photo with such a cell out of "fully
+right" (it is counted apart). Measurement only: nothing here tunes anything, and nobody
+tunes on `test`.
 """
 
 from __future__ import annotations
@@ -24,8 +27,9 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from oxbot.config import TrackerConfig
 from oxbot.errors import NoGridFound
-from oxbot.perception.board import read_board
+from oxbot.perception.board import default_reader, refuse_cells_out_of_view
 from oxbot.perception.sources import load_image
 
 DATA = Path(__file__).resolve().parent / "data" / "real_boards"
@@ -50,6 +54,7 @@ class Tally:
     empty_right: int = 0
     symbols: int = 0
     symbols_right: int = 0
+    sure_wrong: int = 0  # symbols read wrong that the move tracker would take (see measure)
     seconds: float = 0.0
     failures: list[str] = field(default_factory=list)
 
@@ -79,8 +84,11 @@ def measure(row: dict[str, str], image_dir: Path, tally: Tally) -> None:
     tally.scorable += whole
     frame = load_image(path)
     started = time.perf_counter()
+    sure = TrackerConfig().min_confidence
     try:
-        got = read_board(frame)
+        reading = default_reader().read(frame)  # read_board, with the cells' confidences
+        refuse_cells_out_of_view(reading.grid)
+        got = list(reading.labels)
     except NoGridFound as err:
         tally.seconds += time.perf_counter() - started
         tally.no_grid += 1
@@ -105,6 +113,16 @@ def measure(row: dict[str, str], image_dir: Path, tally: Tally) -> None:
             tally.symbols_right += right
     if got is None:
         return
+    # A camera still on this sheet gives this reading frame after frame; the move tracker
+    # takes a new whole symbol read `sure` or surer three times running as a move. A symbol
+    # read wrong that surely is a wrong move waiting to happen.
+    tally.sure_wrong += sum(
+        1
+        for i in readable
+        if got[i] in ("circle", "cross")
+        and got[i] != truth[i]
+        and reading.readings[i].confidence >= sure
+    )
     if all(got[i] == truth[i] for i in readable):
         if whole:
             tally.fully_right += 1
@@ -128,6 +146,7 @@ def report(split: str, tally: Tally) -> None:
     print(f"  cells right            {pct(tally.cells_right, tally.cells)}  (refused: wrong)")
     print(f"  empty cells as empty   {pct(tally.empty_right, tally.empty)}")
     print(f"  symbols right          {pct(tally.symbols_right, tally.symbols)}")
+    print(f"  wrong symbols, sure    {tally.sure_wrong}  (read wrong at the tracker's confidence)")
     print(f"  mean read time         {1000 * tally.seconds / tally.photos:.1f} ms")
     for line in tally.failures:
         print(f"  FAIL {line}")

@@ -270,7 +270,7 @@ def see(
 ) -> None:
     """Print the board read from each photo of the game sheet (O circles, X crosses)."""
 
-    from oxbot.game.board import render_labels
+    from oxbot.game.board import CELL_NAMES, render_labels
     from oxbot.perception.board import default_reader, save_debug, save_refusal
     from oxbot.perception.sources import load_image
 
@@ -289,6 +289,9 @@ def see(
         typer.echo(f"{path}: {' '.join(reading.labels)}")
         typer.echo(render_labels(reading.labels))
         typer.echo(cell_confidences(reading.readings))
+        unseen = reading.grid.cells_out_of_view()
+        if unseen:  # drawn empty above: the frame's edge cuts them off
+            typer.echo(f"out of view: {', '.join(CELL_NAMES[i] for i in unseen)}")
         if debug is not None:
             written = save_debug(reading, frame, debug, path.stem)
             typer.echo(f"wrote {len(written)} images to {debug}/{path.stem}_*.png")

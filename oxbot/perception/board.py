@@ -24,12 +24,23 @@ from typing import Protocol
 import cv2
 import numpy as np
 
+from oxbot.errors import NoGridFound
 from oxbot.game.board import CELL_NAMES, SIZE
-from oxbot.perception.cells import SHEET_CELL, cut_cells_around_ink, remove_grid_lines
+from oxbot.perception.cells import (
+    SHEET_CELL,
+    cut_cells_around_ink,
+    remove_grid_lines,
+    wipe_background,
+)
 from oxbot.perception.classifier import CellReading, ink_share
-from oxbot.perception.grid import Grid, as_gray, find_grid
+from oxbot.perception.grid import Grid, as_image, find_grid
 from oxbot.perception.rectify import rectify
 from oxbot.perception.seeds import write_png
+
+OUT_OF_VIEW = "unseen"
+"""oxbot: a cell's reading when its middle is outside the frame (a grid cut by the frame's
+edge): nothing can be said of it. `BoardReading.labels` has "nothing" there, as for a cell
+under a hand: the move tracker ignores a symbol that is not seen."""
 
 SINGLE_STROKE = 15.0
 """oxbot: ink whose spread along its main axis is this many times its spread across it is one
@@ -74,12 +85,12 @@ def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarr
 
     Raises InvalidInputError for a frame that is not a photo, NoGridFound when no grid is seen.
     """
-    gray = as_gray(frame)
-    grid = find_grid(gray)
+    image = as_image(frame)
+    grid = find_grid(image)
     border = SHEET_CELL // 2
-    sheet = rectify(gray, grid, border=border)
+    sheet = rectify(image, grid, border=border)
     cleaned = remove_grid_lines(sheet, border=border)
-    cells = deepen_faint_ink(cut_cells_around_ink(cleaned, border=border))
+    cells = deepen_faint_ink(wipe_background(cut_cells_around_ink(cleaned, border=border)))
     return cells, grid, sheet, cleaned
 
 
@@ -139,7 +150,9 @@ class BoardReader:
             CellReading("partial", 1.0, r.ink) if stretched[i] and r.label != "nothing" else r
             for i, r in enumerate(readings)
         ]
-        labels = tuple(r.spec_label for r in readings)
+        for i in grid.cells_out_of_view():
+            readings[i] = CellReading(OUT_OF_VIEW, 1.0, 0.0)
+        labels = tuple("nothing" if r.label == OUT_OF_VIEW else r.spec_label for r in readings)
         return BoardReading(labels, grid, sheet, cleaned, cells, tuple(readings))
 
 
@@ -183,14 +196,30 @@ def read_board(frame: np.ndarray) -> list[str]:
     """The 9 labels of the game sheet photographed in `frame`, row-major from the upper left.
 
     `frame` is uint8 (H, W, 3) RGB or (H, W) grayscale. Raises `oxbot.errors.NoGridFound` if
-    no whole 3x3 grid is in view, and `InvalidInputError` for an array that is not a photo.
+    no 3x3 grid is in view or a cell of it is out of view (the message names the cells; a
+    grid cut by the frame's edge is read as long as every cell's middle is in view), and
+    `InvalidInputError` for an array that is not a photo.
     """
-    return list(default_reader().read(frame).labels)
+    reading = default_reader().read(frame)
+    refuse_cells_out_of_view(reading.grid)
+    return list(reading.labels)
+
+
+def refuse_cells_out_of_view(grid: Grid) -> None:
+    """NoGridFound naming the grid's cells that are out of view, if there are any."""
+    out = grid.cells_out_of_view()
+    if out:
+        names = ", ".join(CELL_NAMES[i] for i in out)
+        raise NoGridFound(
+            f"the grid runs off the edge of the picture: {names} out of view; move the camera "
+            "or the sheet so that all nine cells are in view"
+        )
 
 
 def read_cells(frame: np.ndarray) -> list[CellReading]:
     """The 9 cells' readings of the sheet in `frame`: label among circle, cross, nothing and
-    partial, calibrated confidence, ink share. Raises as `read_board`."""
+    partial (or `OUT_OF_VIEW` for a cell outside the frame), calibrated confidence, ink
+    share. Raises as `read_board`, except for cells out of view."""
     return list(default_reader().read(frame).readings)
 
 
@@ -260,6 +289,9 @@ def _label(image: np.ndarray, text: str, corners: np.ndarray) -> None:
     cell = float(np.ptp(corners[:, 0]))
     scale = max(0.3, cell / 260)
     (w, h), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+    # Inside the frame, also for a cell the frame's edge cuts off.
+    height, width = image.shape[:2]
     x, y = (int(v) + 3 for v in corners.min(axis=0))
+    x, y = min(max(x, 0), max(width - w - 2, 0)), min(max(y, 0), max(height - h - base - 2, 0))
     cv2.rectangle(image, (x, y), (x + w + 2, y + h + base + 2), (255, 255, 255), -1)
     cv2.putText(image, text, (x + 1, y + h + 1), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 200), 1)

@@ -235,3 +235,48 @@ def _is_line_piece(labels: np.ndarray, k: int, stat: np.ndarray, cell: int) -> b
         return False
     angle = abs(math.degrees(0.5 * math.atan2(2 * mu11, mu20 - mu02)))  # 0 along x
     return min(angle, abs(90 - angle)) < 25
+
+
+STRONG_INK = 150
+"""oxbot: on the evened-out sheet, pen ink is darker than this; printed squares, rules and dots
+(light lines under the drawing), paper grain and shadows are not."""
+FAINT_LEVEL = 215
+"""oxbot: in a cell without pen ink, pixels darker than this may be a faint (pencil) symbol."""
+
+
+def wipe_background(cells: np.ndarray) -> np.ndarray:
+    """Cells (N, 40, 40) with what is not the drawing painted over with paper (245).
+
+    Squared, ruled and dotted paper print light lines and dots under the drawing, which the
+    classifier, trained on plain paper, takes for symbols. What stays: pen ink
+    (`STRONG_INK`) and what lies within two pixels of it, and the pieces of fainter ink that
+    together are as wide and high as a small symbol, where printed lines (running from one side of
+    the cell to the other), meshes (filling it) and dots (a few pixels) never count.
+    """
+    out = cells.copy()
+    near = np.ones((5, 5), np.uint8)
+    side = cells.shape[1]
+    for i, cell in enumerate(cells):
+        # The classifier takes even a faint mesh of printed squares (20 grey levels) for a
+        # circle: all that is not kept goes, down to the paper's grain.
+        level = min(FAINT_LEVEL, int(np.median(cell)) - 20)  # below the cell's own paper
+        faint = (cell < level).astype(np.uint8)
+        _, labels, stats, _ = cv2.connectedComponentsWithStats(faint, connectivity=8)
+        x, y, w, h, area = stats.T
+        wide, high = (x == 0) & (x + w == side), (y == 0) & (y + h == side)
+        printed = (  # a printed line runs across the cell, a printed mesh fills it
+            (wide & (h < side / 4)) | (high & (w < side / 4)) | (wide & high & (area > side**2 / 5))
+        )
+        pieces = ~printed & (area >= 10)  # dots are smaller
+        pieces[0] = False
+        if pieces.any():
+            x0, y0 = x[pieces].min(), y[pieces].min()
+            x1, y1 = (x + w)[pieces].max(), (y + h)[pieces].max()
+            if min(x1 - x0, y1 - y0) < side / 4:  # together too small for a symbol
+                pieces[:] = False
+        keep = pieces[labels]
+        strong = (cell < STRONG_INK).astype(np.uint8)
+        if np.count_nonzero(strong) >= 8:  # pen ink stays, even where it crosses a mesh
+            keep |= cv2.dilate(strong, near) > 0
+        out[i][~keep] = 245
+    return out

@@ -2,28 +2,33 @@
 
 Paper §3.1 "Game Move Recognition": grayscale → remove the grid → split into 9 images. The
 paper's arm camera saw a fixed grid from a fixed pose; here the grid may be anywhere in view,
-rotated up to ±15° and under mild perspective (SPEC §2), so it is found first:
+turned up to 45° (issue 15; SPEC §2 asks for ±15°) and in perspective, so it is found first:
 
-1. *Ink*: pixels clearly darker than the paper around them (a morphological closing estimates
-   the paper), on a copy of the frame at most `WORK_SIDE` pixels wide, shrunk so that thin
-   pen lines stay dark. Desk edges, shadows and lighting gradients are not thin and dark.
-2. *Lines*: the Hough transform proposes straight lines within 27° of horizontal or
-   vertical (the grid turns at most 15°), each family voted for only by ink whose stroke
-   runs its way, so that circles and crosses cannot crowd out the grid's lines; the grid
-   is a pair of near-parallel lines and a crossing pair whose ink runs along all four,
-   across the whole grid. Hand-drawn lines wobble, overshoot or stop short; the check asks
-   for ink along most of each line, and along most of its stretch beside the middle cell.
-3. *Fit*: each of the four lines is refitted to the ink near it, and each crossing to the
-   ink within a third of a cell of it, three times over, each time looking along the lines
-   through the last crossings (a hand-drawn line bends). The four crossings and one more
-   cell along each line give a 4x4 lattice of cell corners (`Grid`), in *cell units* (inner
-   lines at 1 and 2, cells filling [0, 3]²).
+1. *Ink*: pixels clearly darker than the paper around them in any colour channel (a
+   morphological closing estimates the paper), on a copy of the frame at most `WORK_SIDE`
+   pixels wide, shrunk so that thin pen lines stay dark. A thin blue or green marker line,
+   faint in gray, is dark in the channel it absorbs. Desk edges, shadows and lighting
+   gradients are not thin and dark.
+2. *Lines*: the Hough transform proposes straight lines in six bands of direction, each band
+   voted for only by ink whose stroke runs its way, so that circles and crosses cannot crowd
+   out the grid's lines; the grid is a pair of near-parallel lines and a pair crossing it near
+   a right angle, whichever way they are turned, whose ink runs along all four, across the
+   whole grid. Hand-drawn lines wobble, overshoot or stop short; the check asks for ink along
+   most of each line, and along most of its stretch beside the middle cell.
+3. *Fit*: each of the four lines is refitted to the ink near it that runs its way, and each
+   crossing to such ink within a third of a cell of it, three times over, each time looking
+   along the lines through the last crossings (a hand-drawn line bends). The four crossings
+   and one more cell along each line give a 4x4 lattice of cell corners (`Grid`), in *cell
+   units* (inner lines at 1 and 2, cells filling [0, 3]²). Of the pairs, the one nearer the
+   frame's vertical holds the columns.
 
-This module owns the frame's check (`as_gray`), the search (`find_grid`) and its result
-(`Grid`). `NoGridFound` is raised rather than a guess when no such four lines exist (a blank
-sheet, an empty desk) or when the grid runs off the frame. What follows the search is
-`rectify.py` (the grid seen from straight above) and `cells.py` (the grid lines painted over,
-nine 40x40 cells cut).
+This module owns the frame's check (`as_image`, `as_gray`), colour made gray for reading the
+cells (`darkest_channel`), the search (`find_grid`) and its
+result (`Grid`). `NoGridFound` is raised rather than a guess when no such four lines exist (a
+blank sheet, an empty desk). A grid cut by the frame's edge is found as long as its four lines
+are; `Grid.in_view` says which cells are too far out of the frame to read. What follows the
+search is `rectify.py` (the grid seen from straight above) and `cells.py` (the grid lines
+painted over, nine 40x40 cells cut).
 """
 
 from __future__ import annotations
@@ -43,26 +48,31 @@ from oxbot.game.board import SIZE
 assert SIZE == 3, "grid.py finds a 3x3 grid only (two pairs of lines)"
 
 WORK_SIDE = 320
-"""Longest side, in pixels, of the copy of the frame the grid is searched in."""
+"""Longest side, in pixels, of the copy of the frame the grid is searched in at most (the
+frame is shrunk a whole number of times: 800 pixels to 267, 1280 to 320)."""
 MIN_SIDE = 64
 """Frames smaller than this on either side cannot show a readable grid."""
-MIN_GRID_SHARE = 0.18
+MIN_GRID_SHARE = 0.15
 """The grid's side must be at least this share of the frame's shorter side."""
 
 _INK_CONTRAST = 0.12  # ink is at least this much darker than the paper around it
-_MAX_LINES = 16  # distinct Hough lines considered
+_MAX_LINES = 20  # distinct Hough lines considered
+_MAX_LINES_PER_BAND = 8  # distinct Hough lines kept from one band of directions
+_BAND_HALF = 16  # degrees either side of a band's direction its lines may run
+_BANDS = (0, 30, 60, 90, 120, 150)  # directions (degrees, 0 along x) lines are sought in
 _MAX_HOUGH = 200  # strongest Hough lines looked at (they come sorted by votes)
 _FINALISTS = 2  # best quadruples refitted to the ink before the final choice
-_MAX_GRIDS = 12  # quadruples of lines checked against the ink, best voted first
-_MAX_TILT = math.radians(27)  # SPEC §2: rotation up to ±15°, plus perspective and wobble
+_MAX_GRIDS = 40  # quadruples of lines checked against the ink, best voted first
 _PARALLEL = math.radians(12)  # the two lines of a pair differ by at most this angle
 _CROSSING = math.radians(30)  # the two pairs cross at 90° give or take this angle
+_MIN_IN_VIEW = 0.6  # least share of a line's length across the grid that must be in the frame
+_MIN_MIDDLE_IN_VIEW = 0.9  # the same for its stretch along the middle cell
 _MIN_SUPPORT = 0.35  # least share of a line's length across the grid that must be inked
 _MIN_MEAN_SUPPORT = 0.6  # least mean share over the four lines
 _MIN_MIDDLE_SUPPORT = 0.75  # least share of a line's stretch along the middle cell
 _MIN_MIDDLE_SUPPORT_UNFITTED = 0.6  # the same for a Hough line, a few degrees off a wobbly one
 _AGREE = 25  # degrees: a stroke this near a line's direction runs its way
-_FAMILY_AGREE = 40  # degrees: a stroke this near horizontal (vertical) votes for such lines
+_FAMILY_AGREE = 40  # degrees: a stroke this near a band's direction votes for its lines
 _MIN_CLEARNESS = 0.3  # strokes less clear-cut than this (crossings, blobs) count either way
 _UNCLEAR = 255  # the direction of such strokes
 
@@ -86,6 +96,13 @@ class Grid:
     """float (4, 4, 2): frame pixels of the cell corners, rows top to bottom."""
     support: float
     """How closely ink follows the four lines, 0-1: how sure the finder is."""
+    in_view: tuple[bool, ...] = (True,) * (SIZE * SIZE)
+    """For each cell, row-major: whether its middle is in the frame (`IN_VIEW`), so that
+    what is drawn there can be read. A grid cut by the frame's edge has some cells False."""
+
+    def cells_out_of_view(self) -> list[int]:
+        """The cells (0-8, row-major) too far out of the frame to read."""
+        return [i for i, seen in enumerate(self.in_view) if not seen]
 
     def corners(self) -> np.ndarray:
         """(4, 2) frame pixels of the grid's outer corners, clockwise from the upper left."""
@@ -110,6 +127,16 @@ def as_gray(frame: object) -> np.ndarray:
     Accepts uint8 (H, W) grayscale and (H, W, 3) RGB, as SPEC §5 promises, and nothing else:
     other layouts are refused with the fix rather than silently guessed at.
     """
+    image = as_image(frame)
+    return cv2.cvtColor(image, cv2.COLOR_RGB2GRAY) if image.ndim == 3 else image
+
+
+def as_image(frame: object) -> np.ndarray:
+    """A frame checked as `as_gray` checks it, kept in colour: uint8 (H, W, 3) RGB or (H, W).
+
+    The grid finder and the rectifier look at each colour channel: thin blue or green marker
+    on a whiteboard is faint in gray, and clear in the channel it absorbs.
+    """
     if not isinstance(frame, np.ndarray):
         raise InvalidInputError(
             f"a frame must be a numpy array; got {type(frame).__name__} "
@@ -122,61 +149,86 @@ def as_gray(frame: object) -> np.ndarray:
             f"the frame has dtype {frame.dtype}; give uint8 pixels 0-255 "
             "(e.g. (frame * 255).astype(np.uint8) for floats in [0, 1])"
         )
-    if frame.ndim == 3 and frame.shape[2] == 3:
-        gray = cv2.cvtColor(np.ascontiguousarray(frame), cv2.COLOR_RGB2GRAY)
-    elif frame.ndim == 2:
-        gray = np.ascontiguousarray(frame)
-    else:
+    if not (frame.ndim == 2 or (frame.ndim == 3 and frame.shape[2] == 3)):
         hint = " (drop the alpha channel: frame[..., :3])" if frame.shape[-1] == 4 else ""
         raise InvalidInputError(
             f"the frame has shape {frame.shape}; give (H, W, 3) RGB or (H, W) grayscale{hint}"
         )
-    h, w = gray.shape
+    h, w = frame.shape[:2]
     if min(h, w) < MIN_SIDE:
         raise InvalidInputError(
             f"the frame is {w}x{h} pixels, too small to show a 3x3 grid; give a photo at least "
             f"{MIN_SIDE}x{MIN_SIDE} (a webcam's 640x480 is fine)"
         )
-    return gray
+    return np.ascontiguousarray(frame)
 
 
-def _ink_mask(gray: np.ndarray, kernel: int = 7) -> np.ndarray:
-    """uint8 mask (0/255) of thin dark strokes: pixels well below the paper's closing."""
-    smooth = cv2.GaussianBlur(gray, (3, 3), 0)
+def darkest_channel(image: np.ndarray, paper_region: np.ndarray | None = None) -> np.ndarray:
+    """An RGB image as gray in which ink of any colour is dark: each channel scaled so that the
+    paper (the brightest tenth of `paper_region`, by default the whole image) is equally light
+    in all three, then the darkest channel kept. A blue or green marker, faint in plain gray,
+    is dark in the channel it absorbs; the paper's own tint (cream, a bluish whiteboard) is
+    divided out first so that it does not darken."""
+    region = image if paper_region is None else paper_region
+    h, w = region.shape[:2]
+    step = max(1, round(math.sqrt(h * w / 4000)))  # a few thousand pixels
+    sample = region[::step, ::step].reshape(-1, 3)
+    paper = np.percentile(sample, 90, axis=0) if len(sample) else np.full(3, 255.0)
+    gains = 255.0 / np.maximum(paper, 16.0)
+    gains /= gains.max()  # the brightest channel kept as it is: nothing saturates
+    r, g, b = (cv2.convertScaleAbs(image[..., k], alpha=float(gains[k])) for k in range(3))
+    return cv2.min(cv2.min(r, g), b)
+
+
+def _ink_mask(image: np.ndarray, kernel: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    """uint8 mask (0/255) of thin dark strokes, pixels well below the paper's closing in any
+    colour channel; and float32 darkness, the largest share of the paper's light a pixel
+    takes away in one channel (0 paper, 1 black), whose structure gives strokes' directions.
+    Each channel against its own paper: a tinted sheet on a desk of another colour."""
+    smooth = cv2.GaussianBlur(image, (3, 3), 0)
     paper = cv2.morphologyEx(smooth, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
     darker = cv2.subtract(paper, smooth).astype(np.float32)
-    return ((darker > _INK_CONTRAST * paper.astype(np.float32)) & (darker > 12)).astype(
-        np.uint8
-    ) * 255
+    lit = paper.astype(np.float32)
+    ink = ((darker > _INK_CONTRAST * lit) & (darker > 12)).astype(np.uint8) * 255
+    darkness = darker / np.maximum(lit, 8.0)
+    if image.ndim == 3:  # OpenCV's maximum over the channels: numpy's is many times slower
+        ink = cv2.max(cv2.max(ink[..., 0], ink[..., 1]), ink[..., 2])
+        channels = cv2.split(darkness)
+        darkness = cv2.max(cv2.max(channels[0], channels[1]), channels[2])
+    return ink, darkness
 
 
-def _shrink_keeping_strokes(gray: np.ndarray, scale: float) -> np.ndarray:
-    """`gray` resized by `scale` < 1 so that a pen line one pixel wide stays dark: each pixel
-    first takes the darkest value around it (as wide as the pixels that merge), then areas are
-    averaged."""
-    k = max(1, math.ceil(1 / scale))
-    darkest = cv2.erode(gray, np.ones((k, k), np.uint8)) if k > 1 else gray
-    return cv2.resize(darkest, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+def _shrink_keeping_strokes(image: np.ndarray, k: int) -> np.ndarray:
+    """`image` shrunk k times (k > 1 a whole number: OpenCV's fast area averaging) so that a
+    pen line one pixel wide stays dark: each pixel first takes the darkest value around it (as
+    wide as the pixels that merge), then areas are averaged."""
+    darkest = cv2.erode(image, np.ones((k, k), np.uint8))
+    return cv2.resize(darkest, None, fx=1 / k, fy=1 / k, interpolation=cv2.INTER_AREA)
 
 
-def find_grid(gray: np.ndarray) -> Grid:
-    """The hand-drawn 3x3 grid in a grayscale frame; NoGridFound when there is none to see."""
-    h, w = gray.shape
-    scale = min(1.0, WORK_SIDE / max(h, w))
-    small = gray if scale == 1.0 else _shrink_keeping_strokes(gray, scale)
-    ink = _ink_mask(small)
+def find_grid(frame: np.ndarray) -> Grid:
+    """The hand-drawn 3x3 grid in a frame (uint8 gray or RGB); NoGridFound when there is none.
+
+    The grid may run off the frame: `Grid.in_view` says which cells are seen well enough to
+    read. A grid with a cell out of view is still found, so that the reader can say which.
+    """
+    h, w = frame.shape[:2]
+    shrink = math.ceil(max(h, w) / WORK_SIDE)
+    scale = 1 / shrink
+    small = frame if shrink == 1 else _shrink_keeping_strokes(frame, shrink)
+    ink, darkness = _ink_mask(small)
     # The paper's closing brightens the frame's edge, where the desk then looks like ink.
     ink[:2, :] = ink[-2:, :] = ink[:, :2] = ink[:, -2:] = 0
-    short = min(small.shape)
+    short = min(ink.shape)
     min_spacing = MIN_GRID_SHARE * short / SIZE
-    strokes = _Strokes.of(small, ink)
+    strokes = _Strokes.of(darkness, ink)
     lines = _hough_lines(strokes, votes=max(12, int(0.6 * SIZE * min_spacing)))
-    if len(lines) < 4:
+    if len(lines) < 4 or not _any_crossing(lines):
         raise NoGridFound(
-            "no grid in view: found no long pen lines (a blank sheet or an empty desk?); "
-            "draw the 3x3 grid with a dark pen and keep all of it in the picture"
+            "no grid in view: found no long pen lines crossing (a blank sheet or an empty "
+            "desk?); draw the 3x3 grid with a dark pen and keep all of it in the picture"
         )
-    center = np.array(small.shape[::-1], np.float64) / 2
+    center = np.array(ink.shape[::-1], np.float64) / 2
     best = _best_grid(lines, strokes, min_spacing, short / 2, center)
     if best is None:
         raise NoGridFound(
@@ -185,44 +237,65 @@ def find_grid(gray: np.ndarray) -> Grid:
         )
     four, support = best
     # The fits below look only at ink near the four lines, a small part of all the ink.
-    pixels = _pixels_near(four, strokes.pixels, band=0.3)
-    refined = _refine(four, pixels)
+    pixels, ways = _pixels_near(four, strokes.pixels, strokes.ways, band=0.3)
+    refined = _refine(four, pixels, ways)
     lattice = _lattice(*refined)
-    lattice = _lattice(*four) if lattice is None else _local_crossings(refined, lattice, pixels)
+    if lattice is None:
+        lattice = _lattice(*four)
+    else:
+        lattice = _local_crossings(refined, lattice, pixels, ways)
     assert lattice is not None
-    grid = Grid(lattice=lattice / scale, support=support)
-    _check_in_view(grid, w, h)
-    return grid
+    lattice = lattice / scale
+    return Grid(lattice=lattice, support=support, in_view=_cells_in_view(lattice, w, h))
 
 
 def _hough_lines(strokes: _Strokes, votes: int) -> list[tuple[float, float, float]]:
     """Distinct straight lines through the ink as (rho, theta, votes), strongest first.
 
-    Near-horizontal and near-vertical lines are voted for apart, each only by ink whose
-    stroke runs its way (or is unclear): the arcs of circles and the strokes of crosses, at
-    45 degrees to the grid, then cannot add up to lines that crowd out the grid's own.
+    The grid may be turned any way, so lines are looked for in bands of direction
+    (`_BANDS`), each band voted for only by ink whose stroke runs its way (or is unclear):
+    the arcs of circles and the strokes of crosses, at 45 degrees to the grid, then cannot
+    add up to lines that crowd out the grid's own.
     """
     x, y = strokes.pixels.T.astype(np.intp)
     seen = strokes.direction[y, x].astype(np.int16)
-    low, high = math.pi / 2 - _MAX_TILT, math.pi / 2 + _MAX_TILT + 1e-6
     kept: list[tuple[float, float, float]] = []
-    for way in (0, 90):  # horizontal strokes, then vertical ones
+    for way in _BANDS:
         off = np.abs(seen - way)
         voters = (np.minimum(off, 180 - off) <= _FAMILY_AGREE) | (seen == _UNCLEAR)
         mask = np.zeros_like(strokes.mask)
         mask[y[voters], x[voters]] = 255
-        if way == 90:  # a vertical line is a horizontal one of the transposed image
+        # Hough's normals run from 0 to 180 degrees: a band whose normals wrap round there
+        # (lines near vertical) is looked for in the transposed image, where it is not.
+        flip = abs(((way + 90) % 180) - 90) > 90 - _BAND_HALF
+        if flip:
             mask = np.ascontiguousarray(mask.T)
+        normal = math.radians(((90 - way if flip else way) + 90) % 180)
         found = cv2.HoughLinesWithAccumulator(
-            mask, 2, math.pi / 180, votes, min_theta=low, max_theta=high
+            mask,
+            2,
+            math.pi / 180,
+            votes,
+            min_theta=normal - math.radians(_BAND_HALF),
+            max_theta=normal + math.radians(_BAND_HALF) + 1e-6,
         )  # 2 px, 1 degree
         if found is None:
             continue
-        family = _distinct(found[:_MAX_HOUGH, 0, :].tolist(), mask.shape, _MAX_LINES // 2)
-        if way == 90:  # back from the transposed image: x and y swap, theta mirrors
-            family = [_untransposed(rho, theta, count) for rho, theta, count in family]
-        kept += family
-    return sorted(kept, key=lambda line: -line[2])
+        band = found[:_MAX_HOUGH, 0, :].tolist()
+        if flip:  # back from the transposed image: x and y swap, theta mirrors
+            band = [_untransposed(rho, theta, count) for rho, theta, count in band]
+        kept += _distinct(band, strokes.mask.shape, _MAX_LINES_PER_BAND)
+    kept.sort(key=lambda line: -line[2])
+    # Neighbouring bands overlap: a line found in both is kept once, with its larger vote.
+    return _distinct([list(line) for line in kept], strokes.mask.shape, _MAX_LINES)
+
+
+def _any_crossing(lines: list[tuple[float, float, float]]) -> bool:
+    """Whether any two of the lines cross near a right angle, as a grid's do. (Lines found in
+    one direction only are a desk's grain or the edge of something, not yet a grid.)"""
+    theta = np.array([line[1] for line in lines])
+    crossing = np.abs(_angle_between(theta[:, None], theta[None, :]) - math.pi / 2)
+    return bool((crossing <= _CROSSING).any())
 
 
 def _distinct(
@@ -302,8 +375,6 @@ def _best_grid(
 ) -> tuple[Four, float] | None:
     """The four lines, among `lines`, along which ink runs most closely; or None."""
     rho, theta, votes = np.array(lines).T
-    # Every line left runs within _MAX_TILT of vertical (normal near 0 or pi) or horizontal.
-    is_vertical = _angle_between(theta, 0.0) <= _MAX_TILT
 
     def pairs(family: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Indices (first, second) of the near-parallel pairs of lines of a family spaced
@@ -318,20 +389,24 @@ def _best_grid(
         )
         return first[ok], second[ok]
 
-    (va, vb), (ha, hb) = pairs(np.flatnonzero(is_vertical)), pairs(np.flatnonzero(~is_vertical))
-    # Every vertical pair with every horizontal one, vertical pairs outermost, as long as
-    # the two cross near a right angle.
+    # The grid may be turned any way: every pair with every later pair that crosses it near
+    # a right angle (`_order` then tells which pair runs down the sheet).
+    va, vb = pairs(np.arange(len(lines)))
+    ha, hb = va, vb
     crossing = np.abs(_angle_between(theta[va][:, None], theta[ha][None, :]) - math.pi / 2)
-    p, q = np.nonzero(crossing <= _CROSSING)
+    p, q = np.nonzero(np.triu(crossing <= _CROSSING, 1))
     # The grid's lines are the longest in view: try the best-voted quadruples first, and only
     # so many of them, so that a cluttered sheet cannot blow the time budget.
     total = votes[va[p]] + votes[vb[p]] + votes[ha[q]] + votes[hb[q]]
     tried = np.argsort(-total, kind="stable")[:_MAX_GRIDS]
+    tried_fours = [
+        _order((lines[va[p[k]]], lines[vb[p[k]]]), (lines[ha[q[k]]], lines[hb[q[k]]]))
+        for k in tried
+    ]
     fours, lattices, totals = [], [], []
-    for k in tried:
-        pair = (lines[va[p[k]]], lines[vb[p[k]]])
-        four = _order(pair, (lines[ha[q[k]]], lines[hb[q[k]]]))
-        lattice = _lattice(*four, min_side=0.8 * min_spacing)
+    for k, four, lattice in zip(
+        tried, tried_fours, _lattices(tried_fours, 0.8 * min_spacing), strict=True
+    ):
         if lattice is not None:
             fours.append(four)
             lattices.append(lattice)
@@ -350,7 +425,7 @@ def _best_grid(
     # refitted once and judged again.
     fitted_fours, lattices = [], []
     for _, four in sorted(passed, key=lambda x: -x[0])[:_FINALISTS]:
-        fitted = _refine(four, strokes.pixels, bands=(0.15,))
+        fitted = _refine(four, strokes.pixels, strokes.ways, bands=(0.15,))
         lattice = _lattice(*fitted, min_side=0.8 * min_spacing)
         if lattice is not None:
             fitted_fours.append(fitted)
@@ -400,6 +475,42 @@ def _lattice(
     if sides.min() < min_side or not ((ratios > _RATIO_LOW) & (ratios < _RATIO_HIGH)).all():
         return None
     return _extend(inner)
+
+
+def _lattices(fours: list[Four], min_side: float) -> list[np.ndarray | None]:
+    """`_lattice` of each of many quadruples of lines at once (numpy's cost per call, not per
+    quadruple, dominates the candidates' checks)."""
+    if not fours:
+        return []
+    rho, theta = np.moveaxis(np.array(fours, np.float64), -1, 0)  # (C, 4) each
+    c, s = np.cos(theta), np.sin(theta)
+
+    def crossing(v: int, hz: int) -> np.ndarray:  # (C, 2); nan for parallel lines
+        det = c[:, v] * s[:, hz] - s[:, v] * c[:, hz]
+        det = np.where(np.abs(det) < 1e-6, np.nan, det)
+        x = (rho[:, v] * s[:, hz] - rho[:, hz] * s[:, v]) / det
+        y = (c[:, v] * rho[:, hz] - c[:, hz] * rho[:, v]) / det
+        return np.stack([x, y], axis=1)
+
+    # Left 0, right 1, top 2, bottom 3: crossings a, b (top), c, d (bottom), as `_lattice`.
+    a, b, cc, d = crossing(0, 2), crossing(1, 2), crossing(0, 3), crossing(1, 3)
+    middle = np.stack([a, b, d, cc], axis=1)  # clockwise (C, 4, 2)
+    edges = np.roll(middle, -1, axis=1) - middle
+    turns = (
+        edges[:, :, 0] * np.roll(edges, -1, axis=1)[:, :, 1]
+        - edges[:, :, 1] * np.roll(edges, -1, axis=1)[:, :, 0]
+    )
+    with np.errstate(invalid="ignore"):
+        convex = (turns > 0).all(axis=1) | (turns < 0).all(axis=1)
+        sides = np.sqrt(((middle - middle[:, [3, 0, 1, 2]]) ** 2).sum(axis=2))
+        ratios = sides[:, [0, 1, 0]] / sides[:, [2, 3, 1]]
+        ok = (
+            np.isfinite(middle).all(axis=(1, 2))
+            & convex
+            & (sides.min(axis=1) >= min_side)
+            & ((ratios > _RATIO_LOW) & (ratios < _RATIO_HIGH)).all(axis=1)
+        )
+    return [_extend([a[k], b[k], cc[k], d[k]]) if ok[k] else None for k in range(len(fours))]
 
 
 _RATIO_LOW = np.array([0.6, 0.6, 0.5], np.float32)
@@ -461,7 +572,8 @@ def _line_support(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each of a stack of lattices (C, 4, 4, 2): the share of each of its four lines along
     which ink is found (C, 4), the same along the middle cell only (C, 4), and how close to
-    the lines the ink lies, 0-1 (C,). Only ink whose stroke runs the line's way counts: a line
+    the lines the ink lies, 0-1 (C,), all over the lines' stretches in the frame. Only ink
+    whose stroke runs the line's way counts: a line
     through a symbol crosses its strokes. (All candidates at once: numpy's cost per call,
     not per point, dominates.)"""
     ink = strokes.mask
@@ -486,18 +598,33 @@ def _line_support(
     )
     closeness = (hit * _CLOSENESS).max(axis=3)
     inked = hit.any(axis=3)
+    # A grid may run off the frame: only the stretches of line in view are judged (the ink
+    # mask is blank within 2 px of the frame's edge), as long as most of each line is.
+    centre = len(_ACROSS) // 2
+    cx, cy = x[..., centre], y[..., centre]
+    seen = (cx >= 2) & (cx < w - 2) & (cy >= 2) & (cy < h - 2)
+    in_view = seen.mean(axis=2)
+    middle_in_view = seen[:, :, _MIDDLE].mean(axis=2)
+    enough = (in_view >= _MIN_IN_VIEW) & (middle_in_view >= _MIN_MIDDLE_IN_VIEW)
+    support = np.where(enough, inked.sum(axis=2) / np.maximum(seen.sum(axis=2), 1), 0.0)
+    middle_support = np.where(
+        enough,
+        inked[:, :, _MIDDLE].sum(axis=2) / np.maximum(seen[:, :, _MIDDLE].sum(axis=2), 1),
+        0.0,
+    )
     # Half from the middle stretch, which every grid has: ink beyond the crossings may be a
     # symbol's as well as the line's, which may stop short there. (Summed one lattice at a
     # time: a sum over several axes adds in another order, and candidates that tie must
     # still tie.)
     middle, beyond = closeness[:, :, _MIDDLE], closeness[:, :, ~_MIDDLE]
+    seen_middle, seen_beyond = seen[:, :, _MIDDLE], seen[:, :, ~_MIDDLE]
     score = np.array(
         [
-            0.5 * (m.sum() / m.size) + 0.5 * (b.sum() / b.size)
-            for m, b in zip(middle, beyond, strict=True)
+            0.5 * (m.sum() / max(sm.sum(), 1)) + 0.5 * (b.sum() / max(sb.sum(), 1))
+            for m, b, sm, sb in zip(middle, beyond, seen_middle, seen_beyond, strict=True)
         ]
     )
-    return inked.mean(axis=2), inked[:, :, _MIDDLE].mean(axis=2), score
+    return support, middle_support, score
 
 
 @dataclass(frozen=True)
@@ -508,6 +635,8 @@ class _Strokes:
     """uint8 (H, W) ink mask, 0/255."""
     pixels: np.ndarray
     """(N, 2) float x, y of the ink pixels, row by row."""
+    ways: np.ndarray
+    """(N,) int16: the direction of each ink pixel's stroke (`direction` at `pixels`)."""
     direction: np.ndarray
     """uint8 (H, W): at each ink pixel, the direction its stroke runs in whole degrees
     (0-179, 0 along x), or `_UNCLEAR` where the stroke is not clear-cut (a crossing, a
@@ -533,8 +662,9 @@ class _Strokes:
         whole = np.round(degrees)
         whole[whole == 180] = 0
         direction = np.full(ink.shape, _UNCLEAR, np.uint8)
-        direction[y, x] = np.where(clear, whole, _UNCLEAR)
-        return cls(ink, xy.astype(np.float64), direction)
+        ways = np.where(clear, whole, _UNCLEAR).astype(np.int16)
+        direction[y, x] = ways
+        return cls(ink, xy.astype(np.float64), ways, direction)
 
     def runs_along(self, x: np.ndarray, y: np.ndarray, way: np.ndarray) -> np.ndarray:
         """Whether the strokes at ink pixels (x, y) run within `_AGREE` degrees of `way`
@@ -544,22 +674,45 @@ class _Strokes:
         return (np.minimum(off, 180 - off) <= _AGREE) | (seen == _UNCLEAR)
 
 
-def _near_lines(lattice: np.ndarray, pixels: np.ndarray, band: float) -> np.ndarray:
+def _near_lines(
+    lattice: np.ndarray, pixels: np.ndarray, band: float, ways: np.ndarray | None = None
+) -> np.ndarray:
     """(4, N): which pixels lie within `band` cells of each of the four lines, from 1.3 cells
-    before its first crossing to 1.3 cells after its second."""
+    before its first crossing to 1.3 cells after its second; given the strokes' `ways`, only
+    those whose stroke runs along the line (`_running_along`)."""
     along, across, size = _along_across(lattice, pixels)
-    return (across < band * size) & (along > -1.3) & (along < 2.3)
+    near = (across < band * size) & (along > -1.3) & (along < 2.3)
+    return near if ways is None else near & _running_along(lattice, ways)
 
 
-def _pixels_near(four: Four, pixels: np.ndarray, band: float) -> np.ndarray:
-    """The pixels within `band` cells of any of the four lines (see `_near_lines`)."""
+def _running_along(lattice: np.ndarray, ways: np.ndarray) -> np.ndarray:
+    """(4, N): whether each stroke direction of `ways` (degrees, `_UNCLEAR` for unclear ones,
+    which count) runs within `_AGREE` degrees of each of the lattice's four lines. A line
+    fitted to ink near a crossing must not be pulled round by the other line's ink."""
+    _, d, _, _ = _line_frames(lattice)
+    line_way = np.degrees(np.arctan2(d[:, 1], d[:, 0])) % 180
+    off = np.abs(ways[None, :] - line_way[:, None])
+    return (np.minimum(off, 180 - off) <= _AGREE) | (ways[None, :] == _UNCLEAR)
+
+
+def _pixels_near(
+    four: Four, pixels: np.ndarray, ways: np.ndarray, band: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The pixels within `band` cells of any of the four lines (see `_near_lines`), and the
+    directions of their strokes."""
     lattice = _lattice(*four)
     if lattice is None:
-        return pixels
-    return pixels[_near_lines(lattice, pixels, band).any(axis=0)]
+        return pixels, ways
+    keep = _near_lines(lattice, pixels, band).any(axis=0)
+    return pixels[keep], ways[keep]
 
 
-def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.12, 0.08)) -> Four:
+def _refine(
+    four: Four,
+    pixels: np.ndarray,
+    ways: np.ndarray,
+    bands: tuple[float, ...] = (0.2, 0.12, 0.08),
+) -> Four:
     """Refit each line to the ink in a narrowing band around it.
 
     Hough's lines can be a few degrees off a wobbly hand-drawn line, and symbols touch the
@@ -571,7 +724,7 @@ def _refine(four: Four, pixels: np.ndarray, bands: tuple[float, ...] = (0.2, 0.1
         lattice = _lattice(*four)
         if lattice is None:
             return four
-        near = _near_lines(lattice, pixels, band)
+        near = _near_lines(lattice, pixels, band, ways)
         fitted = []
         for k in range(4):
             line = _fit_line(pixels[near[k]])
@@ -586,23 +739,28 @@ _LOCAL_REACH = 0.35  # cells along each line either side of a crossing fitted to
 _CROSSING_ROUNDS = 3  # rounds of finding the crossings, each from the last one's lattice
 
 
-def _local_crossings(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.ndarray:
+def _local_crossings(
+    four: Four, lattice: np.ndarray, pixels: np.ndarray, ways: np.ndarray
+) -> np.ndarray:
     """The lattice rebuilt on where the lines really cross: a hand-drawn line bends, so each
     crossing is found from the two lines fitted within a third of a cell of it, first along
     the straight lines, then, for a few rounds, along the lines through the last crossings."""
     straight = lattice
     for _ in range(_CROSSING_ROUNDS):
-        moved = _crossings_near(four, lattice, pixels)
+        moved = _crossings_near(four, lattice, pixels, ways)
         if moved is None:
             break  # the local fits disagree with the lines: keep the last crossings
         lattice = moved
-    return _bend_outer(lattice, pixels, straight)
+    return _bend_outer(lattice, pixels, ways, straight)
 
 
-def _crossings_near(four: Four, lattice: np.ndarray, pixels: np.ndarray) -> np.ndarray | None:
+def _crossings_near(
+    four: Four, lattice: np.ndarray, pixels: np.ndarray, ways: np.ndarray
+) -> np.ndarray | None:
     """One round of `_local_crossings`: the lattice on the crossings of the lines fitted to
     the ink near each of its crossings, or None where one moves more than a quarter cell."""
     along, near, size = _along_lines(lattice, pixels)
+    near &= _running_along(lattice, ways)
     around = (  # near each line's first crossing, and its second
         near & (np.abs(along) < _LOCAL_REACH),
         near & (np.abs(along - 1) < _LOCAL_REACH),
@@ -643,13 +801,16 @@ def _along_lines(lattice: np.ndarray, pixels: np.ndarray) -> tuple[np.ndarray, n
     return along, across < 0.12 * size, size
 
 
-def _bend_outer(q: np.ndarray, pixels: np.ndarray, straight: np.ndarray) -> np.ndarray:
+def _bend_outer(
+    q: np.ndarray, pixels: np.ndarray, ways: np.ndarray, straight: np.ndarray
+) -> np.ndarray:
     """The outer cells end one middle cell further along each line, in the direction the line
     takes out there (a bowed line turns), where the line is drawn that far. Its ink out there
     is looked for along the `straight` lattice of the whole lines: the crossings' lattice is
     true near the middle cell and may point astray beyond it."""
     q = q.copy()
     along, near, _ = _along_lines(straight, pixels)
+    near &= _running_along(straight, ways)
     ends = {  # line k, its end (0 first crossing, 1 second): (the crossing, the other, outer)
         (0, 0): ((1, 1), (2, 1), (0, 1)),
         (0, 1): ((2, 1), (1, 1), (3, 1)),
@@ -708,17 +869,24 @@ def _principal_axis(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     return mean, centered, np.array([-math.sin(along), math.cos(along)])
 
 
-def _check_in_view(grid: Grid, width: int, height: int) -> None:
-    corners = grid.lattice.reshape(-1, 2)
-    slack = 0.1 * grid.cell_size()
-    inside = (
-        (corners[:, 0] >= -slack)
-        & (corners[:, 0] <= width - 1 + slack)
-        & (corners[:, 1] >= -slack)
-        & (corners[:, 1] <= height - 1 + slack)
-    )
-    if not inside.all():
-        raise NoGridFound(
-            "the grid runs off the edge of the picture; move the camera or the sheet so that "
-            "all nine cells are in view"
-        )
+IN_VIEW = 0.5
+"""A cell is read when this share of its middle (the square from 0.2 to 0.8 of its sides,
+where a symbol is drawn) lies in the frame; further out it is reported out of view. Half, not
+more: the outer cells are extrapolated one middle cell along the lines, and may reach a
+third of a cell further out than drawn, under perspective most of all."""
+_MIDDLE_SAMPLES = np.linspace(0.2, 0.8, 7)
+
+
+def _cells_in_view(lattice: np.ndarray, width: int, height: int) -> tuple[bool, ...]:
+    """`Grid.in_view` of a lattice (4, 4, 2) in a frame this size."""
+    u, v = np.meshgrid(_MIDDLE_SAMPLES, _MIDDLE_SAMPLES)
+    seen = []
+    for r in range(SIZE):
+        for c in range(SIZE):
+            q = lattice[r : r + 2, c : c + 2]  # the cell's corners, bilinear between them
+            top = q[0, 0] + u[..., None] * (q[0, 1] - q[0, 0])
+            bottom = q[1, 0] + u[..., None] * (q[1, 1] - q[1, 0])
+            x, y = np.moveaxis(top + v[..., None] * (bottom - top), -1, 0)
+            inside = (x >= 0) & (x <= width - 1) & (y >= 0) & (y <= height - 1)
+            seen.append(bool(inside.mean() >= IN_VIEW))
+    return tuple(seen)

@@ -15,11 +15,13 @@ import numpy as np
 
 from oxbot.game.board import SIZE
 from oxbot.perception.cells import SHEET_CELL
-from oxbot.perception.grid import Grid
+from oxbot.perception.grid import Grid, darkest_channel
 
 
-def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
+def rectify(image: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
     """The grid seen from straight above: uint8 (SIZE*cell + 2*border,) * 2, paper evened out.
+
+    `image` is the frame, gray (H, W) or RGB (H, W, 3); colour is made gray by `ink_gray`.
 
     Each cell's quadrilateral is warped to a `cell` x `cell` square on its own; neighbouring
     cells share their edges, so the sheet is continuous across the grid lines. `border` > 0
@@ -27,6 +29,7 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 
     `border / cell` of the outer cells' sides), so that a symbol that sticks out of an outer
     cell is on the sheet whole.
     """
+    gray = ink_gray(image, grid) if image.ndim == 3 else image
     lattice = grid.lattice
     frame_cell = grid.cell_size()
     shrink = frame_cell > 1.6 * cell  # shrink first: a perspective warp does not average pixels
@@ -59,6 +62,16 @@ def rectify(gray: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 
                 borderMode=cv2.BORDER_REPLICATE,
             )
     return even_out_light(sheet)
+
+
+def ink_gray(image: np.ndarray, grid: Grid) -> np.ndarray:
+    """An RGB frame as gray in which ink of any colour is dark (`darkest_channel`), the paper's
+    tint measured around the grid."""
+    h, w = image.shape[:2]
+    (x0, y0), (x1, y1) = grid.corners().min(axis=0), grid.corners().max(axis=0)
+    x0, x1 = int(np.clip(x0, 0, w - 1)), int(np.clip(x1, 1, w))
+    y0, y1 = int(np.clip(y0, 0, h - 1)), int(np.clip(y1, 1, h))
+    return darkest_channel(image, image[y0:y1, x0:x1])
 
 
 def _shrink_up_to(gray: np.ndarray, f: float, reach: np.ndarray) -> np.ndarray:

@@ -97,6 +97,19 @@ class RenderStyle:
     """Camera blur, pixels."""
     jpeg_quality: Range = (60, 95)
     """JPEG quality of the camera's compression."""
+    paper_kinds: tuple[str, ...] = ("plain",)
+    """Kinds of sheet, one picked per scene: "plain", "squared" (graph paper), "ruled",
+    "dotted" (a printed pattern under the drawing) or "whiteboard" (grey-white, with glare)."""
+    pattern_colors: tuple[Color, ...] = ((160, 185, 215), (175, 175, 180), (150, 200, 190))
+    """Colours of the printed squares, rules and dots (RGB)."""
+    edge_chance: float = 0.0
+    """Chance that the grid's outer edge on one side runs up to the frame's edge or slightly
+    past it (by up to `edge_overrun` of a cell): every cell's middle stays in view."""
+    edge_overrun: float = 0.12
+    """How far past the frame's edge the grid may run, as a share of a cell."""
+    clutter: int = 0
+    """Most objects lying around the sheet, outside the grid: pens (long thin dark bars) and
+    hands (skin-coloured blobs)."""
 
 
 TUNING_STYLE = RenderStyle(name="tuning")
@@ -135,7 +148,63 @@ HELD_OUT_STYLE = RenderStyle(
 )
 """A style kept apart from tuning: used only to measure the board reader."""
 
-STYLES = {TUNING_STYLE.name: TUNING_STYLE, HELD_OUT_STYLE.name: HELD_OUT_STYLE}
+_WIDE_TUNING_HAND = dataclasses.replace(
+    TUNING_STYLE.hand, grid_tilt=4.0, grid_wobble=0.04, grid_overshoot=(-0.2, 0.45)
+)
+WIDE_TUNING_STYLE = dataclasses.replace(
+    TUNING_STYLE,
+    name="wide-tuning",
+    size=(960, 540),
+    grid_fraction=(0.3, 0.95),
+    max_rotation=40.0,
+    perspective=0.12,
+    pen_colors=(
+        *TUNING_STYLE.pen_colors,
+        (20, 60, 170),  # blue marker
+        (20, 120, 60),  # green marker
+        (170, 30, 30),  # red pen
+        (95, 95, 100),  # pencil
+    ),
+    pen_width=(0.015, 0.07),
+    hand=_WIDE_TUNING_HAND,
+    shadow_chance=0.4,
+    noise_sigma=(1.0, 7.0),
+    blur_sigma=(0.0, 1.5),
+    jpeg_quality=(40, 95),
+    paper_kinds=("plain", "squared", "ruled", "dotted", "whiteboard"),
+    edge_chance=0.3,
+    clutter=3,
+)
+"""issue 15's wider world for development: turned up to 40 degrees, stronger perspective,
+squared, ruled, dotted paper and whiteboards, coloured markers and pencil, grids running up to
+the frame's edge, pens and hands lying around."""
+
+WIDE_HELD_OUT_STYLE = dataclasses.replace(
+    HELD_OUT_STYLE,
+    name="wide-held-out",
+    size=(1280, 720),
+    grid_fraction=(0.25, 0.95),
+    max_rotation=40.0,
+    perspective=0.13,
+    pen_colors=(
+        *HELD_OUT_STYLE.pen_colors,
+        (30, 90, 200),  # light blue marker
+        (10, 110, 110),  # teal marker
+        (110, 40, 140),  # purple pen
+        (110, 110, 115),  # pencil
+    ),
+    pattern_colors=((140, 170, 220), (190, 190, 190), (200, 160, 160)),
+    paper_kinds=("plain", "squared", "ruled", "dotted", "whiteboard"),
+    edge_chance=0.3,
+    edge_overrun=0.15,
+    clutter=4,
+)
+"""A wide style kept apart from tuning, like `HELD_OUT_STYLE`: used only to measure."""
+
+STYLES = {
+    style.name: style
+    for style in (TUNING_STYLE, HELD_OUT_STYLE, WIDE_TUNING_STYLE, WIDE_HELD_OUT_STYLE)
+}
 
 _HARDER_HAND = dataclasses.replace(
     TUNING_STYLE.hand,
@@ -227,6 +296,13 @@ class SheetScene:
     blur_sigma: float
     jpeg_quality: int
     symbols: Mapping[int, Symbol] = field(default_factory=dict)
+    paper_kind: str = "plain"
+    """One of `RenderStyle.paper_kinds`."""
+    pattern: tuple[float, float, float, Color] = (0.25, 0.0, 0.0, (170, 170, 170))
+    """The printed pattern's pitch (cell units), turn against the grid (degrees), phase (a
+    share of the pitch) and colour."""
+    clutter: tuple[tuple[np.ndarray, Color], ...] = ()
+    """Objects lying around: (outline (N, 2) in cell units, colour)."""
 
     @property
     def labels(self) -> tuple[str, ...]:
@@ -269,6 +345,8 @@ class SheetScene:
         paper_layer = np.empty_like(image)
         paper_layer[:] = np.float32(self.paper_color)
         image = cv2.blendLinear(paper_layer, image, alpha, 1 - alpha)
+        if self.paper_kind in ("squared", "ruled", "dotted"):
+            image = self._print_pattern(image, alpha, cell_px)
         # All ink in one layer: anti-aliased coverage, and each pen's colour underneath it.
         coverage = np.zeros((height, width), np.uint8)
         colors = np.zeros((height, width, 3), np.uint8)
@@ -286,6 +364,8 @@ class SheetScene:
             cv2.polylines(coverage, pts, False, 255, thickness, cv2.LINE_AA, shift=4)
         a = coverage.astype(np.float32) * (0.92 / 255.0)
         image = cv2.blendLinear(colors.astype(np.float32), image, a, 1 - a)
+        for outline, color in self.clutter:  # on top of the sheet, but never over the grid
+            cv2.fillPoly(image, [_fixed(_apply(self.homography, outline))], color, cv2.LINE_AA, 4)
         image = cv2.multiply(image, cv2.merge([self.light] * 3))
         if self.blur_sigma > 0.05:
             image = cv2.GaussianBlur(image, (0, 0), self.blur_sigma)
@@ -297,6 +377,35 @@ class SheetScene:
         )
         assert ok
         return cv2.imdecode(jpeg, cv2.IMREAD_COLOR)[..., ::-1].copy()
+
+    def _print_pattern(self, image: np.ndarray, paper: np.ndarray, cell_px: float) -> np.ndarray:
+        """The paper's printed squares, rules or dots, under the drawing."""
+        pitch, turn, phase, color = self.pattern
+        height, width = paper.shape
+        ticks = (np.arange(-30, 60) + phase) * pitch
+        ticks = ticks[(ticks > -4) & (ticks < SIZE + 4)]
+        a = math.radians(turn)
+        rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+        center = np.array([SIZE / 2, SIZE / 2])
+        coverage = np.zeros((height, width), np.uint8)
+        span = np.linspace(-4, SIZE + 4, 24)
+        if self.paper_kind == "dotted":
+            gx, gy = np.meshgrid(ticks, ticks)
+            dots = (np.stack([gx.ravel(), gy.ravel()], 1) - center) @ rot.T + center
+            radius = max(1, round(0.025 * cell_px))
+            for x, y in _apply(self.homography, dots):
+                if 0 <= x < width and 0 <= y < height:
+                    cv2.circle(coverage, (int(x), int(y)), radius, 255, -1, cv2.LINE_AA)
+        else:
+            lines = [np.stack([span, np.full_like(span, t)], 1) for t in ticks]
+            if self.paper_kind == "squared":
+                lines += [np.stack([np.full_like(span, t), span], 1) for t in ticks]
+            pts = [_fixed(_apply(self.homography, (ln - center) @ rot.T + center)) for ln in lines]
+            cv2.polylines(coverage, pts, False, 255, 1, cv2.LINE_AA, shift=4)
+        a_cov = coverage.astype(np.float32) * (0.6 / 255.0) * paper
+        layer = np.empty_like(image)
+        layer[:] = np.float32(color)
+        return cv2.blendLinear(layer, image, a_cov, 1 - a_cov)
 
 
 @dataclass(frozen=True)
@@ -369,6 +478,20 @@ def random_scene(
         cy = rng.uniform(margin - lo[1], max(margin - lo[1], height - margin - hi[1]))
     else:
         cx, cy = center[0] * width, center[1] * height
+    # (Random draws for issue 15's wider world only where a style asks for it, so that the
+    # older styles render the very photos they always did.)
+    if center is None and style.edge_chance > 0 and rng.uniform() < style.edge_chance:
+        # The grid's outer edge on one side at the frame's edge or just past it.
+        over = rng.uniform(0, style.edge_overrun) * side / SIZE
+        side_k = int(rng.integers(4))
+        if side_k == 0:
+            cx = -lo[0] - over
+        elif side_k == 1:
+            cx = width - 1 - hi[0] + over
+        elif side_k == 2:
+            cy = -lo[1] - over
+        else:
+            cy = height - 1 - hi[1] + over
     corners += np.array([cx, cy])
     homography = cv2.getPerspectiveTransform(src, corners.astype(np.float32))
 
@@ -391,20 +514,47 @@ def random_scene(
         )
     else:
         paper_corners = np.zeros((4, 2))
+    # In the order the older styles always drew them, so that they render the same photos;
+    # issue 15's wider world draws its own after them.
+    grid_color = _pick(rng, style.pen_colors)
+    grid_width = float(rng.uniform(*style.pen_width))
+    desk = _desk(rng, style)
+    paper_color = _jitter_color(rng, _pick(rng, style.paper_colors), 6)
+    light = _lighting(rng, style)
+    noise_sigma = float(rng.uniform(*style.noise_sigma))
+    blur_sigma = float(rng.uniform(*style.blur_sigma))
+    jpeg_quality = int(rng.uniform(*style.jpeg_quality))
+    kind = style.paper_kinds[0] if with_paper else "plain"
+    if with_paper and len(style.paper_kinds) > 1:
+        kind = _pick(rng, style.paper_kinds)
+    if kind == "whiteboard":
+        paper_color = _jitter_color(rng, (222, 226, 228), 10)
+        light = _glare(rng, light)
+    pattern = SheetScene.pattern
+    if kind in ("squared", "ruled", "dotted"):
+        pattern = (
+            float(rng.uniform(0.18, 0.4)),
+            float(rng.uniform(-6, 6)),
+            float(rng.uniform()),
+            _pick(rng, style.pattern_colors),
+        )
     return SheetScene(
         style=style,
         homography=homography,
         grid_lines=grid_lines,
         line_positions=positions,
-        grid_color=_pick(rng, style.pen_colors),
-        grid_width=float(rng.uniform(*style.pen_width)),
+        grid_color=grid_color,
+        grid_width=grid_width,
         paper_corners=paper_corners,
-        desk=_desk(rng, style),
-        paper_color=_jitter_color(rng, _pick(rng, style.paper_colors), 6),
-        light=_lighting(rng, style),
-        noise_sigma=float(rng.uniform(*style.noise_sigma)),
-        blur_sigma=float(rng.uniform(*style.blur_sigma)),
-        jpeg_quality=int(rng.uniform(*style.jpeg_quality)),
+        desk=desk,
+        paper_color=paper_color,
+        light=light,
+        noise_sigma=noise_sigma,
+        blur_sigma=blur_sigma,
+        jpeg_quality=jpeg_quality,
+        paper_kind=kind,
+        pattern=pattern,
+        clutter=_clutter(rng, style.clutter) if style.clutter else (),
     )
 
 
@@ -572,6 +722,46 @@ def _lighting(rng: np.random.Generator, style: RenderStyle) -> np.ndarray:
         dist = np.sqrt((xx - cx) ** 2 + (yy - cy) ** 2)
         light *= 1 - rng.uniform(0.2, 0.4) * np.clip(1.5 - dist / r, 0, 1)
     return cv2.resize(light.astype(np.float32), (width, height), interpolation=cv2.INTER_LINEAR)
+
+
+def _glare(rng: np.random.Generator, light: np.ndarray) -> np.ndarray:
+    """A whiteboard's glare: a soft bright patch on the lighting."""
+    height, width = light.shape
+    yy, xx = np.mgrid[0:height:4, 0:width:4].astype(np.float32)
+    cx, cy = rng.uniform(0, width), rng.uniform(0, height)
+    r = rng.uniform(0.1, 0.3) * min(width, height)
+    patch = 1 + rng.uniform(0.1, 0.3) * np.exp(-((xx - cx) ** 2 + (yy - cy) ** 2) / (2 * r * r))
+    return light * cv2.resize(patch, (width, height), interpolation=cv2.INTER_LINEAR)
+
+
+_SKINS = ((225, 185, 160), (190, 140, 110), (140, 95, 70), (240, 205, 185))
+_PENS = ((20, 20, 25), (25, 50, 150), (160, 30, 30), (230, 200, 40), (40, 40, 40))
+
+
+def _clutter(rng: np.random.Generator, most: int) -> tuple[tuple[np.ndarray, Color], ...]:
+    """Up to `most` pens and hands lying around the grid, outside it (cell units)."""
+    out = []
+    for _ in range(int(rng.integers(0, most + 1))):
+        for _ in range(10):  # a few tries to find a place clear of the grid
+            center = rng.uniform(-3, SIZE + 3, 2)
+            turn = rng.uniform(0, math.pi)
+            if rng.uniform() < 0.6:  # a pen: a long thin bar
+                length, width = rng.uniform(1.5, 3.5), rng.uniform(0.06, 0.15)
+                box = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) * [length / 2, width / 2]
+                color = _pick(rng, _PENS)
+            else:  # a hand: a rounded blob
+                t = np.linspace(0, 2 * math.pi, 32, endpoint=False)
+                rx, ry = rng.uniform(0.8, 1.4), rng.uniform(0.5, 0.9)
+                box = np.stack([rx * np.cos(t), ry * np.sin(t)], 1)
+                color = _jitter_color(rng, _pick(rng, _SKINS), 12)
+            rot = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]])
+            outline = box @ rot.T + center
+            dense = np.concatenate([outline, (outline + np.roll(outline, 1, 0)) / 2, [center]])
+            clear = (dense < -0.4) | (dense > SIZE + 0.4)
+            if clear.any(axis=1).all():
+                out.append((outline, color))
+                break
+    return tuple(out)
 
 
 def _apply(homography: np.ndarray, points: np.ndarray) -> np.ndarray:

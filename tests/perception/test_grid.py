@@ -180,3 +180,86 @@ def test_a_line_through_a_symbol_is_not_a_grid_line():
         render_photo(rng, style=style)
     photo = render_photo(rng, style=style)
     assert crossing_error(photo.scene, as_gray(photo.image)) < 0.1
+
+
+def same_crossings_any_order(scene: SheetScene, frame: np.ndarray) -> float:
+    """How far the found crossings are from the drawn ones, in cells, whichever found
+    crossing is taken for the upper left: at 45 degrees which way is up is a toss-up."""
+    lattice = find_grid(frame).lattice
+    found = np.array([lattice[1, 1], lattice[1, 2], lattice[2, 2], lattice[2, 1]])
+    drawn = drawn_crossings(scene)
+    errors = [np.linalg.norm(np.roll(found, k, 0) - drawn, axis=1).max() for k in range(4)]
+    errors += [np.linalg.norm(np.roll(found[::-1], k, 0) - drawn, axis=1).max() for k in range(4)]
+    return float(min(errors) / scene.cell_size_px())
+
+
+@pytest.mark.parametrize("degrees", [-40, -30, 22, 30, 40])
+def test_finds_the_grid_turned_well_past_15_degrees(degrees):
+    # issue 15: up to 45 degrees. Before, only lines within 27 degrees of the frame's axes
+    # were looked for, and three of these five grids were not found at all.
+    rng = np.random.default_rng(200 + degrees)
+    scene = random_scene(rng, TUNING_STYLE, rotation=degrees).with_symbol(4, "cross", rng)
+    assert crossing_error(scene, scene.photo(rng)) < 0.1
+
+
+def test_finds_a_grid_turned_45_degrees_either_way_up():
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        scene = random_scene(rng, TUNING_STYLE, rotation=45).with_symbol(0, "circle", rng)
+        assert same_crossings_any_order(scene, scene.photo(rng)) < 0.1
+
+
+def test_finds_the_grid_under_strong_perspective():
+    style = dataclasses.replace(TUNING_STYLE, perspective=0.15, max_rotation=30.0)
+    errors = []
+    for seed in range(12):
+        photo = render_photo(np.random.default_rng(seed), style=style)
+        errors.append(crossing_error(photo.scene, photo.image))
+    assert np.median(errors) < 0.05
+    assert max(errors) < 0.15
+
+
+def test_finds_thin_coloured_marker_lines_that_gray_hides():
+    # A light blue marker on a grey-white board: in gray its lines are barely darker than the
+    # board; in the red channel they are dark (the real whiteboard photos of issue 15).
+    style = dataclasses.replace(
+        TUNING_STYLE,
+        pen_colors=((90, 150, 230),),
+        pen_width=(0.015, 0.02),
+        paper_kinds=("whiteboard",),
+    )
+    for seed in range(5):
+        photo = render_photo(np.random.default_rng(seed), style=style)
+        assert crossing_error(photo.scene, photo.image) < 0.1
+
+
+def grid_with_left_edge_at(pixels: float, rng: np.random.Generator) -> SheetScene:
+    """A tuning scene, upright, cells 80 px wide, whose grid's left edge lies `pixels` from
+    the frame's left edge (negative: beyond it)."""
+    width, height = TUNING_STYLE.size
+    style = dataclasses.replace(TUNING_STYLE, perspective=0.0)
+    side = 0.5 * height
+    center = ((pixels + side / 2) / width, 0.5)
+    return random_scene(rng, style, grid_fraction=(0.5, 0.5), center=center, rotation=0)
+
+
+def test_a_grid_touching_the_frame_edge_is_found_whole():
+    # The grid's outer edge a tenth of a cell beyond the frame: every cell's middle in view.
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        scene = grid_with_left_edge_at(-8, rng).with_symbol(3, "cross", rng)
+        grid = find_grid(scene.photo(rng))
+        assert all(grid.in_view)
+        assert crossing_error(scene, scene.photo(rng)) < 0.1
+
+
+def test_a_grid_cut_by_the_frame_edge_says_which_cells_are_out_of_view():
+    # The left column's middle is beyond the frame: those cells are out of view, the others
+    # are found where they are drawn.
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        scene = grid_with_left_edge_at(-50, rng)
+        photo = scene.photo(rng)
+        grid = find_grid(photo)
+        assert grid.cells_out_of_view() == [0, 3, 6]
+        assert crossing_error(scene, photo) < 0.1

@@ -1,3 +1,5 @@
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -82,12 +84,37 @@ def test_the_held_out_style_is_kept_apart_from_the_tuning_style():
     assert set(TUNING_STYLE.pen_colors).isdisjoint(HELD_OUT_STYLE.pen_colors)
     assert set(TUNING_STYLE.desk_colors).isdisjoint(HELD_OUT_STYLE.desk_colors)
     assert TUNING_STYLE.size != HELD_OUT_STYLE.size
-    assert set(STYLES) == {"tuning", "held-out"}
+    assert set(STYLES) == {"tuning", "held-out", "wide-tuning", "wide-held-out"}
     for variant in TUNING_VARIANTS.values():  # harder tuning styles share nothing held-out
         assert variant.hand.symbols == "synth"
         assert set(variant.pen_colors).isdisjoint(HELD_OUT_STYLE.pen_colors)
         assert variant.desk_colors == TUNING_STYLE.desk_colors
         assert variant.size == TUNING_STYLE.size
+
+
+def test_the_wide_held_out_style_is_kept_apart_from_the_wide_tuning_style():
+    tuning, held_out = STYLES["wide-tuning"], STYLES["wide-held-out"]
+    assert (tuning.hand.symbols, held_out.hand.symbols) == ("synth", "sketch")
+    assert set(tuning.pen_colors).isdisjoint(held_out.pen_colors)
+    assert set(tuning.desk_colors).isdisjoint(held_out.desk_colors)
+    assert set(tuning.paper_colors).isdisjoint(held_out.paper_colors)
+    assert set(tuning.pattern_colors).isdisjoint(held_out.pattern_colors)
+    assert tuning.size != held_out.size
+
+
+def test_the_wide_styles_render_printed_paper_whiteboards_and_clutter():
+    rng = np.random.default_rng(0)
+    scenes = [random_scene(rng, STYLES["wide-tuning"]) for _ in range(30)]
+    kinds = {scene.paper_kind for scene in scenes}
+    assert kinds == {"plain", "squared", "ruled", "dotted", "whiteboard"}
+    assert any(scene.clutter for scene in scenes)
+    plain = random_scene(np.random.default_rng(1), STYLES["wide-tuning"])
+    squared = dataclasses.replace(plain, paper_kind="squared")
+    # The printed squares darken the paper around the grid; the rest is the same photo.
+    assert (
+        squared.photo(np.random.default_rng(2)).mean()
+        < plain.photo(np.random.default_rng(2)).mean()
+    )
 
 
 def test_random_labels_cover_all_three_labels():
