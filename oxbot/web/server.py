@@ -94,13 +94,18 @@ class RobotLike(Protocol):
     def new_game(self) -> Any: ...
 
 
-def default_robot_factory(config: OxbotConfig) -> Callable[[], RobotLike]:
-    """A factory of real robots with this config, one per session."""
+def default_robot_factory(
+    config: OxbotConfig, recorder: Any = None, record_audio: bool = False
+) -> Callable[[], RobotLike]:
+    """A factory of real robots with this config, one per session (each recording into
+    `recorder`, a RecordingStore, when given: issue 18)."""
 
     def make() -> RobotLike:
         from oxbot.robot.session import Robot
 
-        return Robot(config)
+        if recorder is None:
+            return Robot(config)
+        return Robot(config, recorder=recorder, record_audio=record_audio, mode="web")
 
     return make
 
@@ -453,6 +458,8 @@ STATIC_TYPES = {
 def create_app(
     config: OxbotConfig | None = None,
     robot_factory: Callable[[], RobotLike] | None = None,
+    recorder: Any = None,
+    record_audio: bool = False,
 ) -> FastAPI:
     """The FastAPI app: `/` the page, `/static/*` its files, `/ws` a game session per socket,
     `/health` how many sessions run.
@@ -463,7 +470,11 @@ def create_app(
     config = config if config is not None else OxbotConfig()
     limits = config.web
     speed_factor, robot_starts = config.robot.speed_factor, config.game.robot_starts
-    make_robot = robot_factory if robot_factory is not None else default_robot_factory(config)
+    make_robot = (
+        robot_factory
+        if robot_factory is not None
+        else default_robot_factory(config, recorder, record_audio)
+    )
     ready = threading.Event()
 
     @contextlib.asynccontextmanager
@@ -869,9 +880,15 @@ def serving_in_background(app: FastAPI, host: str = "127.0.0.1", port: int = 0):
         thread.join(15)
 
 
-def serve(config: OxbotConfig | None = None) -> None:
+def serve(
+    config: OxbotConfig | None = None,
+    record: bool = False,
+    data_dir: Any = None,
+    record_audio: bool = False,
+) -> None:
     """Run the page's server until interrupted (`oxbot play`), on `[web]` host and port
-    (localhost by default)."""
+    (localhost by default); with `record`, every game is kept in the recordings in
+    `data_dir` (issue 18)."""
     import uvicorn
 
     from oxbot.speech.recognition import recognizer_factory
@@ -881,7 +898,13 @@ def serve(config: OxbotConfig | None = None) -> None:
     host, port = config.web.host, config.web.port
     recognizer_factory(config.speech.recognizer)  # a misnamed one fails now, not in each tab
     check_port_free(host, port)
-    app = create_app(config)
+    recorder = None
+    if record:
+        from oxbot.recording import RecordingStore, notice
+
+        recorder = RecordingStore(data_dir)
+        log.warning(notice(recorder, record_audio))
+    app = create_app(config, recorder=recorder, record_audio=record_audio)
     log.info("oxbot: open http://%s:%d in a browser to play", host, port)
     uvicorn.run(app, host=host, port=port, log_level="info", **socket_options(config.web))
 

@@ -1,0 +1,116 @@
+"""`oxbot data list|show|export|forget` and `oxbot learn perceiver|agent` (issue 18)."""
+
+from __future__ import annotations
+
+import datetime
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+DataDir = Annotated[
+    Path | None,
+    typer.Option(
+        "--data-dir", help="Folder of recordings.sqlite3 (default: the user's data folder)."
+    ),
+]
+
+data_app = typer.Typer(
+    help="The recorded games (oxbot play --record): list, show, export, forget.",
+    rich_markup_mode=None,
+)
+learn_app = typer.Typer(
+    help="Learn from the recorded games: the perceiver from the crops, the agent from the "
+    "dialogues.",
+    rich_markup_mode=None,
+)
+
+
+def _when(stamp: float | None) -> str:
+    if stamp is None:
+        return "-"
+    return datetime.datetime.fromtimestamp(stamp).strftime("%Y-%m-%d %H:%M:%S")
+
+
+@data_app.command("list")
+def list_command(data_dir: DataDir = None) -> None:
+    """One line per recorded session (one dialogue): when, outcome, turns, crops."""
+    from oxbot.recording.store import RecordingStore
+
+    with RecordingStore(data_dir) as store:
+        sessions = store.sessions()
+        typer.echo(f"{len(sessions)} sessions in {store.path}")
+        for s in sessions:
+            typer.echo(
+                f"{s.id:5d}  {_when(s.started_at)}  {s.mode or '-':8s} {s.status:11s} "
+                f"{s.outcome or '-':5s}  turns {s.turns:3d}  answers {s.answers:3d} "
+                f"(asked again {s.repeated})  crops {s.crops:4d} ({s.labelled} labelled)"
+            )
+
+
+@data_app.command("show")
+def show_command(
+    session: Annotated[int, typer.Argument(help="The session's number (oxbot data list).")],
+    data_dir: DataDir = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print it as JSON.")] = False,
+) -> None:
+    """A session's transcript, the answers heard and what was kept of it."""
+    from oxbot.recording.store import RecordingStore
+
+    with RecordingStore(data_dir) as store:
+        record = store.session(session)
+    if as_json:
+        typer.echo(json.dumps(record, indent=2))
+        return
+    typer.echo(
+        f"session {record['id']}: {_when(record['started_at'])}, {record['status']}, "
+        f"outcome {record['outcome'] or '-'}, final board {record['final_board'] or '-'}"
+    )
+    for turn in record["turns"]:
+        typer.echo(f"{turn['t']:7.1f} s  {turn['speaker']}: {turn['text']}  [{turn['act']}]")
+    for a in record["answers"]:
+        best = a["nbest"][0] if a["nbest"] else ["", 0.0]
+        again = "  asked again" if a["repeated"] else ""
+        typer.echo(
+            f"heard {best[0]!r} ({best[1]:.2f}, {len(a['nbest'])} hypotheses) as "
+            f"{a['understood'] or '-'}{again}"
+        )
+    crops = ", ".join(f"{c['n']} {c['label'] or 'unlabelled'}" for c in record["crops"])
+    typer.echo(f"crops: {crops or 'none'}")
+    if record["derived"]:
+        typer.echo("made from it: " + ", ".join(record["derived"]))
+
+
+@data_app.command("export")
+def export_command(
+    out: Annotated[Path, typer.Argument(help="Folder for sessions/turns/answers/crops.parquet.")],
+    session: Annotated[
+        list[int] | None, typer.Option(help="Only this session (repeatable; default: all).")
+    ] = None,
+    data_dir: DataDir = None,
+) -> None:
+    """Write the recordings as Parquet files, one per table."""
+    from oxbot.recording.store import RecordingStore
+
+    with RecordingStore(data_dir) as store:
+        written = store.export(out, session or None)
+    typer.echo("wrote " + ", ".join(str(p) for p in written))
+
+
+@data_app.command("forget")
+def forget_command(
+    session: Annotated[int, typer.Argument(help="The session's number (oxbot data list).")],
+    data_dir: DataDir = None,
+) -> None:
+    """Delete a session, everything recorded in it and every file made from it."""
+    from oxbot.recording.store import RecordingStore
+
+    with RecordingStore(data_dir) as store:
+        deleted = store.forget(session)
+    typer.echo(
+        f"forgot session {session}"
+        + (f"; deleted {len(deleted)} files made from it" if deleted else "")
+    )
+    for path in deleted:
+        typer.echo(f"  {path}")
