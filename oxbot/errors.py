@@ -60,3 +60,12 @@ class TrainingInterrupted(OxbotError):
         super().__init__(message)
         self.checkpoint = checkpoint
         self.step = step
+
+
+class LearningRefused(OxbotError):
+    """`oxbot learn` trained a model that is worse than the one it would replace, and kept the
+    old one. `result` holds the refused model and its figures."""
+
+    def __init__(self, message: str, result: object = None) -> None:
+        super().__init__(message)
+        self.result = result

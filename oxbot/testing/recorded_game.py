@@ -22,6 +22,7 @@ import numpy as np
 from oxbot.config import OxbotConfig, load_config, with_overrides
 from oxbot.dialogue.domain import ASK_AGAIN, INVITATION, MOVE_REQUEST
 from oxbot.game.board import CELL_NAMES, EMPTY, USER, symbol_of
+from oxbot.recording.recorder import Recorder
 from oxbot.recording.store import RecordingStore
 from oxbot.robot.messages import DialogueAct, DialogueEnded, GameMove
 from oxbot.robot.session import Robot
@@ -108,9 +109,10 @@ def play_recorded_game(
                     sheet.draw_strokes(cell, hand(person, rng))
                     record.drawn.append(cell)
                     pending = (cell, time.monotonic())
-        recorder_sessions = [
-            c.sessions for c in robot.components if hasattr(c, "sessions") and c.sessions
-        ]
-    if recorder_sessions:
-        record.session = recorder_sessions[0][-1]
+        recorder = next(c for c in robot.components if isinstance(c, Recorder))
+        if record.ended:  # the recorder hears the goodbye a moment after the person does
+            wait_until = time.monotonic() + 10
+            while recorder.current is not None and time.monotonic() < wait_until:
+                time.sleep(0.02)
+    record.session = recorder.sessions[-1] if recorder.sessions else None
     return record
