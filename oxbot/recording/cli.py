@@ -114,3 +114,57 @@ def forget_command(
     )
     for path in deleted:
         typer.echo(f"  {path}")
+
+
+@learn_app.command("perceiver")
+def learn_perceiver_command(
+    data_dir: DataDir = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            help="Model file (default: DATA_DIR/learned/perceiver.pt); metrics and plot beside it."
+        ),
+    ] = None,
+    session: Annotated[
+        list[int] | None, typer.Option(help="Learn from this session only (repeatable).")
+    ] = None,
+    base: Annotated[
+        Path | None, typer.Option(help="The model to fine-tune (default: the shipped one).")
+    ] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the split and the fine-tuning.")] = 0,
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+) -> None:
+    """Fine-tune the perceiver on the recorded crops; refuse a model worse on the test sets."""
+    from oxbot.errors import LearningRefused
+    from oxbot.recording.perceiver import LearnPerceiverConfig, learn_perceiver
+    from oxbot.recording.store import RecordingStore
+
+    with RecordingStore(data_dir) as store:
+        target = out if out is not None else store.data_dir / "learned" / "perceiver.pt"
+        try:
+            result = learn_perceiver(
+                store, target, LearnPerceiverConfig(seed=seed), base, session, not quiet
+            )
+        except LearningRefused as exc:
+            _print_perceiver(exc.result.metrics)  # type: ignore[attr-defined]
+            raise
+    _print_perceiver(result.metrics)
+    typer.echo(f"wrote {result.model_path}, {result.metrics_path}, {result.plot_path}")
+
+
+def _print_perceiver(metrics: dict) -> None:
+    crops = metrics["crops"]
+    typer.echo(
+        f"{crops['train']} recorded crops to learn from, {crops['held_back']} held back "
+        f"({metrics['drawings_held_back']} drawings), from sessions {metrics['sessions']}"
+    )
+    for key, name in (
+        ("held_back", "held-back crops of the person"),
+        ("generated", "generated test images"),
+        ("fonts", "handwriting-font set"),
+    ):
+        before, after = metrics["before"][key], metrics["after"][key]
+        typer.echo(
+            f"{name:32s} {before['accuracy']:.2%} -> {after['accuracy']:.2%} "
+            f"({after['images']} cells)"
+        )
