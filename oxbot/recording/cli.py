@@ -168,3 +168,53 @@ def _print_perceiver(metrics: dict) -> None:
             f"{name:32s} {before['accuracy']:.2%} -> {after['accuracy']:.2%} "
             f"({after['images']} cells)"
         )
+
+
+@learn_app.command("agent")
+def learn_agent_command(
+    data_dir: DataDir = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="Folder for agent.pt and learn_agent.json (default: DATA_DIR/learned)."),
+    ] = None,
+    session: Annotated[
+        list[int] | None, typer.Option(help="Learn from this session only (repeatable).")
+    ] = None,
+    steps: Annotated[int, typer.Option(help="Experiences of fine-tuning.")] = 30_000,
+    games: Annotated[
+        int, typer.Option(help="Dialogues per who-starts condition, before and after.")
+    ] = 1_000,
+    seed: Annotated[int, typer.Option(help="Seed of the fine-tuning and the measurement.")] = 0,
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+) -> None:
+    """Fit the simulated person to the recorded dialogues and retrain the policy with it."""
+    from oxbot.errors import LearningRefused
+    from oxbot.recording.agent import LearnAgentConfig, learn_agent
+    from oxbot.recording.store import RecordingStore
+
+    config = LearnAgentConfig(seed=seed, steps=steps, eval_games=games)
+    with RecordingStore(data_dir) as store:
+        target = out if out is not None else store.data_dir / "learned"
+        try:
+            result = learn_agent(store, target, config, session, not quiet)
+        except LearningRefused as exc:
+            _print_agent(exc.result.metrics)  # type: ignore[attr-defined]
+            raise
+    _print_agent(result.metrics)
+    typer.echo(f"wrote {result.policy_path}, {result.metrics_path}")
+
+
+def _print_agent(metrics: dict) -> None:
+    person = metrics["person"]
+    fitted = ", ".join(f"{k} {v:.3f}" for k, v in person["probabilities"].items())
+    typer.echo(f"fitted on {person['dialogues']} recorded dialogues: {fitted}")
+    for key, name in (
+        ("repeated_questions_per_dialogue", "repeated questions per dialogue"),
+        ("ill_formed", "ill-formed dialogues"),
+        ("losses", "games lost"),
+        ("task_success", "ended as the person wanted"),
+    ):
+        before, after = metrics["before"][key], metrics["after"][key]
+        typer.echo(
+            f"{name:34s} {before:.4g} -> {after:.4g} ({metrics['after']['dialogues']} dialogues)"
+        )
