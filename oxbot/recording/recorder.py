@@ -1,7 +1,10 @@
 """The Recorder: a component that keeps what the robot saw and heard, when the person agreed.
 
-It only listens (it publishes nothing): the manager's GameState opens a session when a game
-starts (the empty board) and tells which cells are settled; BoardSeen carries the 9 crops the
+It only listens (it publishes nothing), and only while it is on (`enabled`, switched by a
+RecordingSwitch message: the page's toggle); switched on mid-game, it keeps the game from that
+turn on; switched off, it closes the session under way ("stopped") and keeps nothing more.
+The manager's GameState opens a session when a game starts (the empty board) and tells which
+cells are settled; BoardSeen carries the 9 crops the
 tracker read; SpeechHypotheses what was heard (SpeechAudio its recording, kept only with
 `keep_audio`); DialogueAct the transcript; DialogueEnded closes the session.
 
@@ -22,6 +25,7 @@ import copy
 import json
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,6 +39,7 @@ from oxbot.robot.messages import (
     DialogueEnded,
     GameState,
     Message,
+    RecordingSwitch,
     SpeechAudio,
     SpeechHypotheses,
 )
@@ -71,35 +76,60 @@ class _Open:
 class Recorder(Component):
     """Records each dialogue into a `RecordingStore` (see the module docstring)."""
 
-    listens_to = (GameState, BoardSeen, SpeechHypotheses, SpeechAudio, DialogueAct, DialogueEnded)
+    listens_to = (
+        GameState,
+        BoardSeen,
+        SpeechHypotheses,
+        SpeechAudio,
+        DialogueAct,
+        DialogueEnded,
+        RecordingSwitch,
+    )
     part = "memory"
     essential = False
 
     def __init__(
         self,
         bus: Bus,
-        store: RecordingStore,
+        store: RecordingStore | Callable[[], RecordingStore],
         mode: str = "",
         keep_audio: bool = False,
+        enabled: bool = True,
         name: str | None = None,
     ) -> None:
         super().__init__(bus, name)
-        self.store = store
+        self._store = store
         self.mode = mode
         self.keep_audio = keep_audio
+        self.enabled = enabled
         self.current: _Open | None = None
+        self._game: tuple[bool, Board] | None = None  # who started, the board: no one's data
         self._audio: bytes | None = None
         self.sessions: list[int] = []
         """Ids of the sessions this recorder opened, oldest first."""
 
+    @property
+    def store(self) -> RecordingStore:
+        """The database, opened at the first recording (a callable is called then)."""
+        if not isinstance(self._store, RecordingStore):
+            self._store = self._store()
+        return self._store
+
     def take_over(self, old: Component) -> None:
         assert isinstance(old, Recorder)
         self.current = copy.deepcopy(old.current)
-        self.sessions = list(old.sessions)
+        self.sessions, self.enabled, self._game = list(old.sessions), old.enabled, old._game
 
     def handle(self, message: Message) -> None:
+        if isinstance(message, RecordingSwitch):
+            self._switch(message.on)
+            return
         if isinstance(message, GameState):
-            self._game_state(message)
+            self._game = (message.robot_starts, message.board)
+            if self.enabled:
+                self._game_state(message)
+            return
+        if not self.enabled:
             return
         current = self.current
         if isinstance(message, SpeechAudio):
@@ -126,17 +156,31 @@ class Recorder(Component):
 
     # --- the session ---
 
+    def _switch(self, on: bool) -> None:
+        if on == self.enabled:
+            return
+        self.enabled = on
+        if not on and self.current is not None:
+            self._close(self.current, "stopped", None)
+        elif on and self._game is not None:  # before the first game, its GameState opens one
+            robot_starts, board = self._game
+            self._open(robot_starts, board, time.monotonic())
+
     def _game_state(self, message: GameState) -> None:
         if message.board == EMPTY_BOARD:  # the manager's new game: a new session
             if self.current is not None:
                 self._close(self.current, "interrupted", None)
-            with self.store.transaction() as db:
-                sid = self.store.new_session(db, message.robot_starts, self.mode, self.keep_audio)
-            self.current = _Open(sid, message.stamp, message.robot_starts)
-            self.sessions.append(sid)
-            log.info("recording session %d", sid)
+            self._open(message.robot_starts, message.board, message.stamp)
         elif self.current is not None:
             self.current.board = message.board
+
+    def _open(self, robot_starts: bool, board: Board, stamp: float) -> None:
+        store = self.store
+        with store.transaction() as db:
+            sid = store.new_session(db, robot_starts, self.mode, self.keep_audio)
+        self.current = _Open(sid, stamp, robot_starts, board)
+        self.sessions.append(sid)
+        log.info("recording session %d", sid)
 
     def _seen(self, current: _Open, message: BoardSeen) -> None:
         if len(message.cells) != len(message.labels) or not message.cells:

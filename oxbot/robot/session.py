@@ -28,6 +28,7 @@ from __future__ import annotations
 import functools
 import logging
 import threading
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -109,7 +110,8 @@ class Robot:
     sees only what `show` / `look` hand over. `recognizer` and `policy` replace the ones the
     config names (the shipped ones); `seed` fixes the choice among templates and the arm's hand.
     `recorder`, a `oxbot.recording.RecordingStore`, records every game into it (with the
-    recordings of the person's answers if `record_audio`; `mode` says where it was played).
+    recordings of the person's answers if `record_audio`; `mode` says where it was played);
+    with `record_now` False, only once a RecordingSwitch message switches it on.
     """
 
     def __init__(
@@ -121,9 +123,10 @@ class Robot:
         recognizer: Recognizer | None = None,
         policy: DQNPolicy | None = None,
         seed: int | None = None,
-        recorder: RecordingStore | None = None,
+        recorder: RecordingStore | Callable[[], RecordingStore] | None = None,
         record_audio: bool = False,
         mode: str = "",
+        record_now: bool = True,
     ) -> None:
         self.config = config if config is not None else OxbotConfig()
         self.bus: Bus = LocalBus()
@@ -159,7 +162,7 @@ class Robot:
         if recorder is not None:  # issue 18: opt-in, the person was told (`--record`)
             from oxbot.recording.recorder import Recorder
 
-            components.append(Recorder(self.bus, recorder, mode, record_audio))
+            components.append(Recorder(self.bus, recorder, mode, record_audio, record_now))
         self._vision = vision.name
         self.supervisor = Supervisor(components, self.bus, body, on_lost=self._lost)
         self._events = self.bus.subscribe(

@@ -16,6 +16,8 @@ client → server (JSON text messages)::
                                                                sends 0.1 s)
     {"type": "listen_off"}                                     hands-free ends or pauses
     {"type": "new_game", "image": "data:..."}                  a fresh sheet and game
+    {"type": "record", "on": true}                             keep the game (issue 18);
+                                                               /ws?record=1 from the start
 
 Hands-free: the server cuts the stream of `listen` pieces into utterances with the VAD
 (oxbot.speech.vad, `[speech.listening]`) and hands each to the robot exactly as a push-to-talk
@@ -73,7 +75,9 @@ from oxbot.config import ListeningConfig, OxbotConfig, WebConfig
 from oxbot.errors import ConfigError, InvalidInputError, OxbotError
 from oxbot.image_size import check_pixels
 from oxbot.robot.listening import HandsFreeListener
-from oxbot.robot.messages import Frame, PersonFrame, SpeechAudio, to_json
+from oxbot.recording.web import RecordingSetup
+from oxbot.recording.web import add_routes as add_recording_routes
+from oxbot.robot.messages import Frame, PersonFrame, RecordingSwitch, SpeechAudio, to_json
 from oxbot.speech.audio import Audio, to_wav_bytes
 
 log = logging.getLogger(__name__)
@@ -95,17 +99,23 @@ class RobotLike(Protocol):
 
 
 def default_robot_factory(
-    config: OxbotConfig, recorder: Any = None, record_audio: bool = False
+    config: OxbotConfig, recording: RecordingSetup | None = None
 ) -> Callable[[], RobotLike]:
-    """A factory of real robots with this config, one per session (each recording into
-    `recorder`, a RecordingStore, when given: issue 18)."""
+    """A factory of real robots with this config, one per session (each with a Recorder, off
+    until its tab switches it on, when `recording` is given: issue 18)."""
 
     def make() -> RobotLike:
         from oxbot.robot.session import Robot
 
-        if recorder is None:
+        if recording is None:
             return Robot(config)
-        return Robot(config, recorder=recorder, record_audio=record_audio, mode="web")
+        return Robot(
+            config,
+            recorder=recording.store,  # opened at the first game kept
+            record_audio=recording.keep_audio,
+            mode="web",
+            record_now=False,
+        )
 
     return make
 
@@ -411,6 +421,13 @@ class Session:
         if self.listener is not None:
             self.listener.stop_listening()
 
+    def _on_record(self, message: dict) -> None:
+        """The page's record toggle (issue 18): keep this game from now on, or stop."""
+        on = message.get("on")
+        if not isinstance(on, bool):
+            raise InvalidInputError("'on' must be true or false")
+        self.robot.bus.publish(RecordingSwitch(on=on))
+
     def _on_new_game(self, message: dict) -> None:
         image = message.get("image")
         frame = decode_image(image, self.limits) if image is not None else None
@@ -427,7 +444,7 @@ class GameOver(InvalidInputError):
     code = "game_over"
 
 
-CLIENT_TYPES = ("frame", "look", "say", "talk", "listen", "listen_off", "new_game")
+CLIENT_TYPES = ("frame", "look", "say", "talk", "listen", "listen_off", "new_game", "record")
 """The message types a tab may send."""
 GAME_TYPES = ("frame",)
 """The ones refused once the robot has said goodbye (until a new game). Words still reach the
@@ -458,8 +475,7 @@ STATIC_TYPES = {
 def create_app(
     config: OxbotConfig | None = None,
     robot_factory: Callable[[], RobotLike] | None = None,
-    recorder: Any = None,
-    record_audio: bool = False,
+    recording: RecordingSetup | None = None,
 ) -> FastAPI:
     """The FastAPI app: `/` the page, `/static/*` its files, `/ws` a game session per socket,
     `/health` how many sessions run.
@@ -470,10 +486,9 @@ def create_app(
     config = config if config is not None else OxbotConfig()
     limits = config.web
     speed_factor, robot_starts = config.robot.speed_factor, config.game.robot_starts
+    recording = recording if recording is not None else RecordingSetup()
     make_robot = (
-        robot_factory
-        if robot_factory is not None
-        else default_robot_factory(config, recorder, record_audio)
+        robot_factory if robot_factory is not None else default_robot_factory(config, recording)
     )
     ready = threading.Event()
 
@@ -512,6 +527,10 @@ def create_app(
     @app.websocket("/ws")
     async def game(websocket: WebSocket) -> None:
         await _game_session(websocket, app, make_robot, ready)
+
+    # --- issue 18: the record toggle's settings, the "what I learned" page ---
+    app.state.recording = recording
+    add_recording_routes(app, recording)
 
     app.state.speed_factor = speed_factor
     app.state.robot_starts = robot_starts
@@ -569,6 +588,8 @@ async def _serve_session(
             return
         session = Session(robot, limits, app.state.listening)
         sessions[session.id] = session
+        if websocket.query_params.get("record") == "1":  # issue 18: the toggle was on
+            robot.bus.publish(RecordingSwitch(on=True))
         log.info("session %d opened (%d running)", session.id, len(sessions))
     try:
         async with app.state.starting:
@@ -898,13 +919,10 @@ def serve(
     host, port = config.web.host, config.web.port
     recognizer_factory(config.speech.recognizer)  # a misnamed one fails now, not in each tab
     check_port_free(host, port)
-    recorder = None
+    recording = RecordingSetup(data_dir, on_by_default=record, keep_audio=record_audio)
     if record:
-        from oxbot.recording import RecordingStore, notice
-
-        recorder = RecordingStore(data_dir)
-        log.warning(notice(recorder, record_audio))
-    app = create_app(config, recorder=recorder, record_audio=record_audio)
+        log.warning("recording is on: %s", recording.notice())
+    app = create_app(config, recording=recording)
     log.info("oxbot: open http://%s:%d in a browser to play", host, port)
     uvicorn.run(app, host=host, port=port, log_level="info", **socket_options(config.web))
 
