@@ -26,7 +26,7 @@ from oxbot.recording.store import DB_NAME, RecordingStore, default_data_dir
 
 SCRIPTS = {"record.js": "text/javascript", "learned.js": "text/javascript"}
 MAX_CROPS = 60
-"""The page shows at most this many crops read wrong (the latest)."""
+"""The page shows at most this many drawings read wrong (the latest sessions')."""
 NOTICE = (
     "Keeps this game's cell images, your answers as text, the transcript, outcome and "
     "timings on this computer ({path}); `oxbot data forget` deletes a game."
@@ -122,12 +122,15 @@ def what_i_learned(store: RecordingStore) -> dict[str, Any]:
         }
         for s in store.sessions()
     ]
-    wrong = store.query(
+    rows = store.query(
         "SELECT session_id, reading, cell, image, read_as, confidence, label FROM crops "
-        "WHERE label IS NOT NULL AND read_as != label "
-        "ORDER BY session_id DESC, reading DESC LIMIT ?",
-        (MAX_CROPS,),
+        "WHERE label IS NOT NULL AND read_as != label ORDER BY session_id DESC, reading"
     )
+    wrong, drawings = [], set()
+    for row in rows:  # a drawing is read many times: its first wrong reading stands for it
+        if (row["session_id"], row["cell"]) not in drawings and len(wrong) < MAX_CROPS:
+            drawings.add((row["session_id"], row["cell"]))
+            wrong.append(row)
     model = learned_model(store)
     crops = []
     if wrong:

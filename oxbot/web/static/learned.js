@@ -33,6 +33,10 @@
     $("wrong-crops").append(figure);
   }
   if (!data.crops.length) $("wrong-crops").textContent = "None: I read every kept drawing right.";
+  if (!data.answers.length) {
+    const row = $("asked-again").tBodies[0].insertRow();
+    cell(row, "None: I understood every answer I kept the first time.").colSpan = 4;
+  }
   for (const a of data.answers) {
     const row = $("asked-again").tBodies[0].insertRow();
     const heard = JSON.parse(a.nbest)[0] || ["", 0];
