@@ -12,7 +12,9 @@ answer model (`oxbot.dialogue.simulator.UserSimulator`, the `[dialogue]` section
 - `asr_noise`: the noise level n whose expected word confidence in the simulator
   ((n/4)·0.35 + (1-n/2)², over the 1-n/4 words not dropped) matches the recorded mean;
   typed answers (confidence 1) are left out, and without spoken ones the default stays;
-- the phrasings heard for each act, counted (reported; the simulator keeps the domain's).
+- `phrasing_weights`: how often each of the domain's phrasings of an act was heard word for
+  word, divided by the chance ((1 - n/2) per word) that the noisy recogniser leaves a phrasing
+  of its length whole, plus one; the simulated person then says them in those proportions.
 
 `learn_agent` then fine-tunes the policy (`init_from` the shipped one, with the shipped agent's
 config, `agent.toml`) in that simulator for a short budget, and measures both policies in the
@@ -93,12 +95,35 @@ class PersonModel:
     """`[dialogue]` fields: asr_noise, decline/refuse/early_refusal/stop/silence/nonsense."""
     phrasings: dict[str, dict[str, int]] = field(default_factory=dict)
     """For each act understood, the texts heard for it and how often."""
+    phrasing_weights: dict[str, dict[str, float]] = field(default_factory=dict)
+    """For each act, the weight of each domain phrasing heard word for word (see above)."""
     repeated_share: float = 0.0
     """Share of the recorded answers after which the robot asked again."""
 
-    def dialogue_config(self, base: DialogueConfig) -> dict[str, float]:
+    def dialogue_config(self, base: DialogueConfig) -> dict[str, Any]:
         """The overrides of `base` this fit gives (what the recordings could tell)."""
-        return {k: round(v, 4) for k, v in self.probabilities.items() if hasattr(base, k)}
+        overrides: dict[str, Any] = {
+            k: round(v, 4) for k, v in self.probabilities.items() if hasattr(base, k)
+        }
+        if self.phrasing_weights:
+            overrides["phrasing_weights"] = json.dumps(self.phrasing_weights, sort_keys=True)
+        return overrides
+
+
+def fit_phrasing_weights(
+    heard: dict[str, dict[str, int]], known: dict[str, tuple[str, ...]], noise: float
+) -> dict[str, dict[str, float]]:
+    """Weights of the known phrasings of each act from how often each was heard word for word
+    (`heard`: act -> text -> count), corrected for the recogniser leaving longer ones whole
+    less often, plus one so that an unheard phrasing stays possible."""
+    weights: dict[str, dict[str, float]] = {}
+    for act, texts in heard.items():
+        phrasings = set(known.get(act, ()))
+        counts = {t: c for t, c in texts.items() if t in phrasings}
+        if counts:
+            whole = {t: (1.0 - noise / 2) ** max(len(t.split()), 1) for t in counts}
+            weights[act] = {t: round(1.0 + c / whole[t], 3) for t, c in sorted(counts.items())}
+    return weights
 
 
 def expected_confidence(noise: float) -> float:
@@ -119,8 +144,14 @@ def noise_for(mean_confidence: float) -> float:
     return (low + high) / 2
 
 
-def fit_person(dialogues: list[dict[str, Any]], default: DialogueConfig) -> PersonModel:
-    """The answer model of the people in `dialogues` (`RecordingStore.dialogues`)."""
+def fit_person(
+    dialogues: list[dict[str, Any]],
+    default: DialogueConfig,
+    known_phrasings: dict[str, tuple[str, ...]] | None = None,
+) -> PersonModel:
+    """The answer model of the people in `dialogues` (`RecordingStore.dialogues`);
+    `known_phrasings` (act -> the simulator's texts, default the shipped domain's) are the
+    ones whose frequencies are fitted."""
     invitations = silent = answered = nonsense = 0
     refuses = declines_once = early = agreed = stopped = 0
     words: list[float] = []
@@ -184,11 +215,18 @@ def fit_person(dialogues: list[dict[str, Any]], default: DialogueConfig) -> Pers
         "stop_probability": stopped / agreed if agreed else default.stop_probability,
         "asr_noise": noise_for(sum(words) / len(words)) if words else default.asr_noise,
     }
+    if known_phrasings is None:
+        from oxbot.dialogue.model import shipped_dialogue_model
+        from oxbot.dialogue.simulator import phrasings_of
+
+        known_phrasings = phrasings_of(shipped_dialogue_model().domain)
+    heard = {act: dict(c.most_common()) for act, c in phrasings.items()}
     return PersonModel(
         dialogues=len(dialogues),
         spoken_words=len(words),
         probabilities=probabilities,
-        phrasings={act: dict(c.most_common()) for act, c in phrasings.items()},
+        phrasings=heard,
+        phrasing_weights=fit_phrasing_weights(heard, known_phrasings, probabilities["asr_noise"]),
         repeated_share=repeated / answers_n if answers_n else 0.0,
     )
 

@@ -77,3 +77,29 @@ def test_learn_agent_measures_before_and_after_and_writes_the_policy(dialogues, 
         policy = load_policy(out / "agent.pt")
         assert policy.metadata["learn_config"]["steps"] == 300
         assert len(policy.metadata["learned_from_sessions"]) == 120
+
+
+def test_the_fitted_phrasings_are_the_ones_heard_and_the_person_says_them_so_often(dialogues):
+    import numpy as np
+
+    from oxbot.dialogue.domain import ACCEPT
+    from oxbot.dialogue.model import shipped_dialogue_model
+    from oxbot.dialogue.simulator import UserSimulator, phrasings_of
+
+    domain = shipped_dialogue_model().domain
+    with RecordingStore(dialogues) as store:
+        person = fit_person(store.dialogues(), shipped_agent_config().dialogue)
+    weights = person.phrasing_weights
+    assert ACCEPT in weights
+    assert set(weights[ACCEPT]) <= set(phrasings_of(domain)[ACCEPT])
+    overrides = person.dialogue_config(shipped_agent_config().dialogue)
+    assert json.loads(overrides["phrasing_weights"]) == weights
+
+    # a person told that one way of saying yes weighs 50 says it far more often than 1/n
+    favourite = phrasings_of(domain)[ACCEPT][0]
+    n = len(phrasings_of(domain)[ACCEPT])
+    simulator = UserSimulator(
+        domain, rng=np.random.default_rng(0), phrasing_weights={ACCEPT: {favourite: 50.0}}
+    )
+    said = [simulator._say(ACCEPT, "Request(playGame)").text for _ in range(300)]
+    assert said.count(favourite) / 300 > 50 / (50 + n) - 0.1
