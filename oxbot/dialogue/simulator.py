@@ -18,12 +18,12 @@ agrees and plays a whole game (recognition noise still on), for measuring game p
 
 What the person says is one of the domain's phrasings of the act they mean
 (`user_phrases.txt`, the user responses), each equally often unless `phrasing_weights` says
-otherwise (issue 18: fitted to recorded dialogues); the cell they draw in comes from the opponent strategy
-(a SPEC §5 callable), checked with `checked_move`. The robot hears it through a speech
-recogniser model with noise level `asr_noise` = n: each word is dropped with probability n/4,
-replaced by a random word of the phrasings (confidence uniform in [0.1, 0.6]) with probability
-n/4, and otherwise heard with a confidence uniform in [1-n, 1]; then understands it with the
-real `UserActClassifier`, in the context of what the robot just said.
+otherwise (issue 18: fitted to recorded dialogues); the cell they draw in comes from the
+opponent strategy (a SPEC §5 callable), checked with `checked_move`. The robot hears it
+through a speech recogniser model with noise level `asr_noise` = n: each word is dropped with
+probability n/4, replaced by a random word of the phrasings (confidence uniform in [0.1, 0.6])
+with probability n/4, and otherwise heard with a confidence uniform in [1-n, 1]; then
+understands it with the real `UserActClassifier`, in the context of what the robot just said.
 """
 
 from __future__ import annotations
