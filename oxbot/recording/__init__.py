@@ -6,7 +6,23 @@ person agrees (`oxbot play --record`), and the data it learns from (`oxbot learn
     robot = Robot(config, recorder=store)      # a Recorder component joins the robot's bus
 """
 
-from oxbot.recording.recorder import Recorder, notice
-from oxbot.recording.store import RecordingStore, default_data_dir
+from __future__ import annotations
+
+import importlib
+from typing import Any
 
 __all__ = ["Recorder", "RecordingStore", "default_data_dir", "notice"]
+
+_WHERE = {
+    "Recorder": "oxbot.recording.recorder",
+    "notice": "oxbot.recording.recorder",
+    "RecordingStore": "oxbot.recording.store",
+    "default_data_dir": "oxbot.recording.store",
+}
+
+
+def __getattr__(name: str) -> Any:
+    # loaded on first use: `oxbot --help` should not wait for the robot's modules
+    if name not in _WHERE:
+        raise AttributeError(f"module 'oxbot.recording' has no attribute {name!r}")
+    return getattr(importlib.import_module(_WHERE[name]), name)
