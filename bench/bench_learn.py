@@ -164,7 +164,12 @@ def bench_agent(args: argparse.Namespace) -> None:
         seconds = time.perf_counter() - started
     fitted = metrics["person"]["probabilities"]
     print("fitted person: " + ", ".join(f"{k} {v:.3f}" for k, v in fitted.items()))
-    print(f"learn agent: {args.steps} steps, {seconds:.0f} s with both measurements")
+    print(
+        f"learn agent: {args.steps} steps in {len(metrics['pieces'])} pieces, kept after "
+        f"{metrics['kept']} steps (0: none beat the shipped policy); {seconds:.0f} s with "
+        f"every measurement; pieces (losses, ill-formed, repeats per dialogue, on other people): "
+        f"{[(p['steps'], p['score']) for p in metrics['pieces']]}"
+    )
     true_before = measure(shipped, people, args.eval_games, args.seed + 1)
     true_after = measure(policy, people, args.eval_games, args.seed + 1)
     for name, before, after in (

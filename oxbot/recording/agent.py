@@ -17,11 +17,13 @@ answer model (`oxbot.dialogue.simulator.UserSimulator`, the `[dialogue]` section
   of its length whole, plus one; the simulated person then says them in those proportions.
 
 `learn_agent` then fine-tunes the policy (`init_from` the shipped one, with the shipped agent's
-config, `agent.toml`) in that simulator for a short budget, and measures both policies in the
-same run against the same fitted people: repeated questions per dialogue (the robot asking
-again, `Request(repeat)`, or asking the same question twice in a row), well-formed dialogues,
-losses and task success. A policy with more ill-formed dialogues or more losses than before is
-refused (`LearningRefused`); otherwise written with its config, seed and figures.
+config, `agent.toml`) in that simulator for a short budget, in `chunks` pieces, keeping the
+piece that does best against other simulated people of the same kind (or the shipped policy),
+and measures both policies in the same run against the same fitted people: repeated questions
+per dialogue (the robot asking again, `Request(repeat)`, or asking the same question twice in a
+row), well-formed dialogues, losses and task success. A policy with more ill-formed dialogues
+or more losses than before, or no piece better than the shipped policy, is refused
+(`LearningRefused`); otherwise written with its config, seed and figures.
 """
 
 from __future__ import annotations
@@ -78,10 +80,17 @@ class LearnAgentConfig:
     """How the measured people play (`oxbot evaluate agent --opponent`)."""
     min_dialogues: int = 20
     """Fewer recorded dialogues than this are too few to fit a person to."""
+    chunks: int = 5
+    """The fine-tune runs in this many pieces, each measured on other simulated people
+    (`select_games`); the best piece (fewest losses, then ill-formed dialogues, then repeated
+    questions) is kept, the shipped policy if none beats it."""
+    select_games: int = 300
+    """Dialogues per who-starts condition in each piece's measurement (other seeds than the
+    before/after measurement's, so that choosing does not flatter the reported figures)."""
 
     def __post_init__(self) -> None:
-        if self.steps < 1 or self.eval_games < 1:
-            raise DataError("steps and eval_games must be >= 1")
+        if min(self.steps, self.eval_games, self.chunks, self.select_games) < 1:
+            raise DataError("steps, eval_games, chunks and select_games must be >= 1")
 
 
 @dataclass
@@ -330,13 +339,34 @@ def learn_agent(
     )
     shipped = load_policy()
     before = measure(shipped, fitted, config.eval_games, config.seed, config.opponent)
-    with tempfile.TemporaryDirectory() as work:
-        trained = train_agent(
-            fitted, Path(work), resume=False, show_progress=show_progress, init_from=shipped
-        )
-    policy = trained.policy
+
+    def score(policy: DQNPolicy) -> tuple[float, float, float]:
+        m = measure(policy, fitted, config.select_games, config.seed + 1_000, config.opponent)
+        return m["losses"], m["ill_formed"], m["repeated_questions_per_dialogue"]
+
+    policy, best, pieces = shipped, score(shipped), []
+    current, seconds = shipped, 0.0
+    piece = max(1, config.steps // config.chunks)
+    for k in range(config.chunks):
+        starts = min(fitted.agent.learning_starts, piece // 2)
+        chunk = {"seed": config.seed + k, "total_steps": piece, "learning_starts": starts}
+        chunk_config = with_overrides(fitted, {"agent": chunk})
+        with tempfile.TemporaryDirectory() as work:
+            trained = train_agent(
+                chunk_config,
+                Path(work),
+                resume=False,
+                show_progress=show_progress,
+                init_from=current,
+            )
+        current, seconds = trained.policy, seconds + trained.metrics["wall_clock_s"]
+        pieces.append({"steps": piece * (k + 1), "score": score(current)})
+        if pieces[-1]["score"] < best:
+            policy, best = current, pieces[-1]["score"]
     after = measure(policy, fitted, config.eval_games, config.seed, config.opponent)
     worse = [k for k in ("ill_formed", "losses") if after[k] > before[k]]
+    if policy is shipped:
+        worse.append("no piece of the fine-tune beat the shipped policy")
     metrics = {
         "sessions": sessions,
         "person": dataclasses.asdict(person),
@@ -345,7 +375,9 @@ def learn_agent(
         "refused": worse,
         "config": dataclasses.asdict(config),
         "trained_config": dataclasses.asdict(fitted),
-        "training_seconds": trained.metrics["wall_clock_s"],
+        "training_seconds": round(seconds, 1),
+        "pieces": pieces,
+        "kept": next((p["steps"] for p in pieces if p["score"] == best), 0),
     }
     policy.metadata.update(
         learned_from_sessions=sessions,
@@ -369,7 +401,7 @@ def learn_agent(
     if worse:
         raise LearningRefused(
             "the retrained policy is refused: "
-            + ", ".join(f"{k} {before[k]} -> {after[k]}" for k in worse)
+            + ", ".join(f"{k} {before[k]} -> {after[k]}" if k in before else k for k in worse)
             + (f"; see {metrics_path}" if metrics_path else ""),
             result,
         )

@@ -184,6 +184,12 @@ def learn_agent_command(
     games: Annotated[
         int, typer.Option(help="Dialogues per who-starts condition, before and after.")
     ] = 1_000,
+    chunks: Annotated[
+        int, typer.Option(help="Pieces of the fine-tune, each measured; the best is kept.")
+    ] = 5,
+    select_games: Annotated[
+        int, typer.Option(help="Dialogues per who-starts condition measuring each piece.")
+    ] = 300,
     seed: Annotated[int, typer.Option(help="Seed of the fine-tuning and the measurement.")] = 0,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
 ) -> None:
@@ -192,7 +198,9 @@ def learn_agent_command(
     from oxbot.recording.agent import LearnAgentConfig, learn_agent
     from oxbot.recording.store import RecordingStore
 
-    config = LearnAgentConfig(seed=seed, steps=steps, eval_games=games)
+    config = LearnAgentConfig(
+        seed=seed, steps=steps, eval_games=games, chunks=chunks, select_games=select_games
+    )
     with RecordingStore(data_dir) as store:
         target = out if out is not None else store.data_dir / "learned"
         try:
@@ -208,6 +216,12 @@ def _print_agent(metrics: dict) -> None:
     person = metrics["person"]
     fitted = ", ".join(f"{k} {v:.3f}" for k, v in person["probabilities"].items())
     typer.echo(f"fitted on {person['dialogues']} recorded dialogues: {fitted}")
+    kept = metrics["kept"]
+    typer.echo(
+        f"kept the policy after {kept} of {metrics['config']['steps']} steps"
+        if kept
+        else "no piece of the fine-tune did better than the shipped policy"
+    )
     for key, name in (
         ("repeated_questions_per_dialogue", "repeated questions per dialogue"),
         ("ill_formed", "ill-formed dialogues"),

@@ -62,7 +62,8 @@ def test_learn_agent_measures_before_and_after_and_writes_the_policy(dialogues, 
         app,
         [
             "learn", "agent", "--data-dir", str(dialogues), "--out", str(out),
-            "--steps", "300", "--games", "40", "--quiet",
+            "--steps", "300", "--games", "40", "--chunks", "2", "--select-games", "40",
+            "--quiet",
         ],
     )  # fmt: skip
     metrics = json.loads((out / "learn_agent.json").read_text())
@@ -70,6 +71,7 @@ def test_learn_agent_measures_before_and_after_and_writes_the_policy(dialogues, 
     assert metrics["trained_config"]["dialogue"]["asr_noise"] == pytest.approx(0.4, abs=0.05)
     assert metrics["trained_config"]["agent"]["total_steps"] == 300
     assert "repeated questions per dialogue" in result.output
+    assert [p["steps"] for p in metrics["pieces"]] == [150, 300]
     if metrics["refused"]:  # a 300-step fine-tune may be worse: then nothing is shipped
         assert result.exit_code != 0 and not (out / "agent.pt").exists()
     else:
