@@ -433,6 +433,14 @@ def play(
         float | None,
         typer.Option(help="Run speech, the arm and the waits this much faster (default: 1)."),
     ] = None,
+    https: Annotated[
+        bool | None,
+        typer.Option(
+            "--https/--http",
+            help="Web page: HTTPS with a self-signed certificate, so that a phone's browser "
+            "lends the page its camera (default: HTTPS when --host is not a loopback address).",
+        ),
+    ] = None,
     record: Annotated[
         bool, typer.Option("--record", help="Keep what the robot saw and heard (oxbot data).")
     ] = False,
@@ -443,11 +451,11 @@ def play(
         Path | None, typer.Option(help="Folder of the recordings (default: user data folder).")
     ] = None,
 ) -> None:
-    """Play with the whole robot: the web page at http://HOST:PORT, or --terminal."""
+    """Play with the whole robot: the web page at http(s)://HOST:PORT, or --terminal."""
     changes = {
         "game": {"robot_starts": robot_starts},
         "robot": {"speed_factor": speed},
-        "web": {"host": host, "port": port},
+        "web": {"host": host, "port": port, "https": {True: "on", False: "off"}.get(https)},
     }
     config = with_overrides(
         _config(ctx),
@@ -475,7 +483,13 @@ def play(
         return
     from oxbot.web.server import serve
 
-    serve(config, record=record, data_dir=data_dir, record_audio=record_audio)
+    serve(
+        config,
+        announce=typer.echo,
+        record=record,
+        data_dir=data_dir,
+        record_audio=record_audio,
+    )
 
 
 # --- reproducing the paper: oxbot reproduce (issue 8) ---
@@ -534,6 +548,57 @@ def reproduce_command(
         f"wrote {result.report_path}, {result.json_path} and {len(result.plots)} plots "
         f"in {result.figures['wall_clock_s']:.0f} s"
     )
+
+
+# --- the robot across processes and machines, on Zenoh (issue 19) ---
+
+_CONNECT = typer.Option("--connect", help="A Zenoh peer or router to reach: tcp/HOST:PORT.")
+_LISTEN = typer.Option("--listen", help="Accept connections here: tcp/0.0.0.0:PORT.")
+_SCOUTING = typer.Option("--scouting/--no-scouting", help="Find peers by multicast on the LAN.")
+_ROBOT = typer.Option("--robot", help="The robot's name: key expressions oxbot/ROBOT/...")
+
+
+@app.command("component")
+def component_command(
+    ctx: typer.Context,
+    name: Annotated[
+        str,
+        typer.Argument(
+            help="manager, perception, recognition, voice, arm, head-tracking or head-movement."
+        ),
+    ],
+    robot: Annotated[str, _ROBOT] = "oxbot",
+    connect: Annotated[list[str] | None, _CONNECT] = None,
+    listen: Annotated[list[str] | None, _LISTEN] = None,
+    scouting: Annotated[bool, _SCOUTING] = True,
+    camera: Annotated[str | None, typer.Option(help="perception, head-tracking: a camera.")] = None,
+) -> None:
+    """Run one component of a robot in this process, over Zenoh, until Ctrl-C."""
+    from oxbot.robot.launch import endpoints_of, run_component
+
+    endpoints = endpoints_of(connect, listen, scouting)
+    run_component(name, robot, endpoints, _config(ctx), camera)
+
+
+@app.command("robot")
+def robot_command(
+    ctx: typer.Context,
+    launch: Annotated[
+        Path | None, typer.Option("--launch", help="Start these components, respawning them.")
+    ] = None,
+    robot: Annotated[str, _ROBOT] = "oxbot",
+    connect: Annotated[list[str] | None, _CONNECT] = None,
+    listen: Annotated[list[str] | None, _LISTEN] = None,
+    scouting: Annotated[bool, _SCOUTING] = True,
+    terminal: Annotated[bool, typer.Option("--terminal", help="Drive it from here.")] = False,
+    web: Annotated[bool, typer.Option("--web", help="Serve the page for it ([web]).")] = False,
+) -> None:
+    """A robot as processes: --launch FILE starts them; --terminal / --web drive one."""
+    from oxbot.robot.launch import endpoints_of, load_launch_file, run_robot
+
+    plan = load_launch_file(launch) if launch is not None else None
+    drive = "terminal" if terminal else "web" if web else None
+    run_robot(_config(ctx), plan, robot, endpoints_of(connect, listen, scouting), drive)
 
 
 app.add_typer(train_app, name="train")

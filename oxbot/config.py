@@ -110,9 +110,12 @@ class TrackerConfig:
     ink_tolerance: float = 0.1
     """oxbot: the readings agree only while the new symbol's ink (share of its cell) changes
     by at most this fraction of itself: the pen has stopped (issue 15)."""
+    guidance_seconds: float = 1.5
+    """oxbot: how long a camera's board must stay unreadable before the robot says why and what
+    to do (issue 17); a hand passing over the sheet is not worth a word."""
 
     def __post_init__(self) -> None:
-        _require_positive(self, "period_s", "stable_readings")
+        _require_positive(self, "period_s", "stable_readings", "guidance_seconds")
         _require_range(self, "min_confidence", "[0, 1)")
         _require_range(self, "ink_tolerance", "[0, 1)")
         _require_finite(self)
@@ -502,6 +505,10 @@ class WebConfig:
     (the page sends about 25: sheet frames, audio pieces and webcam frames)."""
     max_json_depth: int = 16
     """oxbot: deepest nesting of a message's JSON, checked before parsing (messages are 1 deep)."""
+    https: str = "auto"
+    """oxbot: (issue 17) serve the page over HTTPS with a self-signed certificate made on first
+    start ("on"), or plain HTTP ("off"); "auto" is on when `host` is not a loopback address,
+    since browsers give the camera only to secure pages off localhost."""
     allowed_origins: str = ""
     """oxbot: other origins whose pages may open the game socket, comma-separated, e.g.
     "https://oxbot.example.org" behind a reverse proxy or "http://mylaptop.local:8000" on a
@@ -522,6 +529,10 @@ class WebConfig:
                     f"{_where(self, 'allowed_origins')} has {origin!r}; write each origin as "
                     f"scheme://host[:port], e.g. https://oxbot.example.org"
                 )
+        if self.https not in ("auto", "on", "off"):
+            raise ConfigError(
+                f'{_where(self, "https")} is {self.https!r}; use "auto", "on" or "off"'
+            )
         if self.min_image_side > self.max_image_side:
             raise ConfigError("web.min_image_side is larger than web.max_image_side")
 

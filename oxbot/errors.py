@@ -62,6 +62,22 @@ class TrainingInterrupted(OxbotError):
         self.step = step
 
 
+class BusError(OxbotError):
+    """A robot's components cannot work together across processes (the Zenoh transport)."""
+
+
+class BusUnreachable(BusError):
+    """No Zenoh peer or router answers at the endpoints given (`--connect`)."""
+
+
+class BusVersionError(BusError):
+    """Another process of the robot speaks another version of the message format."""
+
+
+class ComponentAlreadyRunning(BusError):
+    """The component is already up in another process of the same robot."""
+
+
 class LearningRefused(OxbotError):
     """`oxbot learn` trained a model that is worse than the one it would replace, and kept the
     old one. `result` holds the refused model and its figures."""

@@ -84,6 +84,9 @@ POSITIVE = (
 )
 """Words that say yes. An answer read as a no that holds one, and none that says no, is not
 understood either."""
+APPROVING = (*POSITIVE, "cool", "nice", "great", "good", "fine", "right")
+"""Acknowledgements that say yes when they answer a question ("cool", "okay I see"); the others
+("oh", "hmm", "oh no", "oops") answer nothing and are not understood."""
 UNSURE = ("not sure", "don't know", "dunno", "don't understand", "it depends", "maybe not")
 """Words that say the person has not decided: whatever they were read as, not understood."""
 
@@ -237,15 +240,19 @@ class UserActClassifier:
         words = text.split()
         unknown_words = self.words.isdisjoint(words)  # only letters in common
         fragment = len(words) == 1 and text not in self.one_word_answers
+        meant = IN_CONTEXT.get(context, {}).get(act, act)
         if (
             act == UNKNOWN
             or p < self.min_probability
             or unknown_words
             or fragment
             or _contradicts(act, text)
+            # What the words mean here is checked too: "oh no" acknowledges, but it is no yes.
+            or _contradicts(meant, text)
+            or (act == ACKNOWLEDGE and meant == ACCEPT and not _holds(text, APPROVING))
         ):
             return UserAct(UNKNOWN, 0.0)
-        return UserAct(IN_CONTEXT.get(context, {}).get(act, act), round(p, 6))
+        return UserAct(meant, round(p, 6))
 
     def _with_phrase(self, reading: UserAct, text: str) -> UserAct:
         """`reading` with the known phrasing most like `text` among those of the act the

@@ -8,7 +8,13 @@ of the sheet until the next one arrives, as a camera would keep seeing it, and i
 at every tick; its labels are computed once, since the same image always reads the same.
 
 Publishes: BoardSeen for every reading that differs from the previous one (labels, crops, the
-tracker's count), GameMove for each accepted drawing, BoardProblem for impossible ones. Listens
+tracker's count, where the grid is), GameMove for each accepted drawing, BoardProblem for
+impossible ones. A frame without a readable board (a camera's) is diagnosed
+(`oxbot.perception.guidance`: too dark, blurred, a hand in the way, the sheet out of the
+picture): BoardSeen's `refusal` says what to do at once, and once the board has stayed
+unreadable for `guidance_seconds` a BoardProblem of the guidance's kind says it again, once
+per kind every GUIDANCE_REPEAT_SECONDS until the board is read again, for the robot to say out
+loud. Listens
 to ArmCommand, because the tracker must know the robot's own drawings before they appear, and
 to NewGame, which starts a clean sheet.
 """
@@ -16,6 +22,7 @@ to NewGame, which starts a clean sheet.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import logging
 import threading
 
@@ -24,8 +31,11 @@ import numpy as np
 
 from oxbot.config import TrackerConfig
 from oxbot.errors import FrameSourceError, NoGridFound
+from oxbot.game.board import SIZE
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
-from oxbot.perception.classifier import CellReading
+from oxbot.perception.cells import CELL_SIZE, SHEET_CELL
+from oxbot.perception.classifier import CellReading, ink_share
+from oxbot.perception.guidance import Guidance, diagnose
 from oxbot.perception.sources import FrameSource
 from oxbot.perception.tracker import AcceptedDrawing, ImpossibleEvent, MoveTracker
 from oxbot.robot.bus import Bus, Component
@@ -47,6 +57,50 @@ log = logging.getLogger(__name__)
 def encode_cells(cells: np.ndarray) -> tuple[bytes, ...]:
     """The classifier's 40x40 crops as PNGs, for a page to show."""
     return tuple(cv2.imencode(".png", cell)[1].tobytes() for cell in cells)
+
+
+GUIDANCE_REPEAT_SECONDS = 10.0
+"""oxbot: a board still unreadable for the same reason is told again after this long (the
+robot may have been talking, or the person not listening, the first time)."""
+
+Read = tuple[BoardReading | None, tuple[bytes, ...], Guidance | None, tuple[float, ...]]
+"""One frame's reading, crops, guidance (None: the board was read) and grid (BoardSeen.grid)."""
+
+
+def still_readings(reading: BoardReading) -> tuple[CellReading, ...]:
+    """The cells' readings with each cell's ink measured in the cell's fixed square of the
+    rectified sheet, for the tracker's check that the pen has stopped.
+
+    The classifier's crops are cut around the ink (`cut_cells_around_ink`), so their ink share
+    hardly grows once an arc spans its circle's width: a camera watching a circle drawn slowly
+    saw three agreeing readings at 75% of the stroke. In the cell's fixed square the ink grows
+    with every bit of stroke."""
+    if not reading.readings:
+        return ()
+    border, side = SHEET_CELL // 2, SHEET_CELL
+    squares = np.stack(
+        [
+            cv2.resize(
+                reading.cleaned[border + r * side : border + (r + 1) * side][
+                    :, border + c * side : border + (c + 1) * side
+                ],
+                (CELL_SIZE, CELL_SIZE),
+                interpolation=cv2.INTER_AREA,
+            )
+            for r in range(SIZE)
+            for c in range(SIZE)
+        ]
+    )
+    ink = ink_share(squares)
+    return tuple(dataclasses.replace(r, ink=float(ink[i])) for i, r in enumerate(reading.readings))
+
+
+def grid_shares(reading: BoardReading, frame: np.ndarray) -> tuple[float, ...]:
+    """The grid's 4x4 lattice as 32 numbers, x, y pairs row by row, in shares of the frame's
+    width and height (BoardSeen.grid)."""
+    height, width = frame.shape[:2]
+    shares = reading.grid.lattice.reshape(-1, 2) / np.array([width, height])
+    return tuple(round(float(v), 4) for v in shares.ravel())
 
 
 def move_message(drawing: AcceptedDrawing) -> GameMove:
@@ -84,9 +138,14 @@ class GameMoveComponent(Component):
         self._lock = threading.Lock()
         self._latest: np.ndarray | None = None
         self._version = 0  # counts pushed frames, so a frame is read only once
-        self._cached: tuple[int, tuple[BoardReading | None, tuple[bytes, ...], str]] | None = None
-        self._last_seen: tuple[tuple[str, ...], int, tuple[str, ...], str] | None = None
+        self._cached: tuple[int, Read] | None = None
+        self._last_seen: tuple | None = None
         self._off = False
+        # where the grid was last seen (shares), and in frames of which shape: another source
+        # (the page's camera after its canvas) has another picture
+        self._corners: tuple[np.ndarray, tuple[int, ...]] | None = None
+        self._refused = 0  # readings in a row without a board
+        self._told: dict[str, float] = {}  # guidance kind -> when told, in refused seconds
 
     @property
     def off(self) -> bool:
@@ -112,21 +171,25 @@ class GameMoveComponent(Component):
                 self._cached = None
             self.tracker = MoveTracker(message.robot_starts, self.config)
             self._last_seen = None
+            self._refused, self._told = 0, {}
 
     def tick(self) -> None:
         current = self._next_frame()
         if current is None:
             return
-        reading, cells, refusal = self._read(*current)
+        frame = current[0]
+        reading, cells, guidance, grid = self._read(*current)
+        refusal = guidance.text if guidance is not None else ""
         if reading is None:
             event = self.tracker.update(None)
         else:  # the cells' readings: a new symbol must be whole, confident and still
-            event = self.tracker.update(reading.labels, reading.readings or None)
+            event = self.tracker.update(reading.labels, still_readings(reading) or None)
         accepted = isinstance(event, AcceptedDrawing)
         labels = reading.labels if reading is not None else ()
         readings = tuple(self._shown(r) for r in reading.readings) if reading is not None else ()
         agreeing = self.config.stable_readings if accepted else self.tracker.agreeing
-        seen = (labels, agreeing, readings, refusal)
+        # the grid to a hundredth of the frame: a hand-held camera's jitter is no news
+        seen = (labels, agreeing, readings, refusal, tuple(round(v, 2) for v in grid))
         if seen != self._last_seen:
             self._last_seen = seen
             confidences = tuple(round(r.confidence, 3) for r in reading.readings) if reading else ()
@@ -138,14 +201,34 @@ class GameMoveComponent(Component):
                     readings=readings,
                     confidences=confidences,
                     refusal=refusal,
+                    grid=grid,
                 )
             )
+        self._guide(guidance, frame, grid)
         if accepted:
             log.info("accepted %s", event)
             self.bus.publish(move_message(event))
         elif isinstance(event, ImpossibleEvent):
             log.info("impossible: %s", event)
             self.bus.publish(BoardProblem(reason=event.message, kind=event.kind))
+
+    def _guide(self, guidance: Guidance | None, frame: np.ndarray, grid: tuple) -> None:
+        """Count the readings without a board; say why once they last `guidance_seconds`."""
+        if guidance is None:
+            self._refused, self._told = 0, {}
+            corners = np.array(grid).reshape(4, 4, 2)[[0, 0, 3, 3], [0, 3, 3, 0]]
+            self._corners = (corners, frame.shape[:2])
+            return
+        self._refused += 1
+        if self._refused * self.period < self.config.guidance_seconds:
+            return
+        refused = self._refused * self.period
+        # told again now and then: the robot may have been talking the first time
+        due = refused - self._told.get(guidance.kind, -GUIDANCE_REPEAT_SECONDS)
+        if due >= GUIDANCE_REPEAT_SECONDS:
+            self._told[guidance.kind] = refused
+            log.info("cannot see the board: %s", guidance.text)
+            self.bus.publish(BoardProblem(reason=guidance.text, kind=guidance.kind))
 
     def _shown(self, reading: CellReading) -> str:
         """A cell's label as the page shows it: a symbol too unsure to become a move
@@ -163,6 +246,7 @@ class GameMoveComponent(Component):
         # the game so far: what the tracker knows of the sheet, the last view of it
         self.tracker = copy.deepcopy(old.tracker)
         self.reader, self._off, self._last_seen = old.reader, old._off, old._last_seen
+        self._corners, self._refused, self._told = old._corners, old._refused, dict(old._told)
         with old._lock:
             self._latest, self._version = old._latest, old._version
 
@@ -195,23 +279,22 @@ class GameMoveComponent(Component):
         self._off = True
         self.bus.publish(SourceEnded(component=self.name, reason=reason))
 
-    def _read(
-        self, frame: np.ndarray, version: int
-    ) -> tuple[BoardReading | None, tuple[bytes, ...], str]:
-        """The frame's reading (None: no grid), crops, and why no grid was found ("" when one
-        was); a pushed frame is read only once."""
+    def _read(self, frame: np.ndarray, version: int) -> Read:
+        """The frame's reading (None: no board), crops, why no board could be read (None
+        when one was) and where the grid is; a pushed frame is read only once."""
         cached = self._cached
         if cached is not None and cached[0] == version:
             return cached[1]
         if self.reader is None:
             self.reader = default_reader()
-        reading: BoardReading | None
-        refusal = ""
+        read: Read
         try:
             reading = self.reader.read(frame)
-            cells = encode_cells(reading.cells)
+            read = (reading, encode_cells(reading.cells), None, grid_shares(reading, frame))
         except NoGridFound as exc:
-            reading, cells, refusal = None, (), str(exc)
+            last = self._corners
+            corners = last[0] if last is not None and last[1] == frame.shape[:2] else None
+            read = (None, (), diagnose(frame, str(exc), corners), ())
         if version >= 0:
-            self._cached = (version, (reading, cells, refusal))
-        return reading, cells, refusal
+            self._cached = (version, read)
+        return read

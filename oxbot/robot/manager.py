@@ -21,6 +21,12 @@ and anything the robot has to say meanwhile (an impossible drawing) waits for Ar
 The manager is the authority on the game: a move that is not legal on its board (typed moves
 bypass the tracker) is refused in words and never changes the board.
 
+On real paper (SheetMode, issue 17) the robot has no arm that reaches the sheet: it says where
+it plays ("I take the upper left.") instead of "I take this one"; the policy still sees the
+template's words, as in training, and the simulated arm still "draws" (the page shows its
+strokes over the video). When the camera cannot show the board while the robot waits for the
+person's drawing, it says why and what to do (the eyes' guidance, `GUIDANCE_SENTENCES`).
+
 When a part fails (see `oxbot.robot.bus`), the game goes on if it can:
 - the manager itself raising is restarted with its dialogue state as it was (the game on the
   board, the turns so far) and decides again; hanging, it is replaced by a fresh manager that
@@ -68,9 +74,12 @@ from oxbot.dialogue.state import DialogueState, Turn
 from oxbot.dialogue.understanding import UserAct
 from oxbot.game.board import (
     CELL_NAMES,
+    COLUMN_NAMES,
     EMPTY,
     PLURALS,
     ROBOT,
+    ROW_NAMES,
+    SIZE,
     USER,
     Board,
     cell_index,
@@ -81,6 +90,7 @@ from oxbot.robot.messages import (
     ArmCommand,
     ArmDone,
     BoardProblem,
+    ComponentJoined,
     ComponentLost,
     Decision,
     DialogueAct,
@@ -89,6 +99,7 @@ from oxbot.robot.messages import (
     GameState,
     Message,
     NewGame,
+    SheetMode,
     SpeakingFinished,
     SpeechHypotheses,
     Utterance,
@@ -106,6 +117,19 @@ PROBLEM_SENTENCES = {
 }
 """What the robot says (as the act PROBLEM, not one the policy chooses) about an impossible
 drawing, by the tracker's or the manager's problem kind."""
+GUIDANCE_SENTENCES = {
+    "no_grid": "I cannot see the grid. Please hold the camera over the whole sheet.",
+    "off_edge": "I can see only part of the sheet. Please move the camera so that I see all of it.",
+    "too_close": "The camera is too close. Please hold it a little higher.",
+    "too_dark": "It is too dark for me to see the sheet. Please turn on a light.",
+    "blurred": "The picture is blurred. Please hold the camera still.",
+    "hand": "A hand is in the way. Please take it off the sheet.",
+}
+"""What the robot says when its camera cannot show it the board (by the guidance's kind,
+`oxbot.perception.guidance`), only while it waits for the person's drawing: at other times the
+page shows it, and a stale instruction is worse than none."""
+PAPER_MOVE = "I take {cell}."
+"""What the robot says for its GameMove on real paper, where nobody sees an arm point."""
 STOPPED_SENTENCE = "Sorry, my {part} stopped working, so we have to stop here. Goodbye."
 """The robot's goodbye when a part the game needs is lost for good (as the act CLOSING)."""
 LOST_SENTENCES = {"hearing": "Sorry, my hearing has stopped working. Please type your answers."}
@@ -113,6 +137,12 @@ LOST_SENTENCES = {"hearing": "Sorry, my hearing has stopped working. Please type
 Understand = Callable[[Sequence[tuple[str, float]], str], UserAct]
 """Reads what the person said (an N-best list) in the context of the robot's last act as
 their dialogue act with a score (`UserActClassifier.intent_of`)."""
+
+
+def cell_in_words(cell: int) -> str:
+    """A cell as a person says it: "the upper left", "the middle"."""
+    row, column = ROW_NAMES[cell // SIZE], COLUMN_NAMES[cell % SIZE]
+    return "the middle" if row == column == "middle" else f"the {row} {column}"
 
 
 class Phase(enum.Enum):
@@ -145,6 +175,8 @@ class InteractionManagerComponent(Component):
         ArmDone,
         BoardProblem,
         ComponentLost,
+        ComponentJoined,
+        SheetMode,
     )
     retries = (NewGame,)  # else it restarts deciding again from the dialogue so far
     period = 0.02
@@ -170,6 +202,8 @@ class InteractionManagerComponent(Component):
         self._unanswered = {act for act, a in answers.items() if a <= {SILENCE}}
         self._questions = {act for act, a in answers.items() if a and SILENCE not in a}
         self.phase = Phase.IDLE
+        self.paper = False
+        """Whether the sheet is real paper under a camera (SheetMode)."""
         self._reset(True, publish=False)  # a replacement must not announce an empty board
 
     @property
@@ -195,7 +229,9 @@ class InteractionManagerComponent(Component):
     # --- messages ---
 
     def handle(self, message: Message) -> None:
-        if isinstance(message, NewGame):
+        if isinstance(message, SheetMode):
+            self.paper = message.paper
+        elif isinstance(message, NewGame):
             self._reset(message.robot_starts)
             self._decide()
         elif self.phase is Phase.DONE and isinstance(message, SpeechHypotheses):
@@ -212,6 +248,8 @@ class InteractionManagerComponent(Component):
             self._problem(message.kind)
         elif isinstance(message, ComponentLost):
             self._lost(message)
+        elif isinstance(message, ComponentJoined):
+            self._rejoined(message)
         elif isinstance(message, SpeakingFinished):
             if self.phase is Phase.SPEAKING and message.text == self._speaking:
                 self._spoke()
@@ -235,6 +273,7 @@ class InteractionManagerComponent(Component):
         keep = {id(state.layout): state.layout, id(state.action_model): state.action_model}
         self.state = copy.deepcopy(state, keep)
         self.rng, self.phase, self._deferred = old.rng, old.phase, list(old._deferred)
+        self.paper = old.paper
         for name in ("_moved_since", "_spoke_since", "_speaking", "_arm_cell", "_rematch"):
             setattr(self, name, getattr(old, name))
         self._deadline = old._deadline
@@ -274,10 +313,14 @@ class InteractionManagerComponent(Component):
         text = self.model.template(act, self.rng)
         self.state.robot_says(act, text)
         self._arm_cell = game_move_cell(act)
+        self._speaking = spoken(text)
+        if self.paper and self._arm_cell is not None:
+            # the policy keeps the template's words (above); the person hears the cell
+            self._speaking = PAPER_MOVE.format(cell=cell_in_words(self._arm_cell))
+            text = f"{self._speaking} [{text.split('[', 1)[1]}" if "[" in text else self._speaking
         self._publish_turn("sys", act, text)
         if self._arm_cell is not None:
             self._publish_game()
-        self._speaking = spoken(text)
         self.phase = Phase.SPEAKING
         self.bus.publish(Utterance(text=self._speaking, act=act))
 
@@ -382,6 +425,10 @@ class InteractionManagerComponent(Component):
         return None
 
     def _problem(self, kind: str) -> None:
+        if kind in GUIDANCE_SENTENCES:
+            if self.phase is Phase.LISTENING and self._expects_move():
+                self._tell(GUIDANCE_SENTENCES[kind])
+            return
         if kind == "out_of_turn" and not self._game_started():
             kind = "not_started"  # "it is my turn" is wrong before anyone agreed to play
         starts = self.state.robot_starts
@@ -411,6 +458,15 @@ class InteractionManagerComponent(Component):
         # no waiting for the voice or the arm to finish: either may be the part that is gone
         self.phase, self._broken, self._rematch = Phase.DONE, True, False
         self.bus.publish(DialogueEnded(outcome=self.state.outcome))
+
+    def _rejoined(self, message: ComponentJoined) -> None:
+        """A part's process came back (oxbot.robot.zenoh_bus): what died with its predecessor,
+        the sentence or drawing this manager waits for, is asked again."""
+        if message.part == "voice" and self.phase is Phase.SPEAKING:
+            self.bus.publish(Utterance(text=self._speaking, act=self.state.last_act))
+        elif message.part == "arm" and self.phase is Phase.DRAWING and self._arm_cell is not None:
+            symbol = symbol_of(ROBOT, self.state.robot_starts)
+            self.bus.publish(ArmCommand(where=CELL_NAMES[self._arm_cell], symbol=symbol))
 
     def _game_started(self) -> bool:
         return any(plays(act) for act in self.state.said)

@@ -83,6 +83,15 @@ class PersonFrame(Message):
 
 
 @dataclass(frozen=True)
+class SheetMode(Message):
+    """Where the game's sheet is: on the page's canvas, or real paper under a camera (issue
+    17). On paper the robot has no arm to draw with, so it says where it plays."""
+
+    topic: ClassVar[str] = "game/sheet"
+    paper: bool
+
+
+@dataclass(frozen=True)
 class SourceEnded(Message):
     """A component's camera failed or ran out of frames: what it saw must come another way."""
 
@@ -124,6 +133,10 @@ class BoardSeen(Message):
     """The classifier's calibrated confidence in each of `readings`."""
     refusal: str = ""
     """Why no grid was found, in words saying what to do; empty when one was."""
+    grid: tuple[float, ...] = ()
+    """Where the grid was found: its 4x4 lattice of cell corners, row by row, as x, y pairs
+    (32 numbers) in shares of the frame's width and height; empty when no grid was found. A
+    page draws the grid and the robot's own symbols over its camera's video with it."""
 
 
 @dataclass(frozen=True)
@@ -266,6 +279,16 @@ class ComponentLost(Message):
     """What the component is to the robot, in words: "voice", "arm", "hearing"."""
     error: str
     essential: bool
+
+
+@dataclass(frozen=True)
+class ComponentJoined(Message):
+    """A component's process joined the robot again after its predecessor's ended (across
+    processes, oxbot.robot.zenoh_bus): what it was asked and never answered must be asked again."""
+
+    topic: ClassVar[str] = "robot/joined"
+    component: str
+    part: str
 
 
 @dataclass(frozen=True)

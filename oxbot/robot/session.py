@@ -7,6 +7,8 @@
         robot.hear(wav_bytes)                # a push-to-talk recording
         robot.show(frame)                    # the sheet, as a camera sees it
         robot.draw("middle")                 # a typed move (no camera)
+        robot.paper(True)                    # real paper under a camera: the robot says
+                                             # where it plays (issue 17)
 
 `Robot(config)` takes its settings from an `OxbotConfig` (`[game]` who starts, `[robot]` the
 waits, speed, arm and head, `[speech]` the recogniser and voice, `[tracker]` the camera's
@@ -63,6 +65,7 @@ from oxbot.robot.messages import (
     GameState,
     NewGame,
     PersonFrame,
+    SheetMode,
     SourceEnded,
     SpeechAudio,
     SpeechHypotheses,
@@ -183,6 +186,8 @@ class Robot:
             warm_up(self.config)
             self.supervisor.start()
             self._started = True
+            if self._watching_sheet:  # a camera over real paper, where no arm reaches
+                self.paper(True)
             self.new_game()
         return self
 
@@ -246,6 +251,11 @@ class Robot:
     def look(self, frame: np.ndarray) -> None:
         """A webcam frame of the person, for head tracking."""
         self.bus.publish(frame_message(frame, PersonFrame))
+
+    def paper(self, on: bool) -> None:
+        """Play on real paper under a camera (`on`), or on a drawn sheet: on paper the robot
+        says where it plays, and says what to do when the camera cannot show the board."""
+        self.bus.publish(SheetMode(paper=bool(on)))
 
     def draw(self, where: str | int) -> None:
         """A move typed instead of drawn (no camera): the person's symbol in `where`."""

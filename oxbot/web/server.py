@@ -7,7 +7,10 @@ recordings (`ECHOES`); what the tab sends is checked here and handed to the robo
 
 client → server (JSON text messages)::
 
-    {"type": "frame", "image": "data:image/png;base64,..."}   the sheet (canvas), ~10 Hz
+    {"type": "frame", "image": "data:image/png;base64,..."}   the sheet (canvas), ~10 Hz, or
+                                                               real paper (camera, JPEG)
+    {"type": "paper", "on": true}                              the sheet is real paper under
+                                                               the camera (false: the canvas)
     {"type": "look", "image": "data:image/jpeg;base64,..."}   a webcam frame, head tracking
     {"type": "say", "text": "yes let's play"}                  typed answer
     {"type": "talk", "rate": 16000, "pcm": "<base64 int16>"}   push-to-talk, 16 kHz mono
@@ -18,6 +21,10 @@ client → server (JSON text messages)::
     {"type": "new_game", "image": "data:..."}                  a fresh sheet and game
     {"type": "record", "on": true}                             keep the game (issue 18);
                                                                /ws?record=1 from the start
+
+Paper mode (issue 17): the page streams its camera's frames of real paper as `frame`s, and the
+robot reads them as the canvas's. `paper` tells the robot, which then says where it plays (it
+has no arm to draw there) and says what to do when the camera cannot show it the board.
 
 Hands-free: the server cuts the stream of `listen` pieces into utterances with the VAD
 (oxbot.speech.vad, `[speech.listening]`) and hands each to the robot exactly as a push-to-talk
@@ -79,6 +86,7 @@ from oxbot.recording.web import add_routes as add_recording_routes
 from oxbot.robot.listening import HandsFreeListener
 from oxbot.robot.messages import Frame, PersonFrame, RecordingSwitch, SpeechAudio, to_json
 from oxbot.speech.audio import Audio, to_wav_bytes
+from oxbot.web.tls import Certificate
 
 log = logging.getLogger(__name__)
 
@@ -95,6 +103,7 @@ class RobotLike(Protocol):
     def hear(self, wav: bytes) -> Any: ...
     def show(self, frame: np.ndarray) -> Any: ...
     def look(self, frame: np.ndarray) -> Any: ...
+    def paper(self, on: bool) -> Any: ...
     def new_game(self) -> Any: ...
 
 
@@ -417,6 +426,12 @@ class Session:
             return
         self.listener.feed(samples)
 
+    def _on_paper(self, message: dict) -> None:
+        on = message.get("on")
+        if not isinstance(on, bool):
+            raise InvalidInputError("'on' must be true (real paper) or false (the canvas)")
+        self.robot.paper(on)
+
     def _on_listen_off(self, message: dict) -> None:
         if self.listener is not None:
             self.listener.stop_listening()
@@ -444,7 +459,17 @@ class GameOver(InvalidInputError):
     code = "game_over"
 
 
-CLIENT_TYPES = ("frame", "look", "say", "talk", "listen", "listen_off", "new_game", "record")
+CLIENT_TYPES = (
+    "frame",
+    "look",
+    "say",
+    "talk",
+    "listen",
+    "listen_off",
+    "new_game",
+    "paper",
+    "record",
+)
 """The message types a tab may send."""
 GAME_TYPES = ("frame",)
 """The ones refused once the robot has said goodbye (until a new game). Words still reach the
@@ -475,10 +500,12 @@ STATIC_TYPES = {
 def create_app(
     config: OxbotConfig | None = None,
     robot_factory: Callable[[], RobotLike] | None = None,
+    certificate: Certificate | None = None,
     recording: RecordingSetup | None = None,
 ) -> FastAPI:
     """The FastAPI app: `/` the page, `/static/*` its files, `/ws` a game session per socket,
-    `/health` how many sessions run.
+    `/health` how many sessions run, `/tls` the HTTPS certificate's fingerprint (empty when
+    `certificate`, the one it is served with, is None).
 
     Every session's robot is built with `config` (`[game]` who starts, `[robot]` its speed and
     waits, `[web]` what a tab may send), or by `robot_factory` when given.
@@ -509,6 +536,7 @@ def create_app(
     app.state.origins = Origins(limits)
     app.state.limits = limits
     app.state.listening = config.speech.listening
+    app.state.fingerprint = certificate.fingerprint if certificate is not None else ""
 
     @app.get("/", response_class=HTMLResponse)
     def page() -> HTMLResponse:
@@ -523,6 +551,10 @@ def create_app(
     @app.get("/health")
     async def health() -> dict:  # on the event loop: no worker thread to wait for
         return {"ok": True, "sessions": len(sessions), "speed_factor": speed_factor}
+
+    @app.get("/tls")
+    async def tls() -> dict:  # the page shows it, to compare with the browser's and terminal's
+        return {"sha256": app.state.fingerprint}
 
     @app.websocket("/ws")
     async def game(websocket: WebSocket) -> None:
@@ -793,6 +825,7 @@ def _hello(session: Session, app: FastAPI) -> dict:
         "audio_rate": session.limits.audio_rate,
         "pre_roll_seconds": session.listening.pre_roll_seconds,
         "stream_piece_seconds": STREAM_PIECE_SECONDS,
+        "tls_fingerprint": app.state.fingerprint,
     }
 
 
@@ -871,9 +904,11 @@ HEAVY_CHARS = 20_000
 
 
 @contextlib.contextmanager
-def serving_in_background(app: FastAPI, host: str = "127.0.0.1", port: int = 0):
-    """Serve `app` from a background thread (tests, benchmarks); yields its http:// URL and
-    stops the server on exit. Port 0 picks a free port."""
+def serving_in_background(
+    app: FastAPI, host: str = "127.0.0.1", port: int = 0, certificate: Certificate | None = None
+):
+    """Serve `app` from a background thread (tests, benchmarks); yields its http:// URL (https://
+    with a `certificate`) and stops the server on exit. Port 0 picks a free port."""
     import socket
 
     import uvicorn
@@ -883,7 +918,12 @@ def serving_in_background(app: FastAPI, host: str = "127.0.0.1", port: int = 0):
             probe.bind((host, 0))
             port = probe.getsockname()[1]
     config = uvicorn.Config(
-        app, host=host, port=port, log_level="warning", **socket_options(app.state.limits)
+        app,
+        host=host,
+        port=port,
+        log_level="warning",
+        **socket_options(app.state.limits),
+        **tls_options(certificate),
     )
     server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, name="oxbot-web-server", daemon=True)
@@ -895,7 +935,7 @@ def serving_in_background(app: FastAPI, host: str = "127.0.0.1", port: int = 0):
             raise OxbotError(f"the web server could not start on {host}:{port}")
         time.sleep(0.02)
     try:
-        yield f"http://{host}:{port}"
+        yield f"{'https' if certificate else 'http'}://{host}:{port}"
     finally:
         server.should_exit = True
         thread.join(15)
@@ -903,12 +943,19 @@ def serving_in_background(app: FastAPI, host: str = "127.0.0.1", port: int = 0):
 
 def serve(
     config: OxbotConfig | None = None,
+    announce: Callable[[str], None] | None = None,
+    robot_factory: Callable[[], RobotLike] | None = None,
     record: bool = False,
     data_dir: Any = None,
     record_audio: bool = False,
 ) -> None:
     """Run the page's server until interrupted (`oxbot play`), on `[web]` host and port
-    (localhost by default); with `record`, every game is kept in the recordings in
+    (localhost by default), over HTTPS when `[web] https` says so (see `uses_https`).
+
+    `announce` is given what a person needs to open the page (the URL; with HTTPS a QR code
+    of it for a phone and the certificate's fingerprint). Each tab's robot comes from
+    `robot_factory` when given (a robot whose components run elsewhere: `oxbot robot --web`).
+    With `record`, the page's record toggle starts on and games are kept in the recordings in
     `data_dir` (issue 18)."""
     import uvicorn
 
@@ -919,12 +966,66 @@ def serve(
     host, port = config.web.host, config.web.port
     recognizer_factory(config.speech.recognizer)  # a misnamed one fails now, not in each tab
     check_port_free(host, port)
+    certificate, urls = None, [f"http://{'127.0.0.1' if _any(host) else host}:{port}/"]
+    if uses_https(config.web):
+        from oxbot.web.tls import ensure_certificate, local_addresses, qr_text
+
+        reachable = local_addresses() if _any(host) else [host]
+        certificate = ensure_certificate(reachable)
+        urls = [f"https://{_url_host(h)}:{port}/" for h in (reachable or ["127.0.0.1"])]
     recording = RecordingSetup(data_dir, on_by_default=record, keep_audio=record_audio)
     if record:
         log.warning("recording is on: %s", recording.notice())
-    app = create_app(config, recording=recording)
-    log.info("oxbot: open http://%s:%d in a browser to play", host, port)
-    uvicorn.run(app, host=host, port=port, log_level="info", **socket_options(config.web))
+    app = create_app(config, robot_factory, certificate=certificate, recording=recording)
+    lines = [f"oxbot: open {urls[0]} in a browser to play"]
+    lines += [f"        or {url}" for url in urls[1:]]
+    if certificate is not None:
+        lines += [
+            "A phone on the same network can scan this:",
+            qr_text(urls[0]),
+            "The browser warns once about the self-signed certificate: accept it if its SHA-256",
+            f"fingerprint is {certificate.fingerprint}",
+            f"(kept in {certificate.cert.parent}; the page shows it too).",
+        ]
+    if announce is not None:
+        announce("\n".join(lines))
+    log.info("%s", lines[0])
+    uvicorn.run(
+        app,
+        host=host,
+        port=port,
+        log_level="info",
+        **socket_options(config.web),
+        **tls_options(certificate),
+    )
+
+
+def uses_https(limits: WebConfig) -> bool:
+    """Whether the page is served over HTTPS: `[web] https` "on", or "auto" with a host that is
+    not a loopback address (a phone's browser gives the camera only to a secure page)."""
+    if limits.https != "auto":
+        return limits.https == "on"
+    if limits.host.lower() == "localhost":
+        return False
+    try:
+        return not ipaddress.ip_address(limits.host).is_loopback
+    except ValueError:
+        return True  # a host name: reached from other machines
+
+
+def tls_options(certificate: Certificate | None) -> dict[str, str]:
+    """uvicorn's options for serving with `certificate` (none for plain HTTP)."""
+    if certificate is None:
+        return {}
+    return {"ssl_certfile": str(certificate.cert), "ssl_keyfile": str(certificate.key)}
+
+
+def _any(host: str) -> bool:
+    return host in ("0.0.0.0", "::", "")
+
+
+def _url_host(host: str) -> str:
+    return f"[{host}]" if ":" in host else host
 
 
 def socket_options(limits: WebConfig) -> dict[str, int]:
@@ -967,4 +1068,5 @@ __all__ = [
     "serve",
     "serving_in_background",
     "stream_piece",
+    "uses_https",
 ]

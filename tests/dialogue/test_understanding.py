@@ -99,6 +99,17 @@ def test_an_answer_is_read_in_the_context_of_the_question(classifier):
     assert classifier.classify("no", MOVE_REQUEST).act == STOP  # no more, mid-game
 
 
+@pytest.mark.parametrize("text", ["oh no", "oh", "hmm", "oops", "wow"])
+def test_an_acknowledgement_that_approves_nothing_is_no_yes_to_the_invitation(classifier, text):
+    # "oh no" was read as Acknowledge and taken as a yes: a game nobody agreed to
+    assert classifier.classify(text, INVITATION).act == UNKNOWN
+
+
+@pytest.mark.parametrize("text", ["okay I see", "cool", "alright"])
+def test_an_approving_acknowledgement_is_a_yes_to_the_invitation(classifier, text):
+    assert classifier.classify(text, INVITATION).act == ACCEPT
+
+
 def test_cross_validation_on_the_domains_phrasings_flips_nothing(domain):
     """Train on four fifths of the phrasings, read the rest: right, unknown, never flipped."""
     pairs = domain.user_phrases()

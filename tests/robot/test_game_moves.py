@@ -131,3 +131,30 @@ def test_bad_frames_are_refused_clearly():
         failure = collect(failures, lambda m: True)[-1]
         assert "not a JPEG image" in failure.error
         assert vision.running
+
+
+def test_a_board_unreadable_for_a_while_is_told_once_per_reason_with_the_grid_shown_before():
+    """Issue 17: BoardSeen carries the grid and the guidance at once; after `guidance_seconds`
+    of refused frames one BoardProblem per kind, and again only after the board was read."""
+    from oxbot.testing.webcam import PaperVideo
+
+    video = PaperVideo(seed=2)
+    for view in ("sheet", "dark", "blurred"):
+        video.show(view, 0.1)
+    sheet, dark, blurred = video.frames()
+    bus = LocalBus()
+    events = bus.subscribe(BoardSeen, BoardProblem)
+    config = TrackerConfig(period_s=0.05, guidance_seconds=0.2)
+    with GameMoveComponent(bus, robot_starts=True, config=config) as vision:
+        vision.push(sheet)
+        seen = collect(events, lambda m: isinstance(m, BoardSeen) and bool(m.grid))[-1]
+        vision.push(dark)
+        got = collect(events, lambda m: isinstance(m, BoardProblem))
+        time.sleep(0.5)  # still dark: nothing more to say
+        vision.push(blurred)
+        got += collect(events, lambda m: isinstance(m, BoardProblem))
+    assert len(seen.grid) == 32 and all(0.0 < v < 1.0 for v in seen.grid)
+    told = [m.kind for m in got if isinstance(m, BoardProblem)]
+    assert told == ["too_dark", "blurred"]
+    refusals = {m.refusal for m in got if isinstance(m, BoardSeen) and m.refusal}
+    assert any("too dark" in r for r in refusals) and any("blurred" in r for r in refusals)

@@ -20,7 +20,11 @@ const state = {
   dirty: false,          // the sheet changed since the last frame sent
   sound: true, camera: null, cameraTimer: null,
   audio: null, analyser: null, gain: null, source: null, mouthUntil: 0,
-  stats: { framesSent: 0, lastStrokeEnd: 0, moves: [], mouthMoves: 0, pointers: {}, cancels: 0 },
+  stats: { framesSent: 0, lastStrokeEnd: 0, moves: [], mouthMoves: 0, pointers: {}, cancels: 0,
+           acts: [], speaking: [] },
+  board: [],             // the board as the robot's manager last announced it (GameState)
+  robotStrokes: {},      // cell -> the arm's strokes there (unit square), for paper's overlay
+  paperDrawn: new Set(), // cells whose paper move is drawn on the canvas's overlay
 };
 window.oxbot = state;     // for tests and the curious: the page's state
 
@@ -108,6 +112,7 @@ board.addEventListener("pointercancel", () => { state.stats.cancels++; endStroke
 
 function sendFrame() {
   if (state.ended) return;   // after the goodbye the robot no longer watches the sheet
+  if (paper.on) return;      // the camera shows the robot the sheet, not the canvas
   // a symbol is whole only once the pen lifts: the sheet goes out then (endStroke)
   if (state.drawing) { state.dirty = true; return; }
   if (!send({ type: "frame", image: sheetImage() })) return;
@@ -170,13 +175,15 @@ function startOrNewGame() {
   ensureAudio();
   if (!state.ws) { resetSheet(); connect(); return; }
   resetSheet();
-  send({ type: "new_game", image: sheetImage() });
+  send(paper.on ? { type: "new_game" } : { type: "new_game", image: sheetImage() });
   addNote("New game ——————————");
 }
 
 function resetSheet() {
   state.grid = newGrid(); state.committed = []; state.pending = []; state.drawing = null;
   state.robotCells = new Set(); state.lastSeen = null; showCells(null);
+  state.robotStrokes = {}; state.board = []; state.paperDrawn = new Set(); paper.moves.clear();
+  drawPaperOverlay(); $("paper-hint").hidden = true;
   state.ended = false; octx.clearRect(0, 0, SIDE, SIDE); redrawSheet();
   showProblem(""); $("turn").textContent = ""; enableAnswers(!!state.hello);
 }
@@ -193,33 +200,44 @@ const handlers = {
     $("symbol-hint").textContent = `You draw ${d.user_symbol === "cross" ? "crosses (X)" : "circles (O)"}; `
       + `the robot draws ${d.robot_symbol === "cross" ? "crosses" : "circles"}.`;
     enableAnswers(true); buildDecisionTable(d.acts); sendFrame();
+    if (paper.on) send({ type: "paper", on: true });
+    showFingerprint(d.tls_fingerprint);
     setStatus(`Game ${d.session}: connected.`);
   },
   DialogueAct(d) {
     addLog(d.speaker, d.act, d.text);
+    state.stats.acts.push({ speaker: d.speaker, act: d.act, at: performance.now() });
     const acts = state.hello ? state.hello.act_names : {};
     if (d.speaker === "sys" && d.act === acts.move_request) {
       $("turn").textContent = `Your turn: draw a ${state.hello.user_symbol}.`;
     } else if (d.speaker === "sys" && state.hello && state.hello.game_moves.includes(d.act)) {
-      $("turn").textContent = "The robot is drawing…";
+      $("turn").textContent = paper.on ? "" : "The robot is drawing…";
+      if (paper.on) showPaperHint(d.act);
     } else if (d.speaker === "sys" && d.act !== acts.problem) {
       $("turn").textContent = "";
     }
   },
-  SpeakingStarted(d) { $("bubble").textContent = d.text; speak(d.audio, d.seconds); },
+  SpeakingStarted(d) {
+    state.stats.speaking.push(performance.now());
+    $("bubble").textContent = d.text; speak(d.audio, d.seconds);
+  },
   SpeakingFinished() { state.speaking = false; },
   NewGame() { sendFrame(); },   // the robot starts a clean sheet: show it the page's
   ArmStroke(d) {
     drawArmStroke(d.where, d.points);
+    (state.robotStrokes[d.where] = state.robotStrokes[d.where] || []).push(d.points);
+    drawPaperOverlay();
     if (!state.robotCells.has(d.where)) {
       state.robotCells.add(d.where);
       if (state.lastSeen) showSeen(state.lastSeen);
     }
   },
   ArmDone() {},
-  BoardSeen(d) { showSeen(d); },
+  BoardSeen(d) { showSeen(d); if (paper.on) seenOnPaper(d); },
+  GameState(d) { state.board = d.board || []; },
   BoardProblem(d) {
     showProblem(d.reason); addNote(d.reason);
+    if (GUIDANCE_KINDS.includes(d.kind)) { paper.guiding = true; return; }  // nothing to wipe
     // paper does not forget, but a page can: wipe the impossible ink (the strokes not yet
     // accepted, and the one under the pen) after a moment, so play can go on
     const wiped = new Set([...state.pending, state.drawing].filter(Boolean));
@@ -232,6 +250,7 @@ const handlers = {
   GameMove(d) {
     state.stats.moves.push({ ...d, at: performance.now() });
     if (d.who === "usr") {
+      if (paper.on) paper.moves.add(d.where);   // drawn on paper, not on the canvas
       state.committed.push(...state.pending); state.pending = [];
       showProblem(""); $("turn").textContent = "";
     }
@@ -630,6 +649,253 @@ function showDecision(d) {
     tr.querySelector(".bar").style.width = on ? `${Math.round(60 * (qs[i] - lo) / (hi - lo || 1))}px` : "0";
   });
 }
+
+// --- paper mode (issue 17): real paper under the browser's camera ---------------------------
+
+// The page streams its camera's frames of the sheet to the robot, which reads them as it reads
+// the canvas (the same game-move component, 3 agreeing readings at 10 Hz). Frames are shrunk
+// to what the reader needs (cells of about CELL_PX pixels once the grid is found) and sent at
+// most every PAPER_PERIOD_MS, less often while the socket has not passed the last ones on.
+// Over the video: the grid the robot found, each cell's reading, the 3-in-a-row progress and
+// the robot's own symbols, which it cannot draw (no arm reaches the paper): the person may
+// draw them for it, or leave them on the screen.
+const PAPER_PERIOD_MS = FRAME_PERIOD_MS, PAPER_SLOWEST_MS = 1000;
+const CELL_PX = 60, MIN_SEND_WIDTH = 320, MAX_SEND_WIDTH = 960, JPEG_QUALITY = 0.8;
+const GUIDANCE_KINDS = ["no_grid", "off_edge", "too_close", "too_dark", "blurred", "hand"];
+const BACKLOG_BYTES = 64 * 1024;   // more unsent than this: the link is slower than the frames
+const paper = {
+  on: false, stream: null, deviceId: "", width: 480, period: PAPER_PERIOD_MS, lastSent: 0,
+  grid: null, seen: null, timer: null, guiding: false,
+  moves: new Set(),      // the person's moves accepted while in paper mode (cell names)
+  stats: { sent: [], skipped: 0, opened: 0, errors: [] },
+};
+state.paper = paper;
+const video = $("paper-video"), pctx = $("paper-overlay").getContext("2d");
+const grab = document.createElement("canvas"), gctx = grab.getContext("2d");
+
+const CAMERA_TROUBLE = {
+  insecure: "This page cannot use a camera here: browsers lend it only to secure pages. Open "
+    + "oxbot over HTTPS (oxbot play --https) or at http://localhost on this computer. "
+    + "Meanwhile, play on on the canvas.",
+  denied: "The camera is blocked for this page: allow it in the browser (the camera icon by the "
+    + "address), then press Play on paper again. Meanwhile, play on on the canvas.",
+  missing: "No camera found: plug one in, or open the page on a phone, then press Play on "
+    + "paper again. Meanwhile, play on on the canvas.",
+  busy: "The camera is in use by another program: close it, then press Play on paper again. "
+    + "Meanwhile, play on on the canvas.",
+  stopped: "The camera stopped (unplugged, or taken by another program). The game goes on on "
+    + "the canvas; press Play on paper to try the camera again.",
+};
+
+function troubleOf(err) {
+  const name = err && err.name;
+  if (name === "NotAllowedError" || name === "SecurityError" || name === "PermissionDeniedError") return "denied";
+  if (name === "NotFoundError" || name === "OverconstrainedError" || name === "DevicesNotFoundError") return "missing";
+  if (name === "NotReadableError" || name === "TrackStartError" || name === "AbortError") return "busy";
+  return null;
+}
+
+function showPaperMessage(kind, detail) {
+  const box = $("paper-message");
+  const text = kind ? CAMERA_TROUBLE[kind] || `The camera cannot be used: ${detail}` : "";
+  box.hidden = !text; box.textContent = text; box.dataset.kind = kind || "";
+  if (text) { addNote(text); paper.stats.errors.push(kind || String(detail)); }
+}
+
+async function startPaper(deviceId) {
+  showPaperMessage("");
+  if (!navigator.mediaDevices || !navigator.mediaDevices.getUserMedia) {
+    showPaperMessage("insecure"); return;
+  }
+  const video_ = deviceId ? { deviceId: { exact: deviceId } }
+    : { facingMode: { ideal: "environment" }, width: { ideal: 640 }, height: { ideal: 480 } };
+  let stream;
+  try {
+    stream = await navigator.mediaDevices.getUserMedia({ video: video_, audio: false });
+  } catch (err) {
+    stopPaper(); const kind = troubleOf(err); showPaperMessage(kind, `${err.name}: ${err.message}`);
+    return;
+  }
+  if (paper.stream) paper.stream.getTracks().forEach((t) => t.stop());
+  paper.stream = stream; paper.stats.opened++;
+  const track = stream.getVideoTracks()[0];
+  paper.deviceId = (track.getSettings && track.getSettings().deviceId) || deviceId || "";
+  track.addEventListener("ended", () => cameraStopped(stream));
+  video.srcObject = stream;
+  try { await video.play(); } catch (_) { /* autoplay: muted video plays */ }
+  setPaper(true);
+  listCameras();
+}
+
+function cameraStopped(stream) {
+  if (paper.stream !== stream) return;  // one we stopped ourselves
+  stopPaper(); showPaperMessage("stopped");
+}
+
+function stopPaper() {
+  if (paper.stream) { const s = paper.stream; paper.stream = null; s.getTracks().forEach((t) => t.stop()); }
+  video.srcObject = null;
+  setPaper(false);
+}
+
+function setPaper(on) {
+  const was = paper.on;
+  paper.on = on; paper.grid = null; paper.seen = null; paper.period = PAPER_PERIOD_MS;
+  $("paper").setAttribute("aria-pressed", String(on));
+  $("paper").textContent = on ? "Back to the canvas" : "Play on paper";
+  $("paper-view").hidden = !on; $("camera-pick").hidden = !on;
+  $("sheet").hidden = on; $("undo").hidden = on; $("guidance").hidden = true;
+  $("paper-hint").hidden = !on || !$("paper-hint").textContent;
+  drawPaperOverlay();
+  if (on !== was) send({ type: "paper", on });
+  if (!on && was) { drawPaperMoves(); state.dirty = true; sendFrame(); }  // the canvas again
+  clearTimeout(paper.timer);
+  if (on) paperTick();
+}
+
+async function listCameras() {
+  const pick = $("camera-pick");
+  let cameras = [];
+  try { cameras = (await navigator.mediaDevices.enumerateDevices()).filter((d) => d.kind === "videoinput"); }
+  catch (_) { return; }
+  pick.innerHTML = "";
+  cameras.forEach((c, i) => {
+    const o = document.createElement("option");
+    o.value = c.deviceId; o.textContent = c.label || `camera ${i + 1}`;
+    o.selected = c.deviceId === paper.deviceId; pick.append(o);
+  });
+}
+$("camera-pick").addEventListener("change", (e) => startPaper(e.target.value));
+$("paper").addEventListener("click", () => (paper.on ? stopPaper() : startPaper(paper.deviceId)));
+
+function paperTick() {
+  if (!paper.on) return;
+  paper.timer = setTimeout(paperTick, 20);
+  const now = performance.now();
+  if (now - paper.lastSent < paper.period || state.ended || !video.videoWidth) return;
+  if (!state.ws || state.ws.readyState !== WebSocket.OPEN) return;
+  if (state.ws.bufferedAmount > BACKLOG_BYTES) {   // the link is behind: send less often
+    paper.period = Math.min(PAPER_SLOWEST_MS, paper.period * 1.5); paper.stats.skipped++;
+    paper.lastSent = now; return;
+  }
+  paper.period = Math.max(PAPER_PERIOD_MS, paper.period * 0.9);
+  const w = Math.min(paper.width, video.videoWidth), h = Math.round(w * video.videoHeight / video.videoWidth);
+  grab.width = w; grab.height = h - (h % 2); gctx.drawImage(video, 0, 0, grab.width, grab.height);
+  if (send({ type: "frame", image: grab.toDataURL("image/jpeg", JPEG_QUALITY) })) {
+    paper.lastSent = now; paper.stats.sent.push(now);
+  }
+}
+
+function seenOnPaper(d) {
+  paper.seen = d;
+  paper.grid = d.grid && d.grid.length === 32 ? d.grid : null;
+  if (paper.grid) {  // send what the reader needs: cells of about CELL_PX pixels
+    const xs = paper.grid.filter((_, i) => i % 2 === 0), span = Math.max(...xs) - Math.min(...xs);
+    const wanted = Math.round(3 * CELL_PX / Math.max(span, 0.05));
+    paper.width = Math.max(MIN_SEND_WIDTH, Math.min(MAX_SEND_WIDTH, video.videoWidth || 640, wanted));
+  }
+  const guide = $("guidance");
+  guide.hidden = !d.refusal; guide.textContent = d.refusal || "";
+  if (!d.refusal && paper.guiding) { paper.guiding = false; showProblem(""); }  // seen again
+  drawPaperOverlay();
+}
+
+function lattice(r, c) {   // the grid's corner (r, c) in overlay pixels
+  const k = 2 * (4 * r + c), cv = pctx.canvas;
+  return [paper.grid[k] * cv.width, paper.grid[k + 1] * cv.height];
+}
+
+function inCell(i, u, v) {  // a point of cell i's unit square on the video: bilinear in its corners
+  const r = Math.floor(i / SIZE), c = i % SIZE;
+  const [a, b, e, f] = [lattice(r, c), lattice(r, c + 1), lattice(r + 1, c), lattice(r + 1, c + 1)];
+  return [0, 1].map((k) => (1 - v) * ((1 - u) * a[k] + u * b[k]) + v * ((1 - u) * e[k] + u * f[k]));
+}
+
+function drawPaperOverlay() {
+  const cv = pctx.canvas;
+  if (video.videoWidth && (cv.width !== video.videoWidth || cv.height !== video.videoHeight)) {
+    cv.width = video.videoWidth; cv.height = video.videoHeight;
+  }
+  pctx.clearRect(0, 0, cv.width, cv.height);
+  const d = paper.seen, progress = $("paper-progress");
+  if (!paper.on || !paper.grid || !d) { progress.textContent = ""; return; }
+  const names = state.hello ? state.hello.cells : [], scale = cv.width / 480;
+  pctx.lineWidth = Math.max(2, 2 * scale); pctx.strokeStyle = "rgba(34,197,94,.9)";
+  for (let k = 0; k <= SIZE; k++) {  // the lattice the robot found: rows, then columns
+    pctx.beginPath(); pctx.moveTo(...lattice(k, 0)); pctx.lineTo(...lattice(k, SIZE)); pctx.stroke();
+    pctx.beginPath(); pctx.moveTo(...lattice(0, k)); pctx.lineTo(...lattice(SIZE, k)); pctx.stroke();
+  }
+  const robotMark = state.hello && state.hello.robot_symbol;
+  let pending = -1;
+  pctx.font = `${Math.round(12 * scale)}px system-ui, sans-serif`;
+  for (let i = 0; i < names.length; i++) {
+    const reading = (d.readings && d.readings[i]) || "nothing";
+    const sure = d.confidences && d.confidences[i] !== undefined ? ` ${Math.round(100 * d.confidences[i])}%` : "";
+    const strokes = state.robotStrokes[names[i]];
+    if (strokes) {  // the robot's symbol: virtual, or drawn for it by the person
+      const drawn = reading === robotMark;
+      pctx.strokeStyle = drawn ? "rgba(139,30,63,.35)" : "rgba(139,30,63,.9)";
+      pctx.lineWidth = Math.max(3, 5 * scale); pctx.lineCap = "round";
+      for (const s of strokes) {
+        pctx.beginPath();
+        s.forEach(([u, v], j) => { const [x, y] = inCell(i, u, v); j ? pctx.lineTo(x, y) : pctx.moveTo(x, y); });
+        pctx.stroke();
+      }
+    } else if ((reading === "circle" || reading === "cross") && !state.board[i]) {
+      pending = i;  // a symbol not yet a move: the 3-in-a-row under way
+    }
+    const [x, y] = inCell(i, 0.06, 0.2), mark = { circle: "O", cross: "X", nothing: "·", partial: "~" }[reading] || "?";
+    const label = strokes ? (reading === robotMark ? "robot's, drawn" : "robot's") : `${mark}${sure}`;
+    pctx.fillStyle = "rgba(255,255,255,.8)";
+    pctx.fillRect(x - 2, y - 12 * scale, pctx.measureText(label).width + 4, 15 * scale);
+    pctx.fillStyle = i === pending ? "#2563eb" : "#111827"; pctx.fillText(label, x, y);
+  }
+  const needed = state.hello ? state.hello.stable_readings : 3, n = Math.min(d.agreeing || 0, needed);
+  progress.textContent = pending >= 0 || n ? `new move: ${"●".repeat(n)}${"○".repeat(needed - n)} ${n}/${needed}` : "";
+  if (pending >= 0) {  // a ring round the cell, filling with each agreeing reading
+    const [cx, cy] = inCell(pending, 0.5, 0.5), [ex] = inCell(pending, 1, 0.5);
+    pctx.strokeStyle = "#2563eb"; pctx.lineWidth = Math.max(3, 4 * scale);
+    pctx.beginPath(); pctx.arc(cx, cy, Math.abs(ex - cx) * 0.9, -Math.PI / 2, -Math.PI / 2 + 2 * Math.PI * n / needed);
+    pctx.stroke();
+  }
+}
+
+function showPaperHint(act) {
+  const cell = act.slice(act.indexOf("=") + 1, -1), hint = $("paper-hint");
+  const where = cell === "middle" ? "the middle"   // upperleft -> the upper left
+    : `the ${cell.replace(/^(upper|middle|lower)/, "$1 ")}`;
+  const mark = state.hello.robot_symbol === "cross" ? "cross (X)" : "circle (O)";
+  hint.textContent = `The robot plays ${where}: draw its ${mark} there for it if you like, `
+    + "or leave it on the screen.";
+  hint.hidden = false;
+}
+
+function drawPaperMoves() {
+  // the person's moves made on paper, shown on the canvas's overlay (never sent: the robot
+  // already knows them) when the game goes on on the canvas
+  if (paper.on || !state.hello) return;
+  const user = state.hello.user_symbol;
+  paper.moves.forEach((where) => {
+    if (state.paperDrawn.has(where)) return;
+    const box = cellBox(where); if (!box) return;
+    const [l, t, r, b] = box, cx = (l + r) / 2, cy = (t + b) / 2, q = (r - l) * 0.28;
+    octx.strokeStyle = "#64748b"; octx.lineWidth = PEN_WIDTH; octx.lineCap = "round"; octx.beginPath();
+    if (user === "circle") octx.arc(cx, cy, q, 0, 2 * Math.PI);
+    else { octx.moveTo(cx - q, cy - q); octx.lineTo(cx + q, cy + q); octx.moveTo(cx + q, cy - q); octx.lineTo(cx - q, cy + q); }
+    octx.stroke();
+    state.paperDrawn.add(where);
+  });
+}
+
+function showFingerprint(sha256) {
+  const f = $("tls");
+  f.hidden = !sha256;
+  f.textContent = sha256 ? `This page's HTTPS certificate (self-signed by oxbot), SHA-256: ${sha256}` : "";
+}
+if (location.protocol === "https:") {
+  fetch("/tls").then((r) => r.json()).then((t) => showFingerprint(t.sha256)).catch(() => {});
+}
+video.addEventListener("resize", drawPaperOverlay);
 
 // the blank sheet, before the first game
 state.grid = newGrid(); redrawSheet();
