@@ -444,6 +444,15 @@ def play(
             "lends the page its camera (default: HTTPS when --host is not a loopback address).",
         ),
     ] = None,
+    record: Annotated[
+        bool, typer.Option("--record", help="Keep what the robot saw and heard (oxbot data).")
+    ] = False,
+    record_audio: Annotated[
+        bool, typer.Option("--record-audio", help="With --record: keep the recordings too.")
+    ] = False,
+    data_dir: Annotated[
+        Path | None, typer.Option(help="Folder of the recordings (default: user data folder).")
+    ] = None,
 ) -> None:
     """Play with the whole robot: the web page at http(s)://HOST:PORT, or --terminal."""
     changes = {
@@ -464,11 +473,26 @@ def play(
         from oxbot.robot.terminal import Speakers, TerminalRobot
 
         source = open_source(camera) if camera is not None else None
-        TerminalRobot(Robot(config, sheet_camera=source), speakers=Speakers(not mute)).run()
+        store = None
+        if record:  # issue 18: opt-in, and said so
+            from oxbot.recording import RecordingStore, notice
+
+            store = RecordingStore(data_dir)
+            err_console.print(notice(store, record_audio), highlight=False)
+        robot = Robot(
+            config, sheet_camera=source, recorder=store, record_audio=record_audio, mode="terminal"
+        )
+        TerminalRobot(robot, speakers=Speakers(not mute)).run()
         return
     from oxbot.web.server import serve
 
-    serve(config, announce=typer.echo)
+    serve(
+        config,
+        announce=typer.echo,
+        record=record,
+        data_dir=data_dir,
+        record_audio=record_audio,
+    )
 
 
 # --- reproducing the paper: oxbot reproduce (issue 8) ---
@@ -582,6 +606,12 @@ def robot_command(
 
 app.add_typer(train_app, name="train")
 app.add_typer(evaluate_app, name="evaluate")
+
+# --- learning from recorded games (issue 18) ---
+from oxbot.recording.cli import data_app, learn_app  # noqa: E402
+
+app.add_typer(data_app, name="data")
+app.add_typer(learn_app, name="learn")
 
 
 def main() -> None:

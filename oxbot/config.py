@@ -18,6 +18,7 @@ import dataclasses
 import functools
 import inspect
 import itertools
+import json
 import math
 import textwrap
 import tomllib
@@ -229,6 +230,24 @@ def who_starts(text: str, where: str = "robot_starts") -> tuple[bool, ...]:
     return conditions
 
 
+def phrasing_weights(text: str) -> dict[str, dict[str, float]]:
+    """Parse `dialogue.phrasing_weights` (JSON {act: {phrasing: weight > 0}}; "" is none)."""
+    if not text.strip():
+        return {}
+    try:
+        weights = json.loads(text)
+        parsed = {
+            str(act): {str(t): float(w) for t, w in texts.items()} for act, texts in weights.items()
+        }
+    except (ValueError, TypeError, AttributeError, RecursionError):
+        raise ConfigError(
+            'dialogue.phrasing_weights is not JSON like {"Confirm(playGame=yes)": {"yes": 3}}'
+        ) from None
+    if any(not (math.isfinite(w) and w > 0) for texts in parsed.values() for w in texts.values()):
+        raise ConfigError("dialogue.phrasing_weights must all be finite numbers > 0")
+    return parsed
+
+
 def opponent_mix(text: str) -> dict[str, float]:
     """Parse `random:2,minimax:1` (a weight after each name, default 1) into normalised weights."""
     from oxbot.game.opponents import OPPONENTS
@@ -282,6 +301,10 @@ class DialogueConfig:
     """oxbot: Laplace smoothing of the Naive Bayes action model (paper §2.2 gives none)."""
     nb_binarize: float = 0.5
     """oxbot: a feature above this counts as on for the Naive Bayes action model."""
+    phrasing_weights: str = ""
+    """oxbot: JSON {act: {phrasing: weight}} (issue 18): the simulated person says an act's
+    phrasings in these proportions (others of the act weigh 1); `oxbot learn agent` fits it to
+    recorded dialogues. Empty: every phrasing of an act equally often."""
 
     def __post_init__(self) -> None:
         for name in (
@@ -297,6 +320,7 @@ class DialogueConfig:
         ):
             _require_range(self, name, "[0, 1]")
         _require_positive(self, "max_turns", "nb_alpha")
+        phrasing_weights(self.phrasing_weights)
         _require_finite(self)
 
 

@@ -76,3 +76,12 @@ class BusVersionError(BusError):
 
 class ComponentAlreadyRunning(BusError):
     """The component is already up in another process of the same robot."""
+
+
+class LearningRefused(OxbotError):
+    """`oxbot learn` trained a model that is worse than the one it would replace, and kept the
+    old one. `result` holds the refused model and its figures."""
+
+    def __init__(self, message: str, result: object = None) -> None:
+        super().__init__(message)
+        self.result = result

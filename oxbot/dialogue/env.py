@@ -71,7 +71,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from oxbot.config import OxbotConfig
+from oxbot.config import OxbotConfig, phrasing_weights
 from oxbot.dialogue.domain import CLOSING, SILENCE, SYSTEM_ACTS, Domain
 from oxbot.dialogue.model import build_dialogue_model
 from oxbot.dialogue.reward import end_reward, step_reward
@@ -143,6 +143,7 @@ class InteractiveGameEnv(gym.Env):
                 early_refusal_probability=cfg.early_refusal_probability,
                 cooperative=self.cooperative,
                 understanding=self.model.understanding,
+                phrasing_weights=phrasing_weights(cfg.phrasing_weights),
             )
         self._simulator.opponent = opponent
         self._simulator.reset()

@@ -17,12 +17,13 @@ agreed to play answers "Your turn" by asking to stop. `cooperative=True` is a pe
 agrees and plays a whole game (recognition noise still on), for measuring game play.
 
 What the person says is one of the domain's phrasings of the act they mean
-(`user_phrases.txt`, the user responses); the cell they draw in comes from the opponent strategy
-(a SPEC §5 callable), checked with `checked_move`. The robot hears it through a speech
-recogniser model with noise level `asr_noise` = n: each word is dropped with probability n/4,
-replaced by a random word of the phrasings (confidence uniform in [0.1, 0.6]) with probability
-n/4, and otherwise heard with a confidence uniform in [1-n, 1]; then understands it with the
-real `UserActClassifier`, in the context of what the robot just said.
+(`user_phrases.txt`, the user responses), each equally often unless `phrasing_weights` says
+otherwise (issue 18: fitted to recorded dialogues); the cell they draw in comes from the
+opponent strategy (a SPEC §5 callable), checked with `checked_move`. The robot hears it
+through a speech recogniser model with noise level `asr_noise` = n: each word is dropped with
+probability n/4, replaced by a random word of the phrasings (confidence uniform in [0.1, 0.6])
+with probability n/4, and otherwise heard with a confidence uniform in [1-n, 1]; then
+understands it with the real `UserActClassifier`, in the context of what the robot just said.
 """
 
 from __future__ import annotations
@@ -98,6 +99,7 @@ class UserSimulator:
         early_refusal_probability: float = 0.0,
         cooperative: bool = False,
         understanding: UserActClassifier | None = None,
+        phrasing_weights: dict[str, dict[str, float]] | None = None,
     ) -> None:
         self.domain = domain
         self.rng = rng if rng is not None else np.random.default_rng()
@@ -117,6 +119,12 @@ class UserSimulator:
             understanding if understanding is not None else UserActClassifier(domain)
         )
         self._phrasings, self._words = _phrasings(domain)
+        # issue 18: how often each phrasing of an act is said, fitted to recorded dialogues
+        self._weights = {
+            act: np.array([weights.get(t, 1.0) for t in self._phrasings[act]], np.float64)
+            for act, weights in (phrasing_weights or {}).items()
+            if act in self._phrasings
+        }
         self._small_talk = tuple(
             u
             for act in (GREETING, INTRODUCTION)
@@ -212,7 +220,11 @@ class UserSimulator:
     def _say(self, act: str, system_act: str, cell: int | None = None) -> UserTurn:
         """`act` said in one of its phrasings (a drawing in `cell`), heard and understood."""
         phrasings = self._phrasings[act]
-        text = phrasings[int(self.rng.integers(len(phrasings)))]
+        weights = self._weights.get(act)
+        if weights is None:  # the same random stream as before weights existed
+            text = phrasings[int(self.rng.integers(len(phrasings)))]
+        else:
+            text = phrasings[int(self.rng.choice(len(phrasings), p=weights / weights.sum()))]
         if cell is not None:
             act = game_move(cell)
             text = f"{text} {draw_tag('usr', cell)}".strip()
@@ -255,6 +267,11 @@ class UserSimulator:
 
 
 _PHRASINGS: dict[int, tuple[Domain, dict[str, tuple[str, ...]], tuple[str, ...]]] = {}
+
+
+def phrasings_of(domain: Domain) -> dict[str, tuple[str, ...]]:
+    """User act -> the texts the simulated person may say it with (`_phrasings`)."""
+    return _phrasings(domain)[0]
 
 
 def _phrasings(domain: Domain) -> tuple[dict[str, tuple[str, ...]], tuple[str, ...]]:

@@ -254,11 +254,13 @@ def train_agent(
     show_progress: bool = True,
     checkpoint_every: int = 20_000,
     log_every: int = 1_000,
+    init_from: DQNPolicy | None = None,
 ) -> TrainingResult:
     """Train the interaction manager with `config` and write its files into `out_dir`.
 
     With `resume`, continue from `out_dir/checkpoint.pt` if there is one. Ctrl-C saves that
-    checkpoint after the step in hand and raises `TrainingInterrupted`.
+    checkpoint after the step in hand and raises `TrainingInterrupted`. `init_from`, a policy
+    of the same architecture, starts the networks from its weights (a fine-tune, issue 18).
     """
     # Long on purpose: the paper's algorithm as one loop read top to bottom, as CleanRL's dqn.py.
     out_dir = Path(out_dir)
@@ -272,6 +274,9 @@ def train_agent(
     # --- set-up: environment, networks, replay memory, opponents -------------------------------
     env = InteractiveGameEnv(config=config)
     learner = _new_learner(env, cfg)
+    if init_from is not None:
+        learner.q_network.load_state_dict(init_from.q_network.state_dict())
+        learner.target_network.load_state_dict(init_from.q_network.state_dict())
     rng = learner.rng
     augment = BatchAugmenter(env, config)
     next_episode = _episode_options(cfg, rng)

@@ -291,6 +291,15 @@ class ComponentJoined(Message):
     part: str
 
 
+@dataclass(frozen=True)
+class RecordingSwitch(Message):
+    """Whether the person lets the robot keep what it sees and hears (issue 18): a Recorder on
+    the bus starts or stops keeping the game."""
+
+    topic: ClassVar[str] = "recording/switch"
+    on: bool
+
+
 MESSAGE_TYPES: dict[str, type[Message]] = {cls.__name__: cls for cls in Message.__subclasses__()}
 """Every message type by class name, for decoding JSON."""
 

@@ -19,6 +19,8 @@ client → server (JSON text messages)::
                                                                sends 0.1 s)
     {"type": "listen_off"}                                     hands-free ends or pauses
     {"type": "new_game", "image": "data:..."}                  a fresh sheet and game
+    {"type": "record", "on": true}                             keep the game (issue 18);
+                                                               /ws?record=1 from the start
 
 Paper mode (issue 17): the page streams its camera's frames of real paper as `frame`s, and the
 robot reads them as the canvas's. `paper` tells the robot, which then says where it plays (it
@@ -79,8 +81,10 @@ from PIL import Image, UnidentifiedImageError
 from oxbot.config import ListeningConfig, OxbotConfig, WebConfig
 from oxbot.errors import ConfigError, InvalidInputError, OxbotError
 from oxbot.image_size import check_pixels
+from oxbot.recording.web import RecordingSetup
+from oxbot.recording.web import add_routes as add_recording_routes
 from oxbot.robot.listening import HandsFreeListener
-from oxbot.robot.messages import Frame, PersonFrame, SpeechAudio, to_json
+from oxbot.robot.messages import Frame, PersonFrame, RecordingSwitch, SpeechAudio, to_json
 from oxbot.speech.audio import Audio, to_wav_bytes
 from oxbot.web.tls import Certificate
 
@@ -103,13 +107,24 @@ class RobotLike(Protocol):
     def new_game(self) -> Any: ...
 
 
-def default_robot_factory(config: OxbotConfig) -> Callable[[], RobotLike]:
-    """A factory of real robots with this config, one per session."""
+def default_robot_factory(
+    config: OxbotConfig, recording: RecordingSetup | None = None
+) -> Callable[[], RobotLike]:
+    """A factory of real robots with this config, one per session (each with a Recorder, off
+    until its tab switches it on, when `recording` is given: issue 18)."""
 
     def make() -> RobotLike:
         from oxbot.robot.session import Robot
 
-        return Robot(config)
+        if recording is None:
+            return Robot(config)
+        return Robot(
+            config,
+            recorder=recording.store,  # opened at the first game kept
+            record_audio=recording.keep_audio,
+            mode="web",
+            record_now=False,
+        )
 
     return make
 
@@ -421,6 +436,13 @@ class Session:
         if self.listener is not None:
             self.listener.stop_listening()
 
+    def _on_record(self, message: dict) -> None:
+        """The page's record toggle (issue 18): keep this game from now on, or stop."""
+        on = message.get("on")
+        if not isinstance(on, bool):
+            raise InvalidInputError("'on' must be true or false")
+        self.robot.bus.publish(RecordingSwitch(on=on))
+
     def _on_new_game(self, message: dict) -> None:
         image = message.get("image")
         frame = decode_image(image, self.limits) if image is not None else None
@@ -437,7 +459,17 @@ class GameOver(InvalidInputError):
     code = "game_over"
 
 
-CLIENT_TYPES = ("frame", "look", "say", "talk", "listen", "listen_off", "new_game", "paper")
+CLIENT_TYPES = (
+    "frame",
+    "look",
+    "say",
+    "talk",
+    "listen",
+    "listen_off",
+    "new_game",
+    "paper",
+    "record",
+)
 """The message types a tab may send."""
 GAME_TYPES = ("frame",)
 """The ones refused once the robot has said goodbye (until a new game). Words still reach the
@@ -469,6 +501,7 @@ def create_app(
     config: OxbotConfig | None = None,
     robot_factory: Callable[[], RobotLike] | None = None,
     certificate: Certificate | None = None,
+    recording: RecordingSetup | None = None,
 ) -> FastAPI:
     """The FastAPI app: `/` the page, `/static/*` its files, `/ws` a game session per socket,
     `/health` how many sessions run, `/tls` the HTTPS certificate's fingerprint (empty when
@@ -480,7 +513,10 @@ def create_app(
     config = config if config is not None else OxbotConfig()
     limits = config.web
     speed_factor, robot_starts = config.robot.speed_factor, config.game.robot_starts
-    make_robot = robot_factory if robot_factory is not None else default_robot_factory(config)
+    recording = recording if recording is not None else RecordingSetup()
+    make_robot = (
+        robot_factory if robot_factory is not None else default_robot_factory(config, recording)
+    )
     ready = threading.Event()
 
     @contextlib.asynccontextmanager
@@ -523,6 +559,10 @@ def create_app(
     @app.websocket("/ws")
     async def game(websocket: WebSocket) -> None:
         await _game_session(websocket, app, make_robot, ready)
+
+    # --- issue 18: the record toggle's settings, the "what I learned" page ---
+    app.state.recording = recording
+    add_recording_routes(app, recording)
 
     app.state.speed_factor = speed_factor
     app.state.robot_starts = robot_starts
@@ -580,6 +620,8 @@ async def _serve_session(
             return
         session = Session(robot, limits, app.state.listening)
         sessions[session.id] = session
+        if websocket.query_params.get("record") == "1":  # issue 18: the toggle was on
+            robot.bus.publish(RecordingSwitch(on=True))
         log.info("session %d opened (%d running)", session.id, len(sessions))
     try:
         async with app.state.starting:
@@ -903,13 +945,18 @@ def serve(
     config: OxbotConfig | None = None,
     announce: Callable[[str], None] | None = None,
     robot_factory: Callable[[], RobotLike] | None = None,
+    record: bool = False,
+    data_dir: Any = None,
+    record_audio: bool = False,
 ) -> None:
     """Run the page's server until interrupted (`oxbot play`), on `[web]` host and port
     (localhost by default), over HTTPS when `[web] https` says so (see `uses_https`).
 
     `announce` is given what a person needs to open the page (the URL; with HTTPS a QR code
     of it for a phone and the certificate's fingerprint). Each tab's robot comes from
-    `robot_factory` when given (a robot whose components run elsewhere: `oxbot robot --web`)."""
+    `robot_factory` when given (a robot whose components run elsewhere: `oxbot robot --web`).
+    With `record`, the page's record toggle starts on and games are kept in the recordings in
+    `data_dir` (issue 18)."""
     import uvicorn
 
     from oxbot.speech.recognition import recognizer_factory
@@ -926,7 +973,10 @@ def serve(
         reachable = local_addresses() if _any(host) else [host]
         certificate = ensure_certificate(reachable)
         urls = [f"https://{_url_host(h)}:{port}/" for h in (reachable or ["127.0.0.1"])]
-    app = create_app(config, robot_factory, certificate=certificate)
+    recording = RecordingSetup(data_dir, on_by_default=record, keep_audio=record_audio)
+    if record:
+        log.warning("recording is on: %s", recording.notice())
+    app = create_app(config, robot_factory, certificate=certificate, recording=recording)
     lines = [f"oxbot: open {urls[0]} in a browser to play"]
     lines += [f"        or {url}" for url in urls[1:]]
     if certificate is not None:

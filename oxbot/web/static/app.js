@@ -157,7 +157,8 @@ function send(message) {
 }
 
 function connect() {
-  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws`);
+  const query = window.recordingQuery ? window.recordingQuery() : "";   // record.js (issue 18)
+  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws${query}`);
   state.ws = ws;
   setStatus("Connecting…");
   ws.onopen = () => { setStatus("Connected."); };

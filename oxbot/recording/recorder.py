@@ -1,0 +1,299 @@
+"""The Recorder: a component that keeps what the robot saw and heard, when the person agreed.
+
+It only listens (it publishes nothing), and only while it is on (`enabled`, switched by a
+RecordingSwitch message: the page's toggle); switched on mid-game, it keeps the game from that
+turn on; switched off, it closes the session under way ("stopped") and keeps nothing more.
+The manager's GameState opens a session when a game starts (the empty board) and tells which
+cells are settled; BoardSeen carries the 9 crops the
+tracker read; SpeechHypotheses what was heard (SpeechAudio its recording, kept only with
+`keep_audio`); DialogueAct the transcript; DialogueEnded closes the session.
+
+Writes are buffered and committed one transaction per turn (each DialogueAct, and the
+goodbye), so a crash loses at most the turn under way.
+
+Labels come from the finished game, never from the classifier: when the dialogue ends, a crop
+of a cell where the person's move had already been accepted when it was read gets the person's
+symbol, and a crop of a cell still empty at the end gets "nothing". The robot's own cells get
+no label (on the web page its ink is on an overlay the camera image does not show), nor do the
+person's cells read before their move was accepted (a drawing under way). An interrupted
+dialogue (a new game before the goodbye) labels only the person's settled cells.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from oxbot.dialogue.domain import ASK_AGAIN
+from oxbot.game.board import EMPTY, EMPTY_BOARD, USER, Board, symbol_of
+from oxbot.recording.store import RecordingStore
+from oxbot.robot.bus import Bus, Component
+from oxbot.robot.messages import (
+    BoardSeen,
+    DialogueAct,
+    DialogueEnded,
+    GameState,
+    Message,
+    RecordingSwitch,
+    SpeechAudio,
+    SpeechHypotheses,
+)
+
+log = logging.getLogger(__name__)
+
+NOTICE = (
+    "Recording: this game's cell images, what you said (as text{audio}), the transcript, "
+    "outcome and timings are kept on this computer in {path}; `oxbot data forget` deletes them."
+)
+"""The one-line notice shown wherever recording is on."""
+
+
+def notice(store: RecordingStore, keep_audio: bool = False) -> str:
+    return NOTICE.format(path=store.path, audio=" and audio" if keep_audio else "")
+
+
+@dataclass
+class _Open:
+    """The session being recorded and what waits for the next turn's transaction."""
+
+    id: int
+    start: float
+    robot_starts: bool
+    board: Board = EMPTY_BOARD
+    turn: int = 0
+    reading: int = 0
+    answer: int = 0
+    last_sys_act: str = ""
+    crops: list[tuple[Any, ...]] = field(default_factory=list)
+    answers: list[dict[str, Any]] = field(default_factory=list)
+
+
+class Recorder(Component):
+    """Records each dialogue into a `RecordingStore` (see the module docstring)."""
+
+    listens_to = (
+        GameState,
+        BoardSeen,
+        SpeechHypotheses,
+        SpeechAudio,
+        DialogueAct,
+        DialogueEnded,
+        RecordingSwitch,
+    )
+    part = "memory"
+    essential = False
+
+    def __init__(
+        self,
+        bus: Bus,
+        store: RecordingStore | Callable[[], RecordingStore],
+        mode: str = "",
+        keep_audio: bool = False,
+        enabled: bool = True,
+        name: str | None = None,
+    ) -> None:
+        super().__init__(bus, name)
+        self._store = store
+        self.mode = mode
+        self.keep_audio = keep_audio
+        self.enabled = enabled
+        self.current: _Open | None = None
+        self._game: tuple[bool, Board] | None = None  # who started, the board: no one's data
+        self._audio: bytes | None = None
+        self.sessions: list[int] = []
+        """Ids of the sessions this recorder opened, oldest first."""
+
+    @property
+    def store(self) -> RecordingStore:
+        """The database, opened at the first recording (a callable is called then)."""
+        if not isinstance(self._store, RecordingStore):
+            self._store = self._store()
+        return self._store
+
+    def take_over(self, old: Component) -> None:
+        assert isinstance(old, Recorder)
+        self.current = copy.deepcopy(old.current)
+        self.sessions, self.enabled, self._game = list(old.sessions), old.enabled, old._game
+
+    def handle(self, message: Message) -> None:
+        if isinstance(message, RecordingSwitch):
+            self._switch(message.on)
+            return
+        if isinstance(message, GameState):
+            self._game = (message.robot_starts, message.board)
+            if self.enabled:
+                self._game_state(message)
+            return
+        if not self.enabled:
+            return
+        current = self.current
+        if isinstance(message, SpeechAudio):
+            self._audio = message.audio if self.keep_audio else None
+        if current is None:
+            return
+        if isinstance(message, BoardSeen):
+            self._seen(current, message)
+        elif isinstance(message, SpeechHypotheses):
+            self._heard(current, message)
+        elif isinstance(message, DialogueAct):
+            self._turn(current, message)
+        elif isinstance(message, DialogueEnded):
+            self._close(current, "ended", message.outcome)
+
+    def stop(self, timeout: float = 2.0) -> None:
+        super().stop(timeout)
+        if self.abandoned:
+            return
+        for message in self.waiting():  # a goodbye published just before the robot stopped
+            self.handle(message)
+        if self.current is not None:
+            self._flush(self.current)  # the turn under way, as far as it got
+
+    # --- the session ---
+
+    def _switch(self, on: bool) -> None:
+        if on == self.enabled:
+            return
+        self.enabled = on
+        if not on and self.current is not None:
+            self._close(self.current, "stopped", None)
+        elif on and self._game is not None:  # before the first game, its GameState opens one
+            robot_starts, board = self._game
+            self._open(robot_starts, board, time.monotonic())
+
+    def _game_state(self, message: GameState) -> None:
+        if message.board == EMPTY_BOARD:  # the manager's new game: a new session
+            if self.current is not None:
+                self._close(self.current, "interrupted", None)
+            self._open(message.robot_starts, message.board, message.stamp)
+        elif self.current is not None:
+            self.current.board = message.board
+
+    def _open(self, robot_starts: bool, board: Board, stamp: float) -> None:
+        store = self.store
+        with store.transaction() as db:
+            sid = store.new_session(db, robot_starts, self.mode, self.keep_audio)
+        self.current = _Open(sid, stamp, robot_starts, board)
+        self.sessions.append(sid)
+        log.info("recording session %d", sid)
+
+    def _seen(self, current: _Open, message: BoardSeen) -> None:
+        if len(message.cells) != len(message.labels) or not message.cells:
+            return  # no grid: nothing was read
+        current.reading += 1
+        t = message.stamp - current.start
+        readings = message.readings or message.labels
+        confidences = message.confidences or (1.0,) * len(message.cells)
+        for cell, (image, read_as, confidence) in enumerate(
+            zip(message.cells, readings, confidences, strict=True)
+        ):
+            state = current.board[cell]
+            current.crops.append(
+                (current.id, current.reading, cell, t, image, read_as, confidence, state)
+            )
+
+    def _heard(self, current: _Open, message: SpeechHypotheses) -> None:
+        current.answer += 1
+        audio = self._audio if message.source == "microphone" else None
+        self._audio = None
+        current.answers.append(
+            {
+                "seq": current.answer,
+                "t": message.stamp - current.start,
+                "source": message.source,
+                "nbest": json.dumps([list(h) for h in message.nbest]),
+                "words": json.dumps([list(w) for w in message.words]),
+                "text": message.nbest[0][0] if message.nbest else "",
+                "understood": None,
+                "after_act": current.last_sys_act,
+                "audio": audio,
+            }
+        )
+
+    def _turn(self, current: _Open, message: DialogueAct) -> None:
+        current.turn += 1
+        repeated_after = None
+        if message.speaker == "usr":
+            for answer in current.answers:
+                if answer["understood"] is None and answer["text"] == message.text:
+                    answer["understood"] = message.act
+        else:
+            repeated_after = message.act
+            current.last_sys_act = message.act
+        with self.store.transaction() as db:
+            db.execute(
+                "INSERT INTO turns (session_id, seq, t, speaker, act, text) VALUES (?,?,?,?,?,?)",
+                (
+                    current.id,
+                    current.turn,
+                    message.stamp - current.start,
+                    message.speaker,
+                    message.act,
+                    message.text,
+                ),
+            )
+            self._write_pending(db, current)
+            if repeated_after is not None:  # the robot's next act says if it had to ask again
+                db.execute(
+                    "UPDATE answers SET repeated = (? = ? OR ? = after_act) "
+                    "WHERE session_id = ? AND repeated IS NULL",
+                    (repeated_after, ASK_AGAIN, repeated_after, current.id),
+                )
+
+    def _write_pending(self, db: Any, current: _Open) -> None:
+        db.executemany(
+            "INSERT OR REPLACE INTO crops (session_id, reading, cell, t, image, read_as, "
+            "confidence, cell_state) VALUES (?,?,?,?,?,?,?,?)",
+            current.crops,
+        )
+        db.executemany(
+            "INSERT OR REPLACE INTO answers (session_id, seq, t, source, nbest, words, "
+            "understood, after_act, audio) VALUES (?,?,?,?,?,?,?,?,?)",
+            [
+                (
+                    current.id,
+                    a["seq"],
+                    a["t"],
+                    a["source"],
+                    a["nbest"],
+                    a["words"],
+                    a["understood"],
+                    a["after_act"],
+                    a["audio"],
+                )
+                for a in current.answers
+            ],
+        )
+        current.crops = []
+        # answers stay until understood, then are rewritten once more (INSERT OR REPLACE)
+        current.answers = [a for a in current.answers if a["understood"] is None]
+
+    def _flush(self, current: _Open) -> None:
+        with self.store.transaction() as db:
+            self._write_pending(db, current)
+
+    def _close(self, current: _Open, status: str, outcome: str | None) -> None:
+        """Write what is left, the outcome and final board, and the labels the game confirms."""
+        board = current.board
+        person = symbol_of(USER, current.robot_starts)
+        person_cells = [i for i, v in enumerate(board) if v == USER]
+        empty_cells = [i for i, v in enumerate(board) if v == EMPTY] if status == "ended" else []
+        with self.store.transaction() as db:
+            self._write_pending(db, current)
+            db.executemany(
+                "UPDATE crops SET label = ? WHERE session_id = ? AND cell = ? AND cell_state = ?",
+                [(person, current.id, cell, USER) for cell in person_cells]
+                + [("nothing", current.id, cell, EMPTY) for cell in empty_cells],
+            )
+            db.execute(
+                "UPDATE sessions SET ended_at = ?, status = ?, outcome = ?, final_board = ? "
+                "WHERE id = ?",
+                (time.time(), status, outcome, ",".join(map(str, board)), current.id),
+            )
+        log.info("session %d %s (%s)", current.id, status, outcome)
+        self.current = None

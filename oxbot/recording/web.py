@@ -1,0 +1,161 @@
+"""The web page's side of recording (issue 18): the record toggle's settings and the
+"what I learned" page.
+
+Routes (added by `add_routes`, beside the game's):
+- `GET /learned`: the page (static/learned.html), which reads
+- `GET /recording/learned`: JSON of the recorded sessions, the crops the robot read wrong when
+  it saw them and what the learnt model (`DATA_DIR/learned/perceiver.pt`, else the shipped one)
+  reads now, and the answers it had to ask again about;
+- `GET /recording/status`: whether new games record by default, and the notice to show;
+- `GET /recording/{name}`: the two scripts (record.js for the toggle, learned.js).
+
+The database is opened at the first use (a game recorded or the page asked for), never before.
+"""
+
+from __future__ import annotations
+
+import base64
+import functools
+import threading
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from oxbot.recording.store import DB_NAME, RecordingStore, default_data_dir
+
+SCRIPTS = {"record.js": "text/javascript", "learned.js": "text/javascript"}
+MAX_CROPS = 60
+"""The page shows at most this many drawings read wrong (the latest sessions')."""
+NOTICE = (
+    "Keeps this game's cell images, your answers as text, the transcript, outcome and "
+    "timings on this computer ({path}); `oxbot data forget` deletes a game."
+)
+
+
+@dataclass
+class RecordingSetup:
+    """Where a server's games are recorded, and whether a new tab records without asking."""
+
+    data_dir: Path | None = None
+    """The recordings' folder (default: the user's data folder)."""
+    on_by_default: bool = False
+    """`oxbot play --record`: the page's toggle starts on."""
+    keep_audio: bool = False
+    """`--record-audio`: keep the recordings of spoken answers too."""
+    _store: RecordingStore | None = field(default=None, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+
+    @property
+    def folder(self) -> Path:
+        return self.data_dir if self.data_dir is not None else default_data_dir()
+
+    def store(self) -> RecordingStore:
+        """The database, opened (and created) at the first call."""
+        with self._lock:
+            if self._store is None:
+                self._store = RecordingStore(self.folder)
+            return self._store
+
+    def notice(self) -> str:
+        return NOTICE.format(path=self.folder / DB_NAME)
+
+
+def add_routes(app: Any, setup: RecordingSetup) -> None:
+    """The "what I learned" page, its data and the recording scripts, on a FastAPI `app`."""
+    from fastapi.responses import HTMLResponse, JSONResponse, Response
+
+    @app.get("/learned", response_class=HTMLResponse)
+    def learned_page() -> HTMLResponse:
+        return HTMLResponse(_static("learned.html"))
+
+    @app.get("/recording/status")
+    def recording_status() -> dict:
+        return {"on_by_default": setup.on_by_default, "notice": setup.notice()}
+
+    @app.get("/recording/learned")
+    def learned_data() -> dict:
+        if not (setup.folder / DB_NAME).exists():  # nothing recorded: no file made for it
+            return {"sessions": [], "crops": [], "answers": [], "model": "", "notice": ""}
+        return what_i_learned(setup.store())
+
+    @app.get("/recording/{name}")
+    def recording_script(name: str) -> Response:
+        if name not in SCRIPTS:
+            return JSONResponse({"error": f"no such file: {name}"}, status_code=404)
+        return Response(_static(name), media_type=SCRIPTS[name])
+
+
+def _static(name: str) -> bytes:
+    return resources.files("oxbot.web").joinpath("static", name).read_bytes()
+
+
+def learned_model(store: RecordingStore) -> Path | None:
+    """The model `oxbot learn perceiver` wrote into the data folder, if any."""
+    path = store.data_dir / "learned" / "perceiver.pt"
+    return path if path.exists() else None
+
+
+@functools.lru_cache(maxsize=2)
+def _classifier(path: str, stamp: float) -> Any:
+    from oxbot.perception.classifier import load_classifier
+
+    return load_classifier(path or None)
+
+
+def what_i_learned(store: RecordingStore) -> dict[str, Any]:
+    """The data of the "what I learned" page (see the module docstring)."""
+    from oxbot.recording.perceiver import decode_crops
+
+    sessions = [
+        {
+            "id": s.id,
+            "started_at": s.started_at,
+            "mode": s.mode,
+            "status": s.status,
+            "outcome": s.outcome,
+            "turns": s.turns,
+            "answers": s.answers,
+            "repeated": s.repeated,
+            "crops": s.crops,
+            "labelled": s.labelled,
+        }
+        for s in store.sessions()
+    ]
+    rows = store.query(
+        "SELECT session_id, reading, cell, image, read_as, confidence, label FROM crops "
+        "WHERE label IS NOT NULL AND read_as != label ORDER BY session_id DESC, reading"
+    )
+    wrong, drawings = [], set()
+    for row in rows:  # a drawing is read many times: its first wrong reading stands for it
+        if (row["session_id"], row["cell"]) not in drawings and len(wrong) < MAX_CROPS:
+            drawings.add((row["session_id"], row["cell"]))
+            wrong.append(row)
+    model = learned_model(store)
+    crops = []
+    if wrong:
+        clf = _classifier(str(model or ""), model.stat().st_mtime if model else 0.0)
+        now = clf.predict(decode_crops(wrong))
+        for row, reads_now in zip(wrong, now, strict=True):
+            crops.append(
+                {
+                    "session": row["session_id"],
+                    "cell": row["cell"],
+                    "png": base64.b64encode(row["image"]).decode("ascii"),
+                    "label": row["label"],
+                    "read_then": row["read_as"],
+                    "confidence_then": row["confidence"],
+                    "reads_now": reads_now,
+                }
+            )
+    answers = store.query(
+        "SELECT session_id, nbest, understood, after_act FROM answers WHERE repeated = 1 "
+        "ORDER BY session_id DESC, seq DESC LIMIT 100"
+    )
+    return {
+        "sessions": sessions,
+        "crops": crops,
+        "answers": answers,
+        "model": str(model) if model else "the shipped model (run `oxbot learn perceiver`)",
+        "notice": NOTICE.format(path=store.path),
+    }

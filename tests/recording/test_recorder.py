@@ -1,0 +1,75 @@
+"""The Recorder's rules, message by message on a real bus and a real database."""
+
+from __future__ import annotations
+
+from oxbot.game.board import EMPTY_BOARD
+from oxbot.recording import Recorder, RecordingStore
+from oxbot.robot.bus import LocalBus
+from oxbot.robot.messages import (
+    DialogueAct,
+    DialogueEnded,
+    GameState,
+    RecordingSwitch,
+    SpeechAudio,
+    SpeechHypotheses,
+)
+
+ASK = DialogueAct(speaker="sys", act="Request(playGame)", text="Shall we play?")
+HEARD = SpeechHypotheses(nbest=(("yes", 0.8), ("yeah", 0.1)), words=(("yes", 0.8),))
+YES = DialogueAct(speaker="usr", act="Confirm(playGame=yes)", text="yes")
+
+
+def play(recorder: Recorder, *messages) -> None:
+    for message in messages:
+        recorder.handle(message)
+
+
+def test_audio_is_kept_only_when_asked(tmp_path):
+    with RecordingStore(tmp_path) as store:
+        for keep in (False, True):
+            recorder = Recorder(LocalBus(), store, keep_audio=keep)
+            start = GameState(board=EMPTY_BOARD, robot_starts=True)
+            play(recorder, start, ASK, SpeechAudio(audio=b"RIFF-the-wav"), HEARD, YES)
+            (answer,) = store.query(
+                "SELECT audio, understood, nbest FROM answers WHERE session_id = ?",
+                (recorder.sessions[-1],),
+            )
+            assert answer["audio"] == (b"RIFF-the-wav" if keep else None)
+            assert answer["understood"] == "Confirm(playGame=yes)"
+            assert '"yeah"' in answer["nbest"]  # the whole N-best list
+
+
+def test_asking_again_marks_the_answer_as_repeated(tmp_path):
+    with RecordingStore(tmp_path) as store:
+        recorder = Recorder(LocalBus(), store)
+        again = DialogueAct(speaker="sys", act="Request(repeat)", text="Sorry?")
+        play(recorder, GameState(board=EMPTY_BOARD, robot_starts=True), ASK, HEARD, YES, again)
+        play(
+            recorder,
+            HEARD,
+            YES,
+            DialogueAct(speaker="sys", act="Reply(playGame=yes)", text="Nice."),
+        )
+        repeated = [r["repeated"] for r in store.query("SELECT repeated FROM answers ORDER BY seq")]
+    assert repeated == [1, 0]
+
+
+def test_nothing_is_kept_until_switched_on_and_nothing_after_switched_off(tmp_path):
+    store = RecordingStore(tmp_path / "data")
+    recorder = Recorder(LocalBus(), store, enabled=False)
+    play(recorder, GameState(board=EMPTY_BOARD, robot_starts=True), ASK, HEARD, YES)
+    assert store.sessions() == []
+    play(recorder, RecordingSwitch(on=True), ASK, HEARD, YES)  # from this turn on
+    play(recorder, RecordingSwitch(on=False), ASK, HEARD, YES, DialogueEnded(outcome=None))
+    (session,) = store.sessions()
+    assert session.status == "stopped" and session.turns == 2 and session.answers == 1
+    store.close()
+
+
+def test_a_new_game_before_the_goodbye_interrupts_the_session(tmp_path):
+    with RecordingStore(tmp_path) as store:
+        recorder = Recorder(LocalBus(), store)
+        start = GameState(board=EMPTY_BOARD, robot_starts=True)
+        play(recorder, start, ASK, start, ASK, DialogueEnded(outcome="draw"))
+        statuses = [(s.status, s.outcome) for s in store.sessions()]
+    assert statuses == [("interrupted", None), ("ended", "draw")]
