@@ -101,6 +101,12 @@ REJOIN_SECONDS = 5.0
 `oxbot robot --launch` within about 1 s) before the robot takes it as lost."""
 NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 BLOBS = zenoh.Encoding.APPLICATION_OCTET_STREAM.with_schema("oxbot-blobs")
+SHARED_MEMORY_FROM = 64 * 1024
+"""Payloads from this size (camera frames) are put in shared memory: a process on the same
+machine maps them instead of receiving 14 TCP fragments (a 900 KB frame: 2.8 ms median, 7.8
+ms p99 by TCP on loopback; 0.5 / 4.4 ms shared). Zenoh copies them for other machines."""
+SHARED_MEMORY_POOL = 32 * 1024 * 1024
+"""Bytes of shared memory a publishing process sets aside: about 3 s of 640x480 frames."""
 
 
 def encode(message: Message) -> tuple[bytes, zenoh.Encoding]:
@@ -108,6 +114,13 @@ def encode(message: Message) -> tuple[bytes, zenoh.Encoding]:
     base64 in JSON costs about 12 ms a camera frame each way, the blob layout: one line of
     JSON whose bytes fields are replaced by `{"blob": i}`, with `"blobs": [sizes]`, then the
     blobs themselves, raw, one after another."""
+    pieces, encoding = encode_pieces(message)
+    return b"".join(pieces), encoding
+
+
+def encode_pieces(message: Message) -> tuple[list[bytes], zenoh.Encoding]:
+    """`encode`'s payload in the pieces it is made of, for writing them straight into shared
+    memory without joining them first."""
     blobs: list[bytes] = []
 
     def pack(value: typing.Any) -> typing.Any:
@@ -120,10 +133,10 @@ def encode(message: Message) -> tuple[bytes, zenoh.Encoding]:
 
     data = {f.name: pack(getattr(message, f.name)) for f in dataclasses.fields(message)}
     if not blobs:
-        return to_json(message).encode(), zenoh.Encoding.APPLICATION_JSON
+        return [to_json(message).encode()], zenoh.Encoding.APPLICATION_JSON
     header = {"type": type(message).__name__, "topic": message.topic, "data": data}
     header["blobs"] = [len(b) for b in blobs]
-    return b"".join([json.dumps(header).encode(), b"\n", *blobs]), BLOBS
+    return [json.dumps(header).encode() + b"\n", *blobs], BLOBS
 
 
 @functools.cache
@@ -187,6 +200,7 @@ class Endpoints:
             # a machine that goes silent is dropped, its components lost, within a second
             "transport/link/tx/lease": 1000,
             "transport/link/tx/keep_alive": 4,
+            "transport/shared_memory/enabled": True,
         }
         if self.connect:
             settings |= {
@@ -237,6 +251,8 @@ class ZenohBus:
         self._record: list[Message] = []
         self._refused: set[str] = set()  # formats already reported, so the log says it once
         self._declared: list[typing.Any] = []
+        self._shared_memory: zenoh.shm.ShmProvider | None = None
+        self._shared_memory_failed = False
         self.session = open_session(self.endpoints)
         self.zid = str(self.session.zid())
         try:
@@ -267,10 +283,10 @@ class ZenohBus:
         if self.session.is_closed():
             raise BusError(f"the bus of robot {self.robot!r} is closed: nothing can be published")
         lossy = isinstance(message, LOSSY)
-        payload, encoding = encode(message)
+        pieces, encoding = encode_pieces(message)
         self.session.put(
             self.prefix + message.topic,
-            payload,
+            self._payload(pieces),
             encoding=encoding,
             attachment=self.FORMAT,
             congestion_control=zenoh.CongestionControl.DROP
@@ -278,6 +294,27 @@ class ZenohBus:
             else zenoh.CongestionControl.BLOCK,
             express=not lossy,  # small messages leave at once instead of waiting for a batch
         )
+
+    def _payload(self, pieces: list[bytes]) -> bytes | zenoh.ZBytes:
+        """The pieces joined: in shared memory when they are large and it can be had."""
+        size = sum(len(piece) for piece in pieces)
+        if size < SHARED_MEMORY_FROM or self._shared_memory_failed:
+            return b"".join(pieces)
+        try:
+            if self._shared_memory is None:
+                self._shared_memory = zenoh.shm.ShmProvider.default_backend(SHARED_MEMORY_POOL)
+            # chunks every reader has let go are collected; a pool still full: this one by TCP
+            buffer = self._shared_memory.alloc(size, zenoh.shm.GarbageCollect())
+        except zenoh.ZError as exc:
+            if self._shared_memory is None:
+                self._shared_memory_failed = True  # no /dev/shm here: said once, then TCP
+                log.warning("no shared memory for camera frames (%s): they go by TCP", exc)
+            return b"".join(pieces)
+        at = 0
+        for piece in pieces:
+            buffer[at : at + len(piece)] = piece
+            at += len(piece)
+        return zenoh.ZBytes(buffer)
 
     def _receive(self, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)

@@ -1,4 +1,5 @@
-"""What several robot tests need: reading a bus subscription until a message comes."""
+"""What several robot tests need: reading a bus subscription until a message comes, waiting
+for a condition."""
 
 import time
 
@@ -13,3 +14,13 @@ def collect(inbox, until, seconds=5.0):
             if until(message):
                 return got
     raise AssertionError(f"timed out after {got}")
+
+
+def wait_for(predicate, seconds=3.0):
+    """True as soon as `predicate()` is, False if it is not within `seconds`."""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if predicate():
+            return True
+        time.sleep(0.01)
+    return False

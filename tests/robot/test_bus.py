@@ -3,15 +3,7 @@ import time
 
 from oxbot.robot.bus import Component, LocalBus
 from oxbot.robot.messages import ArmDone, ComponentFailed, DialogueAct, Utterance
-
-
-def wait_for(predicate, seconds=3.0):
-    deadline = time.monotonic() + seconds
-    while time.monotonic() < deadline:
-        if predicate():
-            return True
-        time.sleep(0.01)
-    return False
+from tests.robot.helpers import wait_for
 
 
 def test_subscribers_get_only_their_types_in_order():

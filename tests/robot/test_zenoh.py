@@ -15,6 +15,7 @@ import time
 import uuid
 from pathlib import Path
 
+import numpy as np
 import pytest
 from websockets.sync.client import connect as ws_connect
 
@@ -27,6 +28,8 @@ from oxbot.errors import (
     InvalidInputError,
 )
 from oxbot.game.board import CELL_NAMES, EMPTY, outcome
+from oxbot.robot import zenoh_bus
+from oxbot.robot.frames import frame_message, frame_pixels
 from oxbot.robot.launch import COMPONENTS, Launcher, LaunchFile, load_launch_file
 from oxbot.robot.messages import (
     ArmCommand,
@@ -36,6 +39,7 @@ from oxbot.robot.messages import (
     ComponentLost,
     DialogueAct,
     DialogueEnded,
+    Frame,
     GameMove,
     GameState,
     HeadDirection,
@@ -49,7 +53,7 @@ from oxbot.robot.remote import RemoteRobot
 from oxbot.robot.zenoh_bus import BLOBS, Endpoints, PartsWatcher, ZenohBus, decode, encode
 from oxbot.speech.synthesis import Voice, synthesize
 from oxbot.web.server import create_app, serving_in_background
-from tests.robot.helpers import collect
+from tests.robot.helpers import collect, wait_for
 from tests.robot.test_headless_game import ANSWERS, EXPECTED_ACTS, Camera
 from tests.robot.test_messages import EXAMPLES
 
@@ -341,6 +345,35 @@ def test_an_unknown_component_is_a_clear_error():
     )
     assert result.returncode == 2
     assert "no component 'bogus'; choose one of manager, perception" in result.stderr
+
+
+def test_camera_frames_go_through_shared_memory_and_by_tcp_when_it_is_full(monkeypatch):
+    port, name = free_port(), robot_name()
+    image = np.random.default_rng(0).integers(0, 256, (480, 640, 3), dtype=np.uint8)
+    with (
+        ZenohBus(name, loopback(port, listen=True)) as here,
+        ZenohBus(name, Endpoints((f"tcp/127.0.0.1:{port}",), scouting=False)) as there,
+    ):
+        frames = there.subscribe(Frame)
+        shared: list[bool] = []
+        probe = there.session.declare_subscriber(
+            f"oxbot/{name}/{Frame.topic}", lambda s: shared.append(s.payload.as_shm() is not None)
+        )
+        time.sleep(0.2)
+        for _ in range(3):
+            here.publish(frame_message(image))
+        got = [frames.get(5.0) for _ in range(3)]
+        assert all(np.array_equal(frame_pixels(m), image) for m in got)  # type: ignore[arg-type]
+        assert wait_for(lambda: len(shared) == 3)
+        assert shared == [True] * 3
+        # a pool too small for a frame: the frame still arrives, by TCP
+        monkeypatch.setattr(zenoh_bus, "SHARED_MEMORY_POOL", 100_000)
+        here._shared_memory = None
+        here.publish(frame_message(image))
+        assert np.array_equal(frame_pixels(frames.get(5.0)), image)  # type: ignore[arg-type]
+        assert wait_for(lambda: len(shared) == 4)
+        assert shared[-1] is False
+        probe.undeclare()
 
 
 def test_new_game_and_state_reach_a_late_joiner():
