@@ -151,8 +151,8 @@ class Recorder(Component):
             return
         for message in self.waiting():  # a goodbye published just before the robot stopped
             self.handle(message)
-        if self.current is not None:
-            self._flush(self.current)  # the turn under way, as far as it got
+        if self.current is not None:  # the robot stops before the goodbye: the person left
+            self._close(self.current, "left", None)
 
     # --- the session ---
 

@@ -5,7 +5,8 @@ One SQLite file (`recordings.sqlite3`) in the user's data folder (`default_data_
 It holds:
 
 - `sessions`: when it started and ended, who started, the outcome, the final board, and whether
-  it ended (`status` "playing" until the goodbye; "interrupted" when a new game cut it short);
+  it ended (`status` "playing" until the goodbye, and after a crash; "interrupted" when a new
+  game cut it short; "left" when the robot stopped first: quit, Ctrl-C, the tab closed);
 - `turns`: the transcript, each turn with its time in seconds from the session's start;
 - `answers`: each answer heard, its N-best list, word confidences, the act it was understood as,
   the robot act it answered, whether the robot then had to ask again, and (only with

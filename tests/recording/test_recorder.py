@@ -13,6 +13,7 @@ from oxbot.robot.messages import (
     SpeechAudio,
     SpeechHypotheses,
 )
+from tests.robot.helpers import wait_for
 
 ASK = DialogueAct(speaker="sys", act="Request(playGame)", text="Shall we play?")
 HEARD = SpeechHypotheses(nbest=(("yes", 0.8), ("yeah", 0.1)), words=(("yes", 0.8),))
@@ -73,3 +74,23 @@ def test_a_new_game_before_the_goodbye_interrupts_the_session(tmp_path):
         play(recorder, start, ASK, start, ASK, DialogueEnded(outcome="draw"))
         statuses = [(s.status, s.outcome) for s in store.sessions()]
     assert statuses == [("interrupted", None), ("ended", "draw")]
+
+
+def test_a_robot_stopped_before_the_goodbye_leaves_its_session_closed_as_left(tmp_path):
+    with RecordingStore(tmp_path) as store:
+        bus = LocalBus()
+        recorder = Recorder(bus, store)
+        recorder.start()
+        bus.publish(GameState(board=EMPTY_BOARD, robot_starts=True))
+        bus.publish(ASK)
+        bus.publish(HEARD)
+        bus.publish(YES)
+        assert wait_for(lambda: recorder.current is not None and recorder.current.answer == 1)
+        recorder.stop()  # quit in the terminal: no goodbye was said
+        (session,) = store.sessions()
+    assert (session.status, session.outcome, session.turns, session.answers) == (
+        "left",
+        None,
+        2,
+        1,
+    )
