@@ -7,7 +7,7 @@ import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 
 @contextlib.contextmanager
@@ -39,3 +39,13 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
     """Write `text` (UTF-8) to `path` atomically."""
     with atomic_write(path, "w") as handle:
         handle.write(text)
+
+
+def save_figure(figure: Any, path: str | os.PathLike[str]) -> Path:
+    """A matplotlib figure as a PNG at `path`, written atomically; the figure is closed."""
+    import matplotlib.pyplot as plt
+
+    with atomic_write(path) as handle:
+        figure.savefig(handle, format="png")
+    plt.close(figure)
+    return Path(path)

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from oxbot import artifacts
-from oxbot.atomic import atomic_write, write_text_atomic
+from oxbot.atomic import atomic_write, save_figure, write_text_atomic
 from oxbot.config import OxbotConfig, with_overrides
 from oxbot.dialogue.evaluation import CONDITIONS, condition_key
 from oxbot.errors import ConfigError, DataError
@@ -641,7 +641,6 @@ def _write_plots(out_dir: Path, work_dir: Path, figures: dict[str, Any]) -> list
 
 def _plot_losses(path: Path, figures: dict[str, Any]) -> Path:
     """The worst condition's loss rate at each greedy evaluation against training seconds."""
-    import io
 
     import matplotlib
 
@@ -661,12 +660,7 @@ def _plot_losses(path: Path, figures: dict[str, Any]) -> Path:
     ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
-    plt.close(fig)
-    with atomic_write(path, "wb") as handle:
-        handle.write(buffer.getvalue())
-    return path
+    return save_figure(fig, path)
 
 
 def _json_safe(value: Any) -> Any:

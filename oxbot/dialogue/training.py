@@ -34,7 +34,7 @@ import torch.nn.functional as F
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from oxbot import artifacts
-from oxbot.atomic import atomic_write, write_text_atomic
+from oxbot.atomic import save_figure, write_text_atomic
 from oxbot.config import AgentConfig, OxbotConfig, opponent_mix, who_starts
 from oxbot.dialogue.agent import DQNPolicy, QNetwork, greedy_batch_policy, masked_argmax
 from oxbot.dialogue.domain import N_ACTIONS
@@ -548,9 +548,7 @@ def plot_learning_curves(metrics: dict[str, Any], out_dir: Path) -> None:
             ax.set_ylim(0, 1.02)
         ax.set_title(f"{ylabel} while training (exploring)")
         fig.tight_layout()
-        with atomic_write(out_dir / name, "wb") as handle:
-            fig.savefig(handle, format="png")
-        plt.close(fig)
+        save_figure(fig, out_dir / name)
 
 
 def _save_checkpoint(

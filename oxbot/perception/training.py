@@ -25,7 +25,7 @@ import numpy as np
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from oxbot import artifacts
-from oxbot.atomic import atomic_write, write_text_atomic
+from oxbot.atomic import save_figure, write_text_atomic
 from oxbot.config import PerceptionConfig
 from oxbot.errors import DataError, ModelFileError, TrainingInterrupted
 from oxbot.interrupt import deferred_interrupt
@@ -284,7 +284,6 @@ def _load_checkpoint(path: Path, settings: dict[str, Any]) -> list[dict[str, flo
 
 def plot_learning_curve(points: list[dict[str, float]], path: str | Path) -> Path:
     """Accuracy (and training time, dotted) against the number of training images, as a PNG."""
-    import io
 
     import matplotlib
 
@@ -303,10 +302,4 @@ def plot_learning_curve(points: list[dict[str, float]], path: str | Path) -> Pat
     seconds.set_ylabel("training time (s)", color="tab:green")
     ax.set_title("Learning to perceive: CNN+SVM")
     fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
-    plt.close(fig)
-    path = Path(path)
-    with atomic_write(path) as handle:
-        handle.write(buffer.getvalue())
-    return path
+    return save_figure(fig, path)

@@ -32,7 +32,7 @@ import torch
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from torch import nn
 
-from oxbot.atomic import atomic_write, write_text_atomic
+from oxbot.atomic import save_figure, write_text_atomic
 from oxbot.errors import DataError, LearningRefused
 from oxbot.perception.augment import generate
 from oxbot.perception.classifier import (
@@ -285,7 +285,6 @@ def _fine_tune(
 
 def plot_before_after(metrics: dict[str, Any], path: str | Path) -> Path:
     """Accuracy before and after fine-tuning on each set, as grouped bars in a PNG."""
-    import io
 
     import matplotlib
 
@@ -312,10 +311,4 @@ def plot_before_after(metrics: dict[str, Any], path: str | Path) -> Path:
     ax.legend(loc="lower right")
     ax.set_title("Learning from recorded games: perceiver")
     fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png")
-    plt.close(fig)
-    path = Path(path)
-    with atomic_write(path) as handle:
-        handle.write(buffer.getvalue())
-    return path
+    return save_figure(fig, path)
