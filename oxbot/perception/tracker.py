@@ -250,7 +250,7 @@ class MoveTracker:
                 "out_of_turn",
                 cells,
                 symbols,
-                f"a {symbol} appeared in {CELL_NAMES[cell]}, but it is the robot's turn",
+                f"a {symbol} appeared in {CELL_NAMES[cell]} while it is not the person's turn",
             )
         if symbol != self.user_symbol:
             starter = "the robot" if self.robot_starts else "the person"
