@@ -418,6 +418,12 @@ def test_malformed_wire_messages_are_refused_clearly(payload):
         decode(payload, blobs=True)
 
 
+def test_the_example_launch_file_names_every_component():
+    launch = load_launch_file(Path(REPO) / "examples" / "robot.toml")
+    assert set(launch.components) == set(COMPONENTS) and launch.respawn
+    assert launch.child_endpoints().connect == ("tcp/127.0.0.1:7447",)
+
+
 def test_a_launch_file_is_read_and_its_mistakes_named(tmp_path):
     good = tmp_path / "robot.toml"
     good.write_text(
