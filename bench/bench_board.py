@@ -4,6 +4,7 @@
     .venv/bin/python bench/bench_board.py --photos 50 --repeats 3 --style tuning
     .venv/bin/python bench/bench_board.py --style tuning-camera --seed 7000   # harder tuning
     .venv/bin/python bench/bench_board.py --model runs/perceiver.pt
+    .venv/bin/python bench/bench_board.py --set perception.wholeness=false   # network alone
 
 Renders photos of game sheets (`oxbot.testing.render`, the held-out style by default: the
 one the board reader was not tuned on), then times `BoardReader.read` — grayscale, grid
@@ -25,6 +26,7 @@ import cv2
 import numpy as np
 import torch
 
+from oxbot.config import load_config
 from oxbot.errors import NoGridFound
 from oxbot.game.board import N_CELLS
 from oxbot.perception.board import BoardReader, cut_board
@@ -56,6 +58,13 @@ def main() -> None:
     parser.add_argument("--style", choices=sorted(styles), default="held-out")
     parser.add_argument("--seed", type=int, default=2024, help="seed of the rendered photos")
     parser.add_argument("--model", default=None, help="classifier file (default: shipped)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="SECTION.FIELD=VALUE",
+        help="a config setting, e.g. perception.wholeness=false (issue 15)",
+    )
     args = parser.parse_args()
 
     torch.set_num_threads(1)
@@ -64,7 +73,8 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     photos = [render_photo(rng, style=style) for _ in range(args.photos)]
     frames = [p.image for p in photos]
-    reader = BoardReader(load_classifier(args.model))
+    config = load_config(assignments=args.set).perception
+    reader = BoardReader(load_classifier(args.model), config)
     right = no_grid = 0
     cells = np.full((N_CELLS, CELL_SIZE, CELL_SIZE), 245, np.uint8)
     for photo in photos:

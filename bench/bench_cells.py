@@ -1,14 +1,19 @@
 """Benchmark of the cells that must never be a move (issue 15): half-drawn and wrong shapes,
 and blank cells of used paper, drawn by `oxbot.testing.odd_cells` (not the training
-synthesiser).
+synthesiser); and what the wholeness check costs whole symbols.
 
     .venv/bin/python bench/bench_cells.py                      # 1,400 of each, seed 15
     .venv/bin/python bench/bench_cells.py --cells 700 --model runs/perceiver/perceiver.pt
+    .venv/bin/python bench/bench_cells.py --set perception.plus_is_cross=true
 
-Prints, per kind, how many partial shapes `predict` read as a circle or a cross (goal: 0),
-how many of those the move tracker could accept (a symbol at or above `[tracker]
-min_confidence`), and the share of blank cells read as "nothing" (goal: >= 99.5%). Not a
-test: tests/perception/test_odd_cells.py asserts the goals on a small set.
+Prints, per kind, how many partial shapes read as a circle or a cross (goal: 0), by the network
+alone (`predict`) and with the board reader's wholeness check (`oxbot.perception.wholeness`, as
+`[perception]` sets it), how many of those the move tracker could accept (a symbol at or above
+`[tracker] min_confidence`), and the share of blank cells read as "nothing" (goal: >= 99.5%).
+Then the whole symbols the check turns into "partial" on the generated test set (1,000 cells,
+SPEC §1) and on the handwriting-font set (1,500, another hand), with both sets' accuracy before
+and after it. Not a test: tests/perception/test_odd_cells.py and test_wholeness.py assert the
+goals on small sets.
 """
 
 from __future__ import annotations
@@ -18,9 +23,16 @@ from collections import Counter
 
 import numpy as np
 
-from oxbot.config import TrackerConfig
-from oxbot.perception.classifier import load_classifier
+from oxbot.config import load_config
+from oxbot.perception.classifier import CellReading, load_classifier
+from oxbot.perception.evaluation import FONT_STREAM, generated_test_set
+from oxbot.perception.fonts import font_cells
+from oxbot.perception.seeds import load_seeds
+from oxbot.perception.synth import LABELS
+from oxbot.perception.wholeness import veto_partial
 from oxbot.testing.odd_cells import EMPTY_KINDS, PARTIAL_KINDS, empty_cell, odd_cells, partial_cell
+
+SYMBOLS = ("circle", "cross")
 
 
 def main() -> None:
@@ -28,43 +40,85 @@ def main() -> None:
     parser.add_argument("--cells", type=int, default=1400, help="cells of each set")
     parser.add_argument("--seed", type=int, default=15, help="seed of the two generators")
     parser.add_argument("--model", default=None, help="classifier file (default: shipped)")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="SECTION.FIELD=VALUE",
+        help="a config setting, e.g. perception.max_circle_gap=80",
+    )
     args = parser.parse_args()
+    config = load_config(assignments=args.set)
     clf = load_classifier(args.model)
-    threshold = TrackerConfig().min_confidence
+    threshold = config.tracker.min_confidence
+    perception = config.perception
 
+    def check(cells: np.ndarray, readings: list[CellReading]) -> list[CellReading]:
+        if not perception.wholeness:
+            return readings
+        return veto_partial(cells, readings, perception.max_circle_gap, perception.plus_is_cross)
+
+    print(
+        f"wholeness check: {'on' if perception.wholeness else 'off'}, max_circle_gap "
+        f"{perception.max_circle_gap:g}, plus_is_cross {str(perception.plus_is_cross).lower()}"
+    )
     cells, kinds = odd_cells(
         args.cells, np.random.default_rng([args.seed, 1]), PARTIAL_KINDS, partial_cell
     )
-    readings = clf.read(cells)
-    labels = clf.predict(cells)
-    symbol = Counter(k for k, label in zip(kinds, labels, strict=True) if label != "nothing")
-    sure = Counter(
-        k
-        for k, r in zip(kinds, readings, strict=True)
-        if r.label in ("circle", "cross") and r.confidence >= threshold
-    )
-    said = Counter(r.label for r in readings)
-    total = sum(symbol.values())
-    print(f"partial shapes: {args.cells:,}, read as circle or cross: {total} (goal 0)")
-    print(f"  of which confident enough to become a move (>= {threshold}): {sum(sure.values())}")
-    print("  readings: " + ", ".join(f"{k} {v}" for k, v in sorted(said.items())))
-    for kind in PARTIAL_KINDS:
-        n = kinds.count(kind)
-        print(f"  {kind:15s} {symbol[kind]:4d} of {n} as a symbol, {sure[kind]:4d} confident")
+    network = clf.read(cells)
+    checked = check(cells, network)
+    for name, readings in (("network alone", network), ("with the check", checked)):
+        symbol = Counter(k for k, r in zip(kinds, readings, strict=True) if r.label in SYMBOLS)
+        sure = Counter(
+            k
+            for k, r in zip(kinds, readings, strict=True)
+            if r.label in SYMBOLS and r.confidence >= threshold
+        )
+        said = Counter(r.label for r in readings)
+        total = sum(symbol.values())
+        print(f"partial shapes, {name}: {args.cells:,}, read as circle or cross: {total} (goal 0)")
+        print(
+            f"  of which confident enough to become a move (>= {threshold}): {sum(sure.values())}"
+        )
+        print("  readings: " + ", ".join(f"{k} {v}" for k, v in sorted(said.items())))
+        for kind in PARTIAL_KINDS:
+            n = kinds.count(kind)
+            print(f"  {kind:15s} {symbol[kind]:4d} of {n} as a symbol, {sure[kind]:4d} confident")
 
     cells, kinds = odd_cells(
         args.cells, np.random.default_rng([args.seed, 2]), EMPTY_KINDS, empty_cell
     )
-    labels = clf.predict(cells)
-    readings = clf.read(cells)
-    right = sum(label == "nothing" for label in labels)
+    readings = check(cells, clf.read(cells))
+    right = sum(r.label not in SYMBOLS for r in readings)
     print(
-        f"blank cells: {args.cells:,}, read as nothing: {right} = {right / args.cells:.2%} "
-        f"(goal >= 99.5%)"
+        f"blank cells: {args.cells:,}, read as nothing (or partial, which is no move): {right} = "
+        f"{right / args.cells:.2%} (goal >= 99.5%)"
     )
     for kind in EMPTY_KINDS:
         got = Counter(r.label for k, r in zip(kinds, readings, strict=True) if k == kind)
         print(f"  {kind:15s} " + ", ".join(f"{k} {v}" for k, v in sorted(got.items())))
+
+    images, labels = generated_test_set(load_seeds(), 1000, 0)
+    whole_sets = {
+        "generated (1,000)": (images, [LABELS[i] for i in labels]),
+        "fonts (1,500)": font_cells(1500, np.random.default_rng([0, FONT_STREAM]), 40),
+    }
+    for name, (cells, truth) in whole_sets.items():
+        truth = [str(t) for t in truth]
+        network = clf.read(cells)
+        checked = check(cells, network)
+        before = sum(r.spec_label == t for r, t in zip(network, truth, strict=True))
+        after = sum(r.spec_label == t for r, t in zip(checked, truth, strict=True))
+        lost = Counter(
+            t
+            for r, c, t in zip(network, checked, truth, strict=True)
+            if r.label == t and c.label != t
+        )
+        print(
+            f"whole symbols, {name}: right {before / len(truth):.2%} by the network, "
+            f"{after / len(truth):.2%} with the check; made partial: {sum(lost.values())} "
+            f"({', '.join(f'{k} {v}' for k, v in sorted(lost.items())) or 'none'})"
+        )
 
 
 if __name__ == "__main__":

@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/bench_real_boards.py
     .venv/bin/python bench/bench_real_boards.py --split dev
+    .venv/bin/python bench/bench_real_boards.py --split dev --set perception.plus_is_cross=true
     .venv/bin/python bench/bench_real_boards.py --labels other/labels.csv --images other/images
 
 Reads `bench/data/real_boards/labels.csv` (one row per photo: file, board, split, paper, ink,
@@ -27,7 +28,7 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from oxbot.config import TrackerConfig
+from oxbot.config import PerceptionConfig, TrackerConfig, load_config
 from oxbot.errors import NoGridFound
 from oxbot.perception.board import default_reader, refuse_cells_out_of_view
 from oxbot.perception.sources import load_image
@@ -69,7 +70,9 @@ def pct(part: int, whole: int) -> str:
     return f"{part}/{whole} ({100 * part / whole:.1f}%)" if whole else f"{part}/0"
 
 
-def measure(row: dict[str, str], image_dir: Path, tally: Tally) -> None:
+def measure(
+    row: dict[str, str], image_dir: Path, tally: Tally, config: PerceptionConfig | None = None
+) -> None:
     """Read one photo and add its outcome to `tally`."""
     path = image_dir / row["file"]
     if not path.is_file():
@@ -86,7 +89,7 @@ def measure(row: dict[str, str], image_dir: Path, tally: Tally) -> None:
     started = time.perf_counter()
     sure = TrackerConfig().min_confidence
     try:
-        reading = default_reader().read(frame)  # read_board, with the cells' confidences
+        reading = default_reader(config).read(frame)  # read_board, with the confidences
         refuse_cells_out_of_view(reading.grid)
         got = list(reading.labels)
     except NoGridFound as err:
@@ -157,14 +160,22 @@ def main() -> None:
     parser.add_argument("--labels", type=Path, default=DATA / "labels.csv")
     parser.add_argument("--images", type=Path, default=DATA / "images")
     parser.add_argument("--split", choices=("dev", "test"), default=None, help="one split only")
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="SECTION.FIELD=VALUE",
+        help="a config setting, e.g. perception.plus_is_cross=true (issue 15)",
+    )
     args = parser.parse_args()
     with args.labels.open(newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
     tallies: dict[str, Tally] = defaultdict(Tally)
     print(f"{len(rows)} labelled photos in {args.labels}")
+    config = load_config(assignments=args.set).perception
     for row in rows:
         if args.split is None or row["split"] == args.split:
-            measure(row, args.images, tallies[row["split"]])
+            measure(row, args.images, tallies[row["split"]], config)
     for split in ("dev", "test"):
         if split in tallies:
             report(split, tallies[split])

@@ -262,6 +262,7 @@ app.add_typer(perceive_app, name="perceive")
 
 @app.command("see")
 def see(
+    ctx: typer.Context,
     images: Annotated[list[Path], typer.Argument(help="Photos of the game sheet (PNG or JPEG).")],
     debug: Annotated[
         Path | None,
@@ -279,7 +280,7 @@ def see(
         frame = None
         try:
             frame = load_image(path)
-            reading = default_reader().read(frame)
+            reading = default_reader(_config(ctx).perception).read(frame)
         except OxbotError as exc:
             failed += 1
             err_console.print(f"[bold red]error:[/] {escape(f'{path}: {exc}')}", soft_wrap=True)

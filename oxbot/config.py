@@ -87,12 +87,27 @@ class PerceptionConfig:
     whole symbol. Off: the paper's three outputs, as shipped. On, the retrained model read 99.2%
     of generated cells (SPEC §1 asks 99.9%), 98.5% of another hand's (99.5%) and all 9 cells of
     94.0% of held-out boards (98.5% with three outputs)."""
+    wholeness: bool = True
+    """oxbot: (issue 15) the board reader reads a circle or cross whose ink is not whole as
+    "partial" (no move): an open arc, a semicircle, a stroke, a tick, an L, a plus sign
+    (`oxbot.perception.wholeness`). Off: the network's reading, as before issue 15."""
+    max_circle_gap: float = 95.0
+    """oxbot: (issue 15) the widest gap, in degrees of its turn, that an open loop may leave and
+    still be a circle, as measured on its skeleton (a loop of 0.8 of a turn measures about 77,
+    0.78 about 84, three quarters 92-100, a semicircle about 170; on photos, blur widens them).
+    95 keeps every whole circle measured (generated, font, board photos); 85 catches more three
+    quarters of a circle, but makes 3 open circles of 200 `wide-tuning` photos partial."""
+    plus_is_cross: bool = False
+    """oxbot: (issue 15) a plus sign (strokes along the cell's sides) is a cross. Off, per issue
+    15, it is a wrong shape and reads "partial"; on for a hand that draws its crosses that way
+    (board kv-A of the real photos does)."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "image_size", "conv1_filters", "conv2_filters", "kernel_size")
         _require_positive(self, "pool1", "pool2", "seeds_per_class", "train_images", "test_images")
         _require_positive(self, "epochs", "batch_size", "learning_rate", "threads")
         _require_at_least(self, 0, "weight_decay", "seed")
+        _require_range(self, "max_circle_gap", "[0, 360]")
         _require_finite(self)
 
 

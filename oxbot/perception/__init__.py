@@ -8,7 +8,8 @@ from oxbot.perception import read_board
 read_board(frame)                # uint8 (H, W, 3) RGB or (H, W) gray photo -> 9 labels
 
 Beside SPEC §5 (issue 15): clf.read(cells) and read_cells(frame) give `CellReading`s, whose
-label may also be "partial" (ink that is not a whole symbol), with a calibrated confidence.
+label may also be "partial" (ink that is not a whole symbol: `oxbot.perception.wholeness`), with
+a calibrated confidence.
 """
 
 from oxbot.perception.board import read_board, read_cells

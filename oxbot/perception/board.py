@@ -10,8 +10,9 @@ and the cells go to the classifier in one batch:
     read_cells(frame)   # -> [CellReading("nothing", 0.99, 0.0), CellReading("partial", ...)]
 
 `read_board` keeps SPEC §5's three labels; `read_cells` (and `BoardReader.read`'s
-`BoardReading.readings`) say also "partial" for ink that is not a whole symbol, with the
-classifier's calibrated confidence and the cell's ink.
+`BoardReading.readings`) say also "partial" for ink that is not a whole symbol (one stroke, or
+what `wholeness.py` finds is no whole circle or cross), with the classifier's calibrated
+confidence and the cell's ink.
 """
 
 from __future__ import annotations
@@ -24,11 +25,12 @@ from typing import Protocol
 import cv2
 import numpy as np
 
+from oxbot.config import PerceptionConfig
 from oxbot.errors import NoGridFound
 from oxbot.game.board import CELL_NAMES, SIZE
 from oxbot.perception.cells import (
     SHEET_CELL,
-    cut_cells_around_ink,
+    cut_cells_and_painted,
     remove_grid_lines,
     wipe_background,
 )
@@ -36,6 +38,7 @@ from oxbot.perception.classifier import CellReading, ink_share
 from oxbot.perception.grid import Grid, as_image, find_grid
 from oxbot.perception.rectify import rectify
 from oxbot.perception.seeds import write_png
+from oxbot.perception.wholeness import veto_partial
 
 OUT_OF_VIEW = "unseen"
 """oxbot: a cell's reading when its middle is outside the frame (a grid cut by the frame's
@@ -80,8 +83,9 @@ class BoardReading:
     """Each cell's reading among OUTPUTS (partial included) with its confidence and ink."""
 
 
-def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarray]:
-    """The 9 cells of the sheet in `frame`, uint8 (9, 40, 40), with the grid and the sheets.
+def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarray, np.ndarray]:
+    """The 9 cells of the sheet in `frame`, uint8 (9, 40, 40), with the grid, the sheets and
+    where in each cell a grid line was painted over (bool (9, 40, 40)).
 
     Raises InvalidInputError for a frame that is not a photo, NoGridFound when no grid is seen.
     """
@@ -90,8 +94,9 @@ def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarr
     border = SHEET_CELL // 2
     sheet = rectify(image, grid, border=border)
     cleaned = remove_grid_lines(sheet, border=border)
-    cells = deepen_faint_ink(wipe_background(cut_cells_around_ink(cleaned, border=border)))
-    return cells, grid, sheet, cleaned
+    cut, painted = cut_cells_and_painted(cleaned, cleaned != sheet, border=border)
+    cells = deepen_faint_ink(wipe_background(cut))
+    return cells, grid, sheet, cleaned, painted
 
 
 FAINT_INK = 170
@@ -119,24 +124,32 @@ def deepen_faint_ink(cells: np.ndarray) -> np.ndarray:
 
 
 class BoardReader:
-    """Reads boards with one classifier: `read(frame)` gives a `BoardReading`."""
+    """Reads boards with one classifier: `read(frame)` gives a `BoardReading`.
 
-    def __init__(self, classifier: Classifier | None = None) -> None:
+    With `config.wholeness` (issue 15) a circle or cross whose ink is not whole (an open arc,
+    a stroke, a tick, a plus sign unless `config.plus_is_cross`; `wholeness.py`) reads "partial".
+    """
+
+    def __init__(
+        self, classifier: Classifier | None = None, config: PerceptionConfig | None = None
+    ) -> None:
         if classifier is None:
             from oxbot.perception.classifier import load_classifier
 
             classifier = load_classifier()
         self.classifier = classifier
+        self.config = config if config is not None else PerceptionConfig()
 
     def read(self, frame: np.ndarray) -> BoardReading:
         """Find the grid in `frame`, cut the 9 cells and classify them in one batch.
 
-        A cell whose ink is a single stroke reads "partial" (so "nothing" in `labels`), whatever
+        A cell whose ink is a single stroke, or with `config.wholeness` not a whole symbol
+        (`wholeness.py`), reads "partial" (so "nothing" in `labels`), whatever
         the classifier says: the first stroke of a cross must not become a move while the
         person is still drawing (a rule kept from before the network learnt "partial"; its
         confidence is the rule's, 1).
         """
-        cells, grid, sheet, cleaned = cut_board(frame)
+        cells, grid, sheet, cleaned, painted = cut_board(frame)
         if hasattr(self.classifier, "read"):
             readings = list(self.classifier.read(cells))
         else:  # a SPEC-only classifier: its labels, fully trusted
@@ -150,6 +163,10 @@ class BoardReader:
             CellReading("partial", 1.0, r.ink) if stretched[i] and r.label != "nothing" else r
             for i, r in enumerate(readings)
         ]
+        if self.config.wholeness:
+            readings = veto_partial(
+                cells, readings, self.config.max_circle_gap, self.config.plus_is_cross, painted
+            )
         for i in grid.cells_out_of_view():
             readings[i] = CellReading(OUT_OF_VIEW, 1.0, 0.0)
         labels = tuple("nothing" if r.label == OUT_OF_VIEW else r.spec_label for r in readings)
@@ -187,9 +204,10 @@ def _pixel_grid(height: int, width: int) -> np.ndarray:
 
 
 @functools.cache
-def default_reader() -> BoardReader:
-    """The board reader with the shipped classifier, loaded once."""
-    return BoardReader()
+def default_reader(config: PerceptionConfig | None = None) -> BoardReader:
+    """The board reader with the shipped classifier, loaded once (per `[perception]` config:
+    its wholeness settings)."""
+    return BoardReader(config=config)
 
 
 def read_board(frame: np.ndarray) -> list[str]:

@@ -147,7 +147,17 @@ LINE_PIECE_SHARE = 0.7
 
 
 def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:
-    """The nine cells of a grid-free sheet, each cut as a square around its own ink.
+    """The nine cells of a grid-free sheet, each cut as a square around its own ink
+    (`cut_cells_and_painted` without the painted-over lines)."""
+    return cut_cells_and_painted(sheet, None, cell, border)[0]
+
+
+def cut_cells_and_painted(
+    sheet: np.ndarray, painted: np.ndarray | None, cell: int = SHEET_CELL, border: int = 0
+) -> tuple[np.ndarray, np.ndarray]:
+    """The nine cells of a grid-free sheet, each cut as a square around its own ink, and where
+    in each the grid lines were painted over (bool (9, 40, 40), from `painted`, a bool mask of
+    the sheet; all False without it).
 
     A cell of the game holds at most one symbol, so the ink is split into connected pieces,
     each piece belongs to the cell its centre lies in, and a cell with ink is cut as a square
@@ -159,6 +169,8 @@ def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int 
     """
     inside = slice(border, border + SIZE * cell)  # the grid, without the ring around it
     cells = cut_cells(sheet[inside, inside], cell)
+    painted_u8 = np.zeros(sheet.shape, np.uint8) if painted is None else painted.astype(np.uint8)
+    painted_cells = cut_cells(painted_u8[inside, inside] * 255, cell) > 50
     ink = (sheet < INK_LEVEL).astype(np.uint8)
     joined = cv2.dilate(ink, np.ones((3, 3), np.uint8))
     count, labels, stats, centres = cv2.connectedComponentsWithStats(joined, connectivity=8)
@@ -217,7 +229,12 @@ def cut_cells_around_ink(sheet: np.ndarray, cell: int = SHEET_CELL, border: int 
         part[others] = 245
         crop[sy0 - top : sy1 - top, sx0 - left : sx1 - left] = part
         cells[i] = cv2.resize(crop, (CELL_SIZE, CELL_SIZE), interpolation=cv2.INTER_AREA)
-    return cells
+        if painted is not None:
+            lines = np.zeros((side, side), np.uint8)
+            lines[sy0 - top : sy1 - top, sx0 - left : sx1 - left] = painted_u8[sy0:sy1, sx0:sx1]
+            shrunk = cv2.resize(lines * 255, (CELL_SIZE, CELL_SIZE), interpolation=cv2.INTER_AREA)
+            painted_cells[i] = shrunk > 50
+    return cells, painted_cells
 
 
 def _is_line_piece(labels: np.ndarray, k: int, stat: np.ndarray, cell: int) -> bool:

@@ -386,7 +386,8 @@ class SymbolClassifier:
 
     def read(self, cells: Any) -> list[CellReading]:
         """Each cell's label among `outputs` with its calibrated confidence and ink. A
-        three-output model never says "partial" here (`BoardReader`'s single-stroke rule may)."""
+        three-output model never says "partial" here (`BoardReader`'s single-stroke rule and its
+        wholeness check, `oxbot.perception.wholeness`, may)."""
         checked = check_cells(cells, self.image_size)
         p = self.probabilities(checked)
         ink = ink_share(checked)

@@ -29,7 +29,7 @@ import threading
 import cv2
 import numpy as np
 
-from oxbot.config import TrackerConfig
+from oxbot.config import PerceptionConfig, TrackerConfig
 from oxbot.errors import FrameSourceError, NoGridFound
 from oxbot.game.board import SIZE
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
@@ -128,8 +128,11 @@ class GameMoveComponent(Component):
         reader: BoardReader | None = None,
         config: TrackerConfig | None = None,
         name: str | None = None,
+        perception: PerceptionConfig | None = None,
     ) -> None:
         self.config = config if config is not None else TrackerConfig()
+        self.perception = perception
+        """The `[perception]` settings of the default reader (its wholeness check)."""
         self.period = self.config.period_s
         super().__init__(bus, name)
         self.reader = reader
@@ -286,7 +289,7 @@ class GameMoveComponent(Component):
         if cached is not None and cached[0] == version:
             return cached[1]
         if self.reader is None:
-            self.reader = default_reader()
+            self.reader = default_reader(self.perception)
         read: Read
         try:
             reading = self.reader.read(frame)

@@ -95,7 +95,13 @@ def build_component(
 
         return cls(bus, policy=shared_policy(), config=config, rng=rng)
     if name == "perception":
-        return cls(bus, config.game.robot_starts, source=source, config=config.tracker)
+        return cls(
+            bus,
+            config.game.robot_starts,
+            source=source,
+            config=config.tracker,
+            perception=config.perception,
+        )
     if name == "recognition":
         return cls(bus, None, config.speech)
     if name == "voice":

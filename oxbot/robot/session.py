@@ -99,7 +99,7 @@ def warm_up(config: OxbotConfig | None = None) -> None:
 
     config = config if config is not None else OxbotConfig()
     shared_policy()
-    default_reader()
+    default_reader(config.perception)
     try:
         load_recognizer(config.speech)
     except SpeechUnavailable as exc:
@@ -148,6 +148,7 @@ class Robot:
                 self.config.game.robot_starts,
                 source=sheet_camera,
                 config=self.config.tracker,
+                perception=self.config.perception,
             ),
             SpeechRecognitionComponent(self.bus, recognizer, self.config.speech),
             SpeechSynthesisComponent(
