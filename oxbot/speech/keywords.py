@@ -1,8 +1,8 @@
 """A second opinion on short answers: a small keyword classifier (yes / no / other) on log-mel
 features, learned from real people's recordings.
 
-pocketsphinx's en-us acoustic model hears a single spoken "yes" or "no" of a person it never met
-right only 87% of the time (Speech Commands development set, docs/robot.md), and the words it
+pocketsphinx's best hypothesis hears a single spoken "yes" or "no" of a person it never met
+right about 9 times in 10 (Speech Commands development set, docs/robot.md), and the words it
 confuses are exactly the two that matter. A classifier that knows nothing but those two words
 and "something else" is small enough to train in a minute and hears them much better.
 `second_opinion` joins its probabilities with the recogniser's N-best list (see there); the
@@ -11,7 +11,8 @@ recogniser asks it only about short utterances (`MAX_SPEECH_SECONDS`).
 Features: the recording as the recogniser hears it (level normalised, silence trimmed, the
 noise floor added), a one-second window centred on the sound, 40 log-mel bands every 20 ms
 (numpy only). Model: three 3x3 convolutions, global average pooling, three outputs (about 23,000
-weights). Training data: Speech Commands v0.01 (Warden 2018), the rule and counts in
+weights). Training data: Speech Commands v0.01 (Warden 2018) and the domain's own phrases
+spoken by espeak-ng (short phrases are "other"), the rule and counts in
 `oxbot/data/models/keywords.SOURCES.md`; augmented with time shifts, quiet microphones, silence
 before the word and white noise.
 
@@ -58,7 +59,7 @@ MARGIN = 0.2
 """Seconds kept either side of the sound (the recogniser's own trim)."""
 N_FFT, FRAME, HOP, N_MELS = 512, 480, 320, 40
 """30 ms frames every 20 ms, as small keyword spotters use (Zhang et al. 2017, "Hello Edge"):
-half the work of the recogniser's 10 ms, no loss on one-second words."""
+half the work of the recogniser's 10 ms."""
 KIND, VERSION = "keywords", 1
 SURE = 0.7
 """The keyword model overrules the recogniser only when its probability of yes (or no) reaches
@@ -81,7 +82,7 @@ class KeywordConfig:
     """oxbot: passes, each over `per_class` clips of every label."""
     per_class: int = 400
     """oxbot: clips of each label per epoch (drawn again every epoch, each augmented anew), so
-    the 276 yes and 260 no clips weigh as much as the 2,778 others."""
+    the 294 yes and 278 no clips weigh as much as the 6,029 others."""
     batch_size: int = 64
     learning_rate: float = 3e-3
     """oxbot: Adam's step size, falling linearly to 0."""
