@@ -265,6 +265,18 @@ class UserActClassifier:
         return UserAct(reading.act, reading.score, self.texts[mine[int(np.argmax(similarity))]])
 
 
+def polarity(text: str) -> str | None:
+    """ "no" when the words say no (`NEGATIVE`, not "why not"), "yes" when they say or approve
+    a yes (`APPROVING`: "fine", "i'm in"), else None; for checking one listener against
+    another (`oxbot.speech.keywords.second_opinion`)."""
+    words = normalised(text)
+    if _holds(words, NEGATIVE) and not _holds(words, NEGATIVE_BUT_YES):
+        return "no"
+    if _holds(words, APPROVING):
+        return "yes"
+    return None
+
+
 def _holds(text: str, cues: tuple[str, ...]) -> bool:
     padded = f" {text} "
     return any(f" {cue} " in padded for cue in cues)

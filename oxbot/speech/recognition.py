@@ -18,6 +18,11 @@ goes through up to three searches, one after the other:
    complete phrases (a prefix tree, so shared beginnings are searched once) decides which one
    it was; complete phrases are heard more reliably than their fragments.
 
+A short answer (at most 1.25 s of sound) is also heard by a keyword model trained on real
+people saying yes, no and other words (`oxbot.speech.keywords`); its opinion is joined into the
+N-best list: both agreeing makes the answer surer, disagreeing makes it Unknown, and a mumbled
+"no" that the recogniser took for "hi" becomes "no" when the keyword model is sure.
+
 Before decoding, the recording's level is brought to a fixed peak, its silence trimmed to 0.2 s
 either side of the sound (`oxbot.speech.audio`), and a faint hiss added (`NOISE_FLOOR`), so that
 a quiet microphone, long pauses or exact zeros do not change what is heard. One recogniser
@@ -34,6 +39,7 @@ person"); `bench/tune_recognition.py` reproduces the constants.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 import itertools
@@ -59,6 +65,7 @@ if TYPE_CHECKING:
     from pocketsphinx import Decoder
 
     from oxbot.dialogue.domain import Domain
+    from oxbot.speech.keywords import KeywordSpotter
 
 log = logging.getLogger(__name__)
 
@@ -158,6 +165,9 @@ class Listening:
     """The search whose hypotheses are the answer: `words` (a complete phrase), `fragment`
     (words of the domain that are no complete phrase), `phrases` or `outside`."""
     hypotheses: list[Hypothesis] = field(default_factory=list)
+    keywords: np.ndarray | None = None
+    """The keyword model's P(yes), P(no), P(other) of a short answer, joined into `hypotheses`
+    (`oxbot.speech.keywords.second_opinion`); None when it was not asked."""
 
     @property
     def fit(self) -> float:
@@ -169,7 +179,11 @@ class PocketsphinxRecognizer:
     """pocketsphinx decoding of what people say in the domain (`phrases`), with a way out for
     what they say outside it (see the module)."""
 
-    def __init__(self, phrases: Sequence[str], nbest: int = 5) -> None:
+    def __init__(
+        self, phrases: Sequence[str], nbest: int = 5, keywords: KeywordSpotter | bool = True
+    ) -> None:
+        """`keywords`: the keyword model asked about short answers (`oxbot.speech.keywords`);
+        True for the shipped one, False for none (the recogniser alone)."""
         try:
             from pocketsphinx import Config, Decoder
             from pocketsphinx.lm import ArpaBoLM
@@ -182,6 +196,11 @@ class PocketsphinxRecognizer:
         if not self.phrases:
             raise InvalidInputError("the recogniser needs at least one non-empty phrase")
         self.nbest = nbest
+        if keywords is True:
+            from oxbot.speech.keywords import shipped_keyword_spotter
+
+            keywords = shipped_keyword_spotter() or False
+        self.keywords = keywords or None
         self._lock = threading.Lock()  # one decoder, shared by every session of the web server
         words = {w for p in self.phrases for w in p.split()}
         general = Config()
@@ -260,7 +279,14 @@ class PocketsphinxRecognizer:
                 )
         if not heard.nbest:
             return None
-        return self.choose(heard, phrases, outside)
+        listening = self.choose(heard, phrases, outside)
+        if self.keywords is None:
+            return listening
+        from oxbot.speech.keywords import second_opinion
+
+        keywords = self.keywords.probabilities(samples)
+        hypotheses = second_opinion(listening.hypotheses, keywords)
+        return dataclasses.replace(listening, hypotheses=hypotheses, keywords=keywords)
 
     def choose(
         self,
