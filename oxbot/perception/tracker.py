@@ -73,7 +73,7 @@ class AcceptedDrawing:
 
 
 ImpossibleKind = Literal[
-    "two_new_symbols", "occupied_cell", "wrong_symbol", "out_of_turn", "game_over"
+    "two_new_symbols", "occupied_cell", "wrong_symbol", "out_of_turn", "game_over", "not_started"
 ]
 
 
@@ -117,6 +117,9 @@ class MoveTracker:
         self.robot_starts = robot_starts
         self.check_turns = check_turns
         """Refuse a drawing out of turn or after the game ended (off: track drawings only)."""
+        self.playing = True
+        """False while the dialogue has not started the game (the person has not agreed): a
+        drawing then is refused as `not_started`, never kept as a move."""
         self.user_symbol = symbol_of(USER, robot_starts)
         self.robot_symbol = symbol_of(ROBOT, robot_starts)
         self.reset()
@@ -238,6 +241,13 @@ class MoveTracker:
             EMPTY if label == "nothing" else ROBOT if i in self._robot_cells else USER
             for i, label in enumerate(self._board)
         )
+        if self.check_turns and not self.playing:
+            return self._impossible(
+                "not_started",
+                cells,
+                symbols,
+                f"a {symbol} appeared in {CELL_NAMES[cell]} before the game started",
+            )
         if self.check_turns and outcome(board) is not None:
             return self._impossible(
                 "game_over",

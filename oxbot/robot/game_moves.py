@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 
 from oxbot.config import PerceptionConfig, TrackerConfig
+from oxbot.dialogue.domain import GREETING, MOVE_REQUEST, plays
 from oxbot.errors import FrameSourceError, NoGridFound
 from oxbot.game.board import SIZE
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
@@ -44,6 +45,7 @@ from oxbot.robot.messages import (
     ArmCommand,
     BoardProblem,
     BoardSeen,
+    DialogueAct,
     Frame,
     GameMove,
     Message,
@@ -103,6 +105,14 @@ def grid_shares(reading: BoardReading, frame: np.ndarray) -> tuple[float, ...]:
     return tuple(round(float(v), 4) for v in shares.ravel())
 
 
+def game_started(act: str, before: bool) -> bool:
+    """Whether the game is on after the robot says `act`: from its greeting (a new dialogue)
+    until it says "let's play", draws, or asks for the person's move."""
+    if act == GREETING:
+        return False
+    return before or plays(act) or act == MOVE_REQUEST
+
+
 def move_message(drawing: AcceptedDrawing) -> GameMove:
     """The bus message for a drawing the tracker accepted (the one place the two meet)."""
     return GameMove(who=drawing.who, what=drawing.what, where=drawing.where, symbol=drawing.symbol)
@@ -116,8 +126,9 @@ class GameMoveComponent(Component):
     handed over by `push(frame)` or a Frame message.
     """
 
-    listens_to = (Frame, ArmCommand, NewGame)
-    retries = (ArmCommand, NewGame)  # the tracker must know the robot's drawings; not frames
+    listens_to = (Frame, ArmCommand, NewGame, DialogueAct)
+    # the tracker must know the robot's drawings and whether the game is on; not frames
+    retries = (ArmCommand, NewGame, DialogueAct)
     part = "eyes"
 
     def __init__(
@@ -138,6 +149,7 @@ class GameMoveComponent(Component):
         self.reader = reader
         self.source = source
         self.tracker = MoveTracker(robot_starts, self.config)
+        self._talking = False  # a dialogue manager speaks on this bus (its acts start games)
         self._lock = threading.Lock()
         self._latest: np.ndarray | None = None
         self._version = 0  # counts pushed frames, so a frame is read only once
@@ -168,11 +180,16 @@ class GameMoveComponent(Component):
             self.push(frame_pixels(message))
         elif isinstance(message, ArmCommand):
             self.tracker.robot_draws(message.where)
+        elif isinstance(message, DialogueAct):
+            if message.speaker == "sys":  # a robot that talks: its game starts when it says so
+                self._talking = True
+                self.tracker.playing = game_started(message.act, self.tracker.playing)
         elif isinstance(message, NewGame):
             with self._lock:
                 self._latest = None
                 self._cached = None
             self.tracker = MoveTracker(message.robot_starts, self.config)
+            self.tracker.playing = not self._talking  # without a dialogue, drawings are moves
             self._last_seen = None
             self._refused, self._told = 0, {}
 
@@ -249,6 +266,7 @@ class GameMoveComponent(Component):
         # the game so far: what the tracker knows of the sheet, the last view of it
         self.tracker = copy.deepcopy(old.tracker)
         self.reader, self._off, self._last_seen = old.reader, old._off, old._last_seen
+        self._talking = old._talking
         self._corners, self._refused, self._told = old._corners, old._refused, dict(old._told)
         with old._lock:
             self._latest, self._version = old._latest, old._version

@@ -414,6 +414,8 @@ class InteractionManagerComponent(Component):
     def _illegal(self, cell: int, symbol: str) -> str | None:
         """Why the person may not draw `symbol` in `cell` now, as a problem kind, or None."""
         state = self.state
+        if not self._game_started():
+            return "not_started"  # a drawing before the person agreed is no move
         if state.outcome is not None:
             return "game_over"
         if state.board[cell] != EMPTY:
@@ -469,7 +471,7 @@ class InteractionManagerComponent(Component):
             self.bus.publish(ArmCommand(where=CELL_NAMES[self._arm_cell], symbol=symbol))
 
     def _game_started(self) -> bool:
-        return any(plays(act) for act in self.state.said)
+        return any(plays(act) for act in self.state.said) or MOVE_REQUEST in self.state.said
 
     def _tell(self, sentence: str) -> None:
         self.state.robot_informs(PROBLEM, sentence)

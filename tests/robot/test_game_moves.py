@@ -17,6 +17,7 @@ from oxbot.robot.messages import (
     BoardProblem,
     BoardSeen,
     ComponentFailed,
+    DialogueAct,
     Frame,
     GameMove,
     NewGame,
@@ -83,6 +84,28 @@ def test_a_frame_message_is_read_like_a_pushed_frame_and_problems_are_reported(s
         got = collect(events, lambda m: isinstance(m, BoardProblem))
     assert got[-1].kind == "two_new_symbols"
     assert not [m for m in got if isinstance(m, GameMove)]
+
+
+def test_a_drawing_before_the_robot_starts_the_game_is_refused_not_kept(scene):
+    """The person starts; they draw while the robot is still greeting: no move, a
+    `not_started` problem, and the tracker's board stays empty; once the robot says "let's
+    play", a drawing is a move."""
+    sheet, rng = scene
+    bus = LocalBus()
+    events = bus.subscribe(GameMove, BoardProblem)
+    with GameMoveComponent(bus, robot_starts=False, config=TrackerConfig(period_s=0.05)) as vision:
+        bus.publish(DialogueAct(speaker="sys", act="Salutation(greeting)", text="Hello!"))
+        time.sleep(0.1)
+        early = sheet.with_symbol(4, "circle", rng)
+        vision.push(early.photo(rng))
+        (problem,) = collect(events, lambda m: isinstance(m, BoardProblem))
+        assert problem.kind == "not_started" and "before the game started" in problem.reason
+        assert vision.tracker.board == ("nothing",) * 9
+        bus.publish(DialogueAct(speaker="sys", act="Reply(playGame=yes)", text="Let's play."))
+        time.sleep(0.1)
+        vision.push(sheet.with_symbol(0, "circle", rng).photo(rng))  # a clean sheet, a circle
+        move = collect(events, lambda m: isinstance(m, GameMove))[-1]
+        assert (move.who, move.where) == ("usr", "upperleft")
 
 
 def test_a_new_game_forgets_the_sheet(scene):
