@@ -224,10 +224,10 @@ def test_impossible_drawings_are_refused_in_words_and_never_change_the_board(ws_
             hello = (await next_of(ws, {"Hello"}))["data"]
             cells, user = hello["cells"], hello["user_symbol"]
             await next_of(ws, {"DialogueAct"})  # the greeting: the robot has begun its game
-            # out of turn: the robot starts, and has not drawn yet
+            # before the game: the robot has only greeted (and starts, and has not drawn yet)
             early = clean.copy().draw("middle", user)
             await show(early)
-            assert (await problem())["kind"] == "out_of_turn"
+            assert (await problem())["kind"] == "not_started"
             two_at_once_tried = False
             while not record.ended:
                 message = await next_of(
@@ -259,7 +259,7 @@ def test_impossible_drawings_are_refused_in_words_and_never_change_the_board(ws_
         return problems, record
 
     problems, record = asyncio.run(game())
-    assert [p["kind"] for p in problems] == ["out_of_turn", "two_new_symbols"]
+    assert [p["kind"] for p in problems] == ["not_started", "two_new_symbols"]
     told = [text for speaker, act, text in record.transcript if act == "Inform(problem)"]
     assert told == [
         "We have not started a game yet.",  # drawn before anyone agreed to play
