@@ -66,7 +66,7 @@ class Bus(Protocol):
 class LocalSubscription:
     """A `Subscription` of `LocalBus`: a thread-safe FIFO queue."""
 
-    def __init__(self, bus: LocalBus, types: tuple[type[Message], ...]) -> None:
+    def __init__(self, bus: Subscriptions, types: tuple[type[Message], ...]) -> None:
         self.types = types
         self._bus = bus
         self._queue: queue.SimpleQueue[Message] = queue.SimpleQueue()
@@ -97,8 +97,9 @@ class LocalSubscription:
         self._bus.unsubscribe(self)
 
 
-class LocalBus:
-    """The in-process `Bus`: each published message goes to every subscription wanting it."""
+class Subscriptions:
+    """The subscriptions of one process's bus, each a `LocalSubscription` queue, kept under
+    one lock (`LocalBus`, and `ZenohBus`, which feeds them from the network)."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -115,6 +116,10 @@ class LocalBus:
         with self._lock:
             if subscription in self._subscriptions:
                 self._subscriptions.remove(subscription)
+
+
+class LocalBus(Subscriptions):
+    """The in-process `Bus`: each published message goes to every subscription wanting it."""
 
     def publish(self, message: Message) -> None:
         if not isinstance(message, Message):

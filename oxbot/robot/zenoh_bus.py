@@ -49,7 +49,7 @@ from oxbot.errors import (
     ConfigError,
     InvalidInputError,
 )
-from oxbot.robot.bus import LocalSubscription
+from oxbot.robot.bus import LocalSubscription, Subscriptions
 from oxbot.robot.messages import (
     MESSAGE_TYPES,
     ArmStroke,
@@ -228,7 +228,7 @@ class Peer:
     pid: int
 
 
-class ZenohBus:
+class ZenohBus(Subscriptions):
     """The `Bus` of one robot (`robot`, a name) over Zenoh: see the module docstring.
 
     Each subscription is a FIFO queue, as on `LocalBus`; one Zenoh subscriber per process
@@ -246,8 +246,7 @@ class ZenohBus:
         self.robot = robot
         self.endpoints = endpoints if endpoints is not None else Endpoints()
         self.prefix = f"oxbot/{robot}/"
-        self._lock = threading.Lock()
-        self._subscriptions: list[LocalSubscription] = []
+        super().__init__()  # subscribe / unsubscribe: the queues of this process
         self._record: list[Message] = []
         self._refused: set[str] = set()  # formats already reported, so the log says it once
         self._declared: list[typing.Any] = []
@@ -264,18 +263,6 @@ class ZenohBus:
             raise
 
     # --- the Bus protocol ---
-
-    def subscribe(self, *types: type[Message]) -> LocalSubscription:
-        """A new queue of the messages of `types` (all messages when none are given)."""
-        subscription = LocalSubscription(self, types or (Message,))  # type: ignore[arg-type]
-        with self._lock:
-            self._subscriptions.append(subscription)
-        return subscription
-
-    def unsubscribe(self, subscription: LocalSubscription) -> None:
-        with self._lock:
-            if subscription in self._subscriptions:
-                self._subscriptions.remove(subscription)
 
     def publish(self, message: Message) -> None:
         if not isinstance(message, Message):
