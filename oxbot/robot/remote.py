@@ -17,21 +17,14 @@ robot (a terminal and web pages); one `ZenohBus` per process serves them all.
 from __future__ import annotations
 
 import logging
-import threading
 import time
 
 from oxbot.config import OxbotConfig
-from oxbot.dialogue.state import Turn
 from oxbot.errors import BusError
-from oxbot.game.board import EMPTY_BOARD, Board
 from oxbot.robot.bus import LocalSubscription, Supervisor
 from oxbot.robot.messages import (
-    DialogueAct,
     DialogueEnded,
-    GameState,
     Message,
-    NewGame,
-    SourceEnded,
 )
 from oxbot.robot.session import Robot
 from oxbot.robot.zenoh_bus import ZenohBus
@@ -75,15 +68,7 @@ class RemoteRobot(Robot):
         self._watching_sheet = False
         self._vision = "GameMoveComponent"
         self.supervisor = Supervisor([], bus, self.config.robot)
-        self._events = self.bus.subscribe(
-            NewGame, GameState, DialogueAct, DialogueEnded, SourceEnded
-        )
-        self._lock = threading.Lock()
-        self._board: Board = EMPTY_BOARD
-        self._robot_starts = self.config.game.robot_starts
-        self._transcript: list[Turn] = []
-        self._ended = False
-        self._started = False
+        self._follow_games()
 
     def start(self) -> RemoteRobot:
         """Wait for the components it needs, then join the game under way or start one."""

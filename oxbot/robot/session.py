@@ -169,6 +169,11 @@ class Robot:
             components.append(Recorder(self.bus, recorder, mode, record_audio, record_now))
         self._vision = vision.name
         self.supervisor = Supervisor(components, self.bus, body, on_lost=self._lost)
+        self._follow_games()
+
+    def _follow_games(self) -> None:
+        """Subscribe to what `board`, `transcript` and `finished` are read from, and start from
+        a game that has not begun."""
         self._events = self.bus.subscribe(
             NewGame, GameState, DialogueAct, DialogueEnded, SourceEnded
         )
