@@ -157,6 +157,12 @@ def plays(act: str) -> bool:
     return act == LETS_PLAY or is_game_move(act)
 
 
+def starts_game(act: str) -> bool:
+    """True for a system act after which the game is on: one that `plays`, or asking for the
+    person's move (a person who starts is asked without a "let's play")."""
+    return plays(act) or act == MOVE_REQUEST
+
+
 def is_game_move(act: str | int) -> bool:
     """True for a drawing, given as an act (any cell, or `$loc`) or as an index of SYSTEM_ACTS."""
     if isinstance(act, str):

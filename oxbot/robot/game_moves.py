@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 
 from oxbot.config import PerceptionConfig, TrackerConfig
-from oxbot.dialogue.domain import GREETING, MOVE_REQUEST, plays
+from oxbot.dialogue.domain import GREETING, starts_game
 from oxbot.errors import FrameSourceError, NoGridFound
 from oxbot.game.board import SIZE
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
@@ -110,7 +110,7 @@ def game_started(act: str, before: bool) -> bool:
     until it says "let's play", draws, or asks for the person's move."""
     if act == GREETING:
         return False
-    return before or plays(act) or act == MOVE_REQUEST
+    return before or starts_game(act)
 
 
 def move_message(drawing: AcceptedDrawing) -> GameMove:

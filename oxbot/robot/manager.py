@@ -66,7 +66,7 @@ from oxbot.dialogue.domain import (
     game_move,
     game_move_cell,
     is_game_move,
-    plays,
+    starts_game,
     words_of,
 )
 from oxbot.dialogue.model import build_dialogue_model
@@ -471,7 +471,7 @@ class InteractionManagerComponent(Component):
             self.bus.publish(ArmCommand(where=CELL_NAMES[self._arm_cell], symbol=symbol))
 
     def _game_started(self) -> bool:
-        return any(plays(act) for act in self.state.said) or MOVE_REQUEST in self.state.said
+        return any(starts_game(act) for act in self.state.said)
 
     def _tell(self, sentence: str) -> None:
         self.state.robot_informs(PROBLEM, sentence)
