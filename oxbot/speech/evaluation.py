@@ -44,6 +44,7 @@ from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.errors import DataError, SpeechUnavailable
 from oxbot.speech.audio import RATE, add_noise, pcm16
 from oxbot.speech.recognition import Recognizer, default_recognizer
+from oxbot.speech.speech_commands import speaker_of
 from oxbot.speech.synthesis import Voice, synthesize
 
 VOICES: tuple[str, ...] = (
@@ -345,7 +346,7 @@ def speech_commands(directory: str | Path) -> list[Recording]:
     no/*.wav decline; the speaker is the file name's first part (`0a7c2a8d_nohash_0.wav`)."""
     directory = Path(directory)
     return [
-        Recording(path, intent, "sc:" + path.name.split("_nohash_")[0], word)
+        Recording(path, intent, "sc:" + speaker_of(path.name), word)
         for word, intent in (("yes", "accept"), ("no", "decline"))
         for path in sorted((directory / word).glob("*.wav"))
     ]

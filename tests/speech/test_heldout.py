@@ -2,8 +2,6 @@
 its voices and recordings reach the recogniser. No accuracy thresholds: those belong to the
 understanding, which changes; bench/bench_speech.py measures it."""
 
-import hashlib
-import re
 import shutil
 from pathlib import Path
 
@@ -30,6 +28,7 @@ from oxbot.speech.evaluation import (
     recording_test,
     speech_commands,
 )
+from oxbot.speech.speech_commands import speaker_of, split_of
 
 BENCH_DATA = Path(__file__).parents[2] / "bench" / "data"
 HELD_OUT = BENCH_DATA / "held_out_answers.txt"
@@ -120,13 +119,6 @@ def test_a_flite_voice_is_decoded_to_something(classifier):
     assert heard.audio_seconds > 0.5 and heard.voice == "flite:slt@1.1"
 
 
-def _speech_commands_split(name: str) -> str:
-    """The dataset's own split rule (its README, "Partitioning"): SHA-1 of the speaker id."""
-    speaker = re.sub(r"_nohash_.*$", "", name)
-    percent = int(hashlib.sha1(speaker.encode()).hexdigest(), 16) % 2**27 * (100.0 / (2**27 - 1))
-    return "validation" if percent < 10 else "testing" if percent < 20 else "training"
-
-
 @pytest.mark.skipif(
     not any(SPEECH_COMMANDS.glob("*/*.wav")),
     reason="the Speech Commands WAVs are not here (bench/data/speech_commands/SOURCES.md)",
@@ -134,7 +126,7 @@ def _speech_commands_split(name: str) -> str:
 def test_speech_commands_recordings_are_held_out_and_decoded_to_something(classifier):
     recordings = speech_commands(SPEECH_COMMANDS)
     assert {r.expected for r in recordings} == {"accept", "decline"}
-    assert all(_speech_commands_split(r.path.name) != "testing" for r in recordings)
+    assert all(split_of(speaker_of(r.path.name)) != "testing" for r in recordings)
     first_yes = next(r for r in recordings if r.words == "yes")
     first_no = next(r for r in recordings if r.words == "no")
     trials = recording_test([first_yes, first_no], classifier, [CLEAN])
