@@ -22,13 +22,12 @@ before the word and white noise.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
 import importlib.resources
 import logging
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -38,6 +37,9 @@ import numpy as np
 from oxbot import artifacts
 from oxbot.errors import DataError, ModelFileError
 from oxbot.speech.audio import RATE, add_noise, normalise_level, pcm16, trim_silence
+
+# one thread: on two busy cores a training step took 900 ms with two threads, 75 ms with one
+from oxbot.torch_threads import one_thread
 
 if TYPE_CHECKING:
     import torch
@@ -222,20 +224,6 @@ class KeywordSpotter:
             return cls(
                 network, float(payload["mean"]), float(payload["std"]), dict(payload["metadata"])
             )
-
-
-@contextlib.contextmanager
-def one_thread() -> Iterator[None]:
-    """Torch on one thread: this network is too small to share out, and on two busy cores a
-    training step took 900 ms with two threads against 75 ms with one."""
-    import torch
-
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        yield
-    finally:
-        torch.set_num_threads(before)
 
 
 def shipped_keyword_path() -> Path:

@@ -33,6 +33,7 @@ import numpy as np
 from oxbot.config import ListeningConfig
 from oxbot.errors import InvalidInputError
 from oxbot.speech.audio import RATE
+from oxbot.torch_threads import one_thread
 
 END_SPEECH_RATIO = 0.1
 """At most this share of speech frames in the last `end_silence_seconds` ends an utterance."""
@@ -79,13 +80,9 @@ class SileroVad:
     def is_speech(self, frame: np.ndarray) -> bool:
         torch = self._torch
         x = torch.from_numpy(frame.astype(np.float32) / 32768)
-        threads = torch.get_num_threads()
-        torch.set_num_threads(1)  # one 32 ms frame: 8x cheaper on one thread than on two
-        try:
-            with torch.inference_mode():
-                return float(self._model(x, RATE)) > self.threshold
-        finally:
-            torch.set_num_threads(threads)
+        # one 32 ms frame: 8x cheaper on one thread than on two
+        with one_thread(), torch.inference_mode():
+            return float(self._model(x, RATE)) > self.threshold
 
 
 @dataclass(frozen=True)
