@@ -24,7 +24,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from oxbot.dialogue.domain import ASK_AGAIN, INVITATION, REFUSALS, game_move_cell, words_of
+from oxbot.dialogue.domain import (
+    ACCEPT,
+    ASK_AGAIN,
+    INVITATION,
+    REFUSALS,
+    STOP,
+    game_move_cell,
+    words_of,
+)
 from oxbot.errors import IllegalMoveError
 from oxbot.game.board import (
     EMPTY,
@@ -96,6 +104,19 @@ class DialogueState:
     def outcome(self) -> Outcome | None:
         """The game's result from the robot's side once it is over, else None."""
         return outcome(self.board)
+
+    @property
+    def ending(self) -> str | None:
+        """How the dialogue stands as the robot sees it: the game's result once it is over,
+        "stopped" once the person was understood asking to stop, "declined" once they were
+        understood saying no and never yes; else None (unfinished)."""
+        if self.outcome is not None:
+            return self.outcome
+        if STOP in self.person_acts:
+            return "stopped"
+        if REFUSALS.intersection(self.person_acts) and ACCEPT not in self.person_acts:
+            return "declined"
+        return None
 
     @property
     def robot_to_move(self) -> bool:

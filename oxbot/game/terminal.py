@@ -39,7 +39,14 @@ ReadLine = Callable[[str], str]
 QUIT_WORDS = frozenset({"q", "quit", "exit"})
 NEW_WORDS = frozenset({"new"})
 CELL_HELP = f"a cell: 1-{N_CELLS} (row by row from the upper left) or a name such as middle"
-GAME_OVER = {"win": "I won", "loss": "you won", "draw": "a draw", None: "unfinished"}
+GAME_OVER = {
+    "win": "I won",
+    "loss": "you won",
+    "draw": "a draw",
+    "declined": "no game, as you wished",
+    "stopped": "stopped, as you asked",
+    None: "unfinished",
+}
 FEEDBACK = {"win": "Yes, I won.", "loss": "Well done, you won.", "draw": "It is a draw."}
 
 
@@ -55,7 +62,7 @@ def print_board(console: Console, board: Board, robot_starts: bool) -> None:
     console.print(escape(render(board, robot_starts)))
 
 
-def print_game_over(console: Console, result: Outcome | None) -> None:
+def print_game_over(console: Console, result: Outcome | str | None) -> None:
     console.print(f"[bold]Game over: {GAME_OVER[result]}.[/] Type 'new' or 'quit'.")
 
 

@@ -44,7 +44,7 @@ def list_command(data_dir: DataDir = None) -> None:
         for s in sessions:
             typer.echo(
                 f"{s.id:5d}  {_when(s.started_at)}  {s.mode or '-':8s} {s.status:11s} "
-                f"{s.outcome or '-':5s}  turns {s.turns:3d}  answers {s.answers:3d} "
+                f"{s.outcome or '-':8s}  turns {s.turns:3d}  answers {s.answers:3d} "
                 f"(asked again {s.repeated})  crops {s.crops:4d} ({s.labelled} labelled)"
             )
 

@@ -341,7 +341,7 @@ class InteractionManagerComponent(Component):
         last_act = self.state.last_act
         if last_act == CLOSING:
             self.phase = Phase.DONE
-            self.bus.publish(DialogueEnded(outcome=self.state.outcome))
+            self.bus.publish(DialogueEnded(outcome=self.state.ending))
             if self._rematch:
                 self.bus.publish(NewGame(robot_starts=self.state.robot_starts))
             return
@@ -459,7 +459,7 @@ class InteractionManagerComponent(Component):
         self.bus.publish(Utterance(text=sentence, act=CLOSING))
         # no waiting for the voice or the arm to finish: either may be the part that is gone
         self.phase, self._broken, self._rematch = Phase.DONE, True, False
-        self.bus.publish(DialogueEnded(outcome=self.state.outcome))
+        self.bus.publish(DialogueEnded(outcome=self.state.ending))
 
     def _rejoined(self, message: ComponentJoined) -> None:
         """A part's process came back (oxbot.robot.zenoh_bus): what died with its predecessor,

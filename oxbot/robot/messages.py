@@ -253,10 +253,12 @@ class GameState(Message):
 
 @dataclass(frozen=True)
 class DialogueEnded(Message):
-    """The robot said goodbye; `outcome` is the game's result from its side, if it finished."""
+    """The robot said goodbye; `outcome` is the game's result from its side, if it finished,
+    else "declined" (the person said no and never yes) or "stopped" (they asked to stop), as
+    the robot understood them; None for a dialogue that ended otherwise."""
 
     topic: ClassVar[str] = "dialogue/ended"
-    outcome: Literal["win", "draw", "loss"] | None
+    outcome: Literal["win", "draw", "loss", "declined", "stopped"] | None
 
 
 @dataclass(frozen=True)

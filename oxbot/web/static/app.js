@@ -259,7 +259,10 @@ const handlers = {
   HeadMove(d) { lookTowards(d.direction); },
   DialogueEnded(d) {
     state.ended = true;   // drawings stop; words still go: "new game", "again!" start another
-    const text = { win: "The robot won.", loss: "You won!", draw: "A draw." }[d.outcome] || "The game ended.";
+    const text = {
+      win: "The robot won.", loss: "You won!", draw: "A draw.",
+      declined: "No game, as you wished.", stopped: "Stopped, as you asked.",
+    }[d.outcome] || "The game ended.";
     $("turn").textContent = `${text} Press New game to play again.`;
     addNote(`Game over: ${d.outcome || "unfinished"}.`);
   },
