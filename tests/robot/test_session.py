@@ -247,7 +247,7 @@ def test_no_thanks_is_acknowledged_and_the_robot_says_goodbye():
     assert acts.index("Acknowledge(playGame=no)") == len(acts) - 2
     assert not any(a.startswith("GameMove") or a == "Reply(playGame=yes)" for a in acts)
     assert acts.count("Request(playGame)") + acts.count("Request(repeat)") <= 2
-    assert ended.outcome is None
+    assert ended.outcome == "declined"
 
 
 def test_stop_mid_game_is_confirmed_or_acknowledged_and_the_robot_lets_go():
@@ -263,7 +263,7 @@ def test_stop_mid_game_is_confirmed_or_acknowledged_and_the_robot_lets_go():
     assert after[-2:] == ["Acknowledge(stop)", "Salutation(closing)"]
     assert after.count("Request(userGameMove)") <= 1  # asked once more at most, then let go
     assert not any(a.startswith("GameMove") for a in after)
-    assert ended.outcome is None and "Request(playGame)" in acts
+    assert ended.outcome == "stopped" and "Request(playGame)" in acts
 
 
 def test_new_game_after_the_goodbye_starts_another():
