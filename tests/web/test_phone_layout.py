@@ -1,0 +1,34 @@
+"""The page on a phone-sized screen, in Debian's Chromium (its own module: the browser game's
+module keeps a Playwright session open for its whole run)."""
+
+from __future__ import annotations
+
+from playwright.sync_api import sync_playwright
+
+from oxbot.testing.browser import CHROMIUM
+from oxbot.testing.browser import FLAGS as BROWSER_FLAGS
+
+
+def test_on_a_phone_the_managers_table_shows_whole_act_names(server_url):
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=BROWSER_FLAGS)
+        try:
+            tab = browser.new_page(viewport={"width": 390, "height": 844})
+            tab.goto(server_url + "/")
+            tab.click("text=Start")
+            tab.wait_for_selector("[data-testid=decision] tr[data-act]", state="attached")
+            widths = tab.evaluate(
+                """() => ({
+                  page: document.documentElement.scrollWidth,
+                  acts: [...document.querySelectorAll('#decision tr[data-act]')].map(tr => {
+                    const cell = tr.querySelector('.name');
+                    return [tr.dataset.act, cell.getBoundingClientRect().right,
+                            cell.scrollWidth - cell.clientWidth];
+                  }),
+                })"""
+            )
+        finally:
+            browser.close()
+    assert widths["page"] <= 390, widths["page"]  # nothing wider than the phone
+    cut = [(act, right, hidden) for act, right, hidden in widths["acts"] if right > 390 or hidden]
+    assert widths["acts"] and not cut, cut
