@@ -81,10 +81,8 @@ def record_simulated_dialogues(
             if env.board != board:  # the manager announces each change (an empty one: a new game)
                 board = env.board
                 recorder.handle(GameState(board=board, robot_starts=env.robot_starts))
-        result = info.get("outcome")
-        recorder.handle(
-            DialogueEnded(outcome=result if result in ("win", "draw", "loss") else None)
-        )
+        # as the robot saw it, like the interaction manager's DialogueEnded
+        recorder.handle(DialogueEnded(outcome=env.state.ending))
     return recorder.sessions
 
 
