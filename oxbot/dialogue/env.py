@@ -31,9 +31,9 @@ R(s,a,s') = BR*w + DR*(1-w) - DL (`oxbot.dialogue.reward`), plus at the end of t
 the robot lost and 5 after any other game (the paper's); oxbot: 3 when the person declined to
 play or asked to stop and the robot let them, and 0 for any dialogue that is not well formed
 (`oxbot.dialogue.wellformed`: a game nobody agreed to, a no or a stop not let go, walking away).
-A person the robot ignores — it starts a game they did not agree to, asks to play a third time
-after two noes, goes on after a stop — walks away there: the dialogue ends at once, with no end
-reward (`info["walked_away"]` says why).
+A person the robot ignores — it starts a game they did not agree to, asks to play again after a
+clear "no thanks" (or a third time after two noes), goes on after a stop — walks away there:
+the dialogue ends at once, with no end reward (`info["walked_away"]` says why).
 
 ## Episode End
 
@@ -43,7 +43,8 @@ result from the robot's side ("win", "draw", "loss"), or "declined" (the person 
 to play), "stopped" (the person asked to stop mid-game) or "abandoned" (the robot left a person
 who wanted to play; rewarded as a loss). `info["transcript"]` is the dialogue as
 `{"speaker", "act", "text"}` dicts, the person's turns with the act they meant;
-`info["understood"]` the act each turn was understood as; `info["person"]` the kind of person
+`info["understood"]` the act each turn was understood as and `info["understood_scores"]` with
+what score; `info["person"]` the kind of person
 (`UserSimulator.kind`). Truncated after `max_turns` system acts
 (`info["outcome"]` is then the result so far, or None).
 
@@ -177,11 +178,18 @@ class InteractiveGameEnv(gym.Env):
             reward = -rcfg.length_penalty
             state.robot_skips()
 
-        ignored = ignores_the_person(state.transcript, state.understood_turns) if did else None
+        ignored = (
+            ignores_the_person(state.transcript, state.understood_turns, state.understood_scores)
+            if did
+            else None
+        )
         terminated = act == CLOSING or ignored is not None
         result = self._closing_outcome() if terminated else state.outcome
         if terminated:  # no end reward for a dialogue that is not well formed
-            well_formed = check_dialogue(state.transcript, result, state.understood_turns) is None
+            problem = check_dialogue(
+                state.transcript, result, state.understood_turns, state.understood_scores
+            )
+            well_formed = problem is None
             reward += end_reward(result if well_formed else "loss", rcfg)
 
         # the person's turn: answer, perhaps draw; or walk away from a robot that ignores them
@@ -203,6 +211,7 @@ class InteractiveGameEnv(gym.Env):
             info["outcome"] = result if terminated else state.outcome
             info["transcript"] = list(state.transcript)
             info["understood"] = list(state.understood_turns)
+            info["understood_scores"] = list(state.understood_scores)
             info["person"] = self._simulator.kind
         return state.encode(), float(reward), terminated, truncated, info
 

@@ -123,8 +123,10 @@ class _Tally:
         self.total_reward += episode_return
         transcript = info["transcript"]
         self.total_turns += len(transcript)
-        understood = info.get("understood")
-        problem = check_dialogue(transcript, result, understood) if terminated else "truncated"
+        understood, scores = info.get("understood"), info.get("understood_scores")
+        problem = (
+            check_dialogue(transcript, result, understood, scores) if terminated else "truncated"
+        )
         if problem is None:
             self.good += 1
             self.successes += as_wanted(info["person"], result)

@@ -5,10 +5,11 @@ responses already chosen were not allowed. For example, drawing a symbol in the 
 grid was only allowed if the location was empty."
 
 Each dialogue the person is one of three kinds, drawn at `reset`: one who wants to play, one
-who declines the first invitation and accepts when asked again (`decline_probability`), and one
-who declines every time (`refuse_probability`). Either of the last two may say no before being
+who declines the first invitation ("maybe later", `Reject(playGame=later)`) and accepts when
+asked again (`decline_probability`), and one who declines for good ("no thanks",
+`Reject(playGame=no)`, `refuse_probability`). Either of the last two may say no before being
 asked, in answer to the greeting or the introduction (`early_refusal_probability`): that no is
-the one of a person who declines once. And, independently, one who asks to stop in
+for a person who declines once, their one no. And, independently, one who asks to stop in
 the middle of the game (`stop_probability`). In any answer the person may say something that
 is none of the game's acts (`nonsense_probability`) or nothing at all (`silence_probability`);
 asked for a move, they may answer out of turn with small talk (`out_of_turn_probability`);
@@ -174,7 +175,7 @@ class UserSimulator:
             return self._asked_to_play(system_act)
         if system_act in (GREETING, INTRODUCTION) and self.refuses_early and not self.refused:
             self.refused = True
-            return self._say(DECLINE, system_act)
+            return self._say(self._no(), system_act)
         if system_act == MOVE_REQUEST:
             return self._asked_to_move(board, person_to_move)
         if is_feedback(system_act) and rng.random() < self.rematch_probability:
@@ -197,9 +198,13 @@ class UserSimulator:
         first_no = self.declines_once and self.asked == 1 and not self.refuses_early
         if self.refuses or first_no:
             self.refused = True
-            return self._say(POSTPONE if rng.random() < 0.3 else DECLINE, system_act)
+            return self._say(self._no(), system_act)
         self.agreed = True
         return self._say(ACCEPT, system_act)
+
+    def _no(self) -> str:
+        """How this person says no: for good ("no thanks") or for now ("maybe later")."""
+        return DECLINE if self.refuses else POSTPONE
 
     def _asked_to_move(self, board: Board, person_to_move: bool) -> UserTurn:
         rng = self.rng

@@ -96,6 +96,9 @@ class DialogueState:
         self.understood_turns: list[str] = []
         """For each turn of the transcript, the act it was understood as (the robot's own turns
         and drawings: their act)."""
+        self.understood_scores: list[float] = []
+        """For each turn of the transcript, the understanding's score of `understood_turns`
+        (1.0 for the robot's own turns and drawings)."""
         self._features: np.ndarray | None = None
 
     # --- the game ---------------------------------------------------------------------------
@@ -180,11 +183,14 @@ class DialogueState:
             self.person_acts.append(understood[0])
             if understood[0] in REFUSALS and self.invitations == 0:
                 self.refused_unasked = True
-        self._turn("usr", act, text, understood[0] if understood is not None else act)
+        self._turn("usr", act, text, *(understood if understood is not None else (act, 1.0)))
 
-    def _turn(self, speaker: str, act: str, text: str, understood: str = "") -> None:
+    def _turn(
+        self, speaker: str, act: str, text: str, understood: str = "", score: float = 1.0
+    ) -> None:
         self.transcript.append({"speaker": speaker, "act": act, "text": text})
         self.understood_turns.append(understood or act)
+        self.understood_scores.append(float(score))
         self._features = None
 
     # --- how the policy sees it -------------------------------------------------------------
@@ -214,6 +220,7 @@ class DialogueState:
         twin.person_acts = list(self.person_acts)
         twin.transcript = list(self.transcript)
         twin.understood_turns = list(self.understood_turns)
+        twin.understood_scores = list(self.understood_scores)
         twin._features = None
         return twin
 

@@ -13,6 +13,7 @@ from oxbot.dialogue.domain import (
     ACCEPT,
     ASK_AGAIN,
     CLOSING,
+    DECLINE,
     FEEDBACK_ACTS,
     GRANT_REFUSAL,
     GRANT_STOP,
@@ -21,7 +22,9 @@ from oxbot.dialogue.domain import (
     INVITATION,
     MOVE_REQUEST,
     REFUSALS,
+    SILENCE,
     STOP,
+    UNKNOWN,
     game_move_cell,
     is_feedback,
     is_game_move,
@@ -31,29 +34,40 @@ from oxbot.dialogue.state import Turn
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, play
 from oxbot.game.board import outcome as game_outcome
 
+SURE_NO = 0.6
+"""A "no thanks" or a stop understood with at least this score is clear: the robot lets it go
+at once. Below it (an accept misheard as a no keeps a lower score 92-100% of the time on the
+simulated recogniser at noise 0.2-0.4) the robot may check once. See docs/dialogue.md."""
+_ASKING = (INVITATION, ASK_AGAIN)
+_UNCLEAR = (UNKNOWN, SILENCE)
+
 
 def check_dialogue(
-    transcript: list[Turn], outcome: str | None, understood: Sequence[str] | None = None
+    transcript: list[Turn],
+    outcome: str | None,
+    understood: Sequence[str] | None = None,
+    scores: Sequence[float] | None = None,
 ) -> str | None:
     """Why a finished dialogue is not well formed, or None if it is.
 
     Well formed: it greets first and closes last, once. It plays only with a person who agreed
-    (never a game nobody agreed to), asks to play at most once more after a no, and lets a
-    person who declines or asks to stop go: it acknowledges (`Acknowledge(playGame=no)`,
-    `Acknowledge(stop)`) and says goodbye, with no move after a stop (it may ask for the move
-    once more, when it did not understand the stop). A game it plays, it plays
-    properly: introduction and invitation before the first move, the person asked for their
-    move after each robot move until the game is over, and exactly one feedback act, the one of
-    the real outcome. It never walks away from a person who wanted to play. The person's turns
-    are read as the acts they meant (the environment's transcript) or were understood as (the
-    robot's); where `understood` gives, for each turn, the act the robot understood, asking
-    again after a no or a stop it did not understand is allowed: it asked because it could not
-    tell (a no it understood twice, or a stop it understood twice, it must let go).
+    (never a game nobody agreed to) and lets a person who declines or asks to stop go: it
+    acknowledges (`Acknowledge(playGame=no)`, `Acknowledge(stop)`) and says goodbye, with no
+    move after a stop. A clear no to its question ("no thanks", understood with a score of at
+    least `SURE_NO`) is final; after a "later", an unsure no or a no said before it asked, it
+    may ask once more; asking again about an answer it could not make out (silence, chatter)
+    does not count. A clear stop is final too: no request for a move after it, nor after two
+    stops. A game it plays, it plays properly: introduction and invitation before the first
+    move, the person asked for their move after each robot move until the game is over, and
+    exactly one feedback act, the one of the real outcome. It never walks away from a person
+    who wanted to play. The person's turns are read as the acts they meant (the environment's
+    transcript) or, where `understood` gives one per turn, as the acts the robot understood,
+    with `scores` the understanding's scores (none given: every turn clear).
     """
     sys_acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
     if not sys_acts or sys_acts[0] != GREETING:
         return "does not greet first"
-    problem = ignores_the_person(transcript, understood)
+    problem = ignores_the_person(transcript, understood, scores)
     if problem is not None:
         return problem
     if sys_acts[-1] != CLOSING or sys_acts.count(CLOSING) != 1:
@@ -64,16 +78,19 @@ def check_dialogue(
 
 
 def ignores_the_person(
-    transcript: list[Turn], understood: Sequence[str] | None = None
+    transcript: list[Turn],
+    understood: Sequence[str] | None = None,
+    scores: Sequence[float] | None = None,
 ) -> str | None:
     """The first rule about the person's will the dialogue so far breaks, or None: a game
     nobody agreed to, a no or a stop not let go. Each is decided as soon as the robot says the
     act that breaks it, so the simulated person can walk away there (`InteractiveGameEnv`)."""
     heard = list(understood) if understood is not None else [t["act"] for t in transcript]
+    sure = [score >= SURE_NO for score in scores] if scores is not None else [True] * len(heard)
     return (
         _agreed_before_playing(transcript)
-        or _lets_a_no_go(transcript, heard)
-        or _lets_a_stop_go(transcript, heard)
+        or _lets_a_no_go(transcript, heard, sure)
+        or _lets_a_stop_go(transcript, heard, sure)
     )
 
 
@@ -87,38 +104,52 @@ def _agreed_before_playing(transcript: list[Turn]) -> str | None:
     return None
 
 
-def _lets_a_no_go(transcript: list[Turn], heard: list[str]) -> str | None:
-    refused = asked_after = 0
-    last_answer = ""
-    for turn, understood in zip(transcript, heard, strict=True):
+def _lets_a_no_go(transcript: list[Turn], heard: list[str], sure: list[bool]) -> str | None:
+    refused = final = asked = False
+    asked_after = 0
+    last_answer = ""  # the last yes or no understood
+    answered = False  # whether the person said anything it made out since it last asked
+    for turn, understood, clear in zip(transcript, heard, sure, strict=True):
         act = turn["act"]
-        if turn["speaker"] == "usr" and (understood in REFUSALS or understood == ACCEPT):
-            refused += understood in REFUSALS
-            last_answer = understood
-        elif turn["speaker"] == "sys" and act in (INVITATION, ASK_AGAIN) and refused:
+        if turn["speaker"] == "usr":
+            answered = answered or understood not in _UNCLEAR
+            if understood in REFUSALS or understood == ACCEPT:
+                refused = refused or understood in REFUSALS
+                final = final or (asked and understood == DECLINE and clear)
+                last_answer = understood
+            continue
+        asked = act in _ASKING
+        if asked and final:
+            return "asks to play again after a clear no"
+        if asked and refused and answered:  # asking about silence or chatter does not count
             asked_after += 1
             if asked_after > 1:
                 return "asks to play again after being told no twice"
-        elif turn["speaker"] == "sys" and last_answer in REFUSALS:
+        elif last_answer in REFUSALS:
             if plays(act):
                 return "plays with a person who said no"
             if act == CLOSING:
                 return "says goodbye to a no without acknowledging it"
             if act == GRANT_REFUSAL:
                 last_answer = ""  # acknowledged: the goodbye may follow
+        if asked:
+            answered = False
     return None
 
 
-def _lets_a_stop_go(transcript: list[Turn], heard: list[str]) -> str | None:
+def _lets_a_stop_go(transcript: list[Turn], heard: list[str], sure: list[bool]) -> str | None:
     stops = understood_stops = 0
-    acknowledged = False
-    for turn, understood in zip(transcript, heard, strict=True):
+    clear_stop = acknowledged = False
+    for turn, understood, clear in zip(transcript, heard, sure, strict=True):
         act = turn["act"]
         if turn["speaker"] == "usr":
             stops += act == STOP
             understood_stops += understood == STOP
+            clear_stop = clear_stop or (understood == STOP and clear)
         elif stops and is_game_move(act):
             return f"goes on playing after the person asked to stop ({act})"
+        elif clear_stop and act == MOVE_REQUEST:
+            return "asks for a move again after a clear stop"
         elif understood_stops >= 2 and act == MOVE_REQUEST:
             return "asks for a move again after being asked to stop twice"
         elif stops and act == GRANT_STOP:

@@ -17,7 +17,7 @@ from oxbot.dialogue.domain import (
     N_ACTIONS,
     SYSTEM_ACTS,
 )
-from oxbot.dialogue.wellformed import check_dialogue
+from oxbot.dialogue.wellformed import SURE_NO, check_dialogue
 from oxbot.errors import OpponentError
 
 GREETING = SYSTEM_ACTS.index("Salutation(greeting)")
@@ -148,16 +148,33 @@ def test_a_person_who_declined_walks_away_from_a_game_forced_on_them():
     assert problem is not None and "nobody agreed" in problem
 
 
-def test_a_person_asked_a_third_time_after_two_noes_walks_away():
+def test_a_person_asked_again_after_a_clear_no_thanks_walks_away():
     quiet = [f"dialogue.{kind}_probability=0" for kind in ("nonsense", "silence", "out_of_turn")]
     config = load_config(None, ["dialogue.refuse_probability=1", "dialogue.asr_noise=0", *quiet])
     env = InteractiveGameEnv(config=config)
     env.reset(seed=0)
     say(env, "Salutation(greeting)", INTRODUCTION)
-    for asked in range(1, 4):
-        _, terminated, info = say(env, INVITATION)
-        assert terminated == (asked == 3)
-    assert info["walked_away"] == "asks to play again after being told no twice"
+    _, terminated, _ = say(env, INVITATION)
+    act, score = env.state.understood
+    assert not terminated and act == "Reject(playGame=no)" and score >= SURE_NO
+    _, terminated, info = say(env, INVITATION)
+    assert terminated
+    assert info["walked_away"] == "asks to play again after a clear no"
+
+
+def test_a_person_who_says_maybe_later_may_be_asked_once_more_not_twice():
+    quiet = [
+        f"dialogue.{kind}_probability=0"
+        for kind in ("nonsense", "silence", "out_of_turn", "refuse", "early_refusal")
+    ]
+    config = load_config(None, ["dialogue.decline_probability=1", "dialogue.asr_noise=0", *quiet])
+    env = InteractiveGameEnv(config=config)
+    env.reset(seed=0)
+    say(env, "Salutation(greeting)", INTRODUCTION)
+    _, terminated, _ = say(env, INVITATION)
+    assert not terminated and env.state.understood[0] == "Reject(playGame=later)"
+    _, terminated, _ = say(env, INVITATION)
+    assert not terminated and env.state.understood[0] == "Confirm(playGame=yes)"
 
 
 def test_a_person_who_asks_to_stop_ends_the_dialogue_as_stopped():

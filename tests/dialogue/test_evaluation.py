@@ -87,12 +87,10 @@ GREETED = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playG
             "declined",
             "starts a game nobody agreed to",
         ),
-        # ask once more after a no, never twice
+        # a clear "no thanks" to the question is final
         (
             [
                 *GREETED,
-                usr("Reject(playGame=no)"),
-                sys("Request(playGame)"),
                 usr("Reject(playGame=no)"),
                 sys("Request(repeat)"),
                 usr("Reject(playGame=no)"),
@@ -100,7 +98,62 @@ GREETED = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playG
                 sys("Salutation(closing)"),
             ],
             "declined",
+            "asks to play again after a clear no",
+        ),
+        # after a "later", ask once more, never twice
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=later)"),
+                sys("Request(playGame)"),
+                usr("Confirm(playGame=yes)"),
+                *FIGURE_1[4:],
+            ],
+            "win",
+            None,
+        ),
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=later)"),
+                sys("Request(playGame)"),
+                usr("Reject(playGame=later)"),
+                sys("Request(repeat)"),
+                usr("Reject(playGame=later)"),
+                sys("Acknowledge(playGame=no)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
             "asks to play again after being told no twice",
+        ),
+        # a no before being asked: one invitation may follow
+        (
+            [
+                sys("Salutation(greeting)"),
+                usr("Reject(playGame=no)"),
+                sys("Provide(name)"),
+                sys("Request(playGame)"),
+                usr("Reject(playGame=no)"),
+                sys("Acknowledge(playGame=no)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
+            None,
+        ),
+        # asking again about an answer it could not make out does not count
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=later)"),
+                sys("Request(playGame)"),
+                usr("Unknown"),
+                sys("Request(repeat)"),
+                sys("Request(repeat)"),
+                usr("Confirm(playGame=yes)"),
+                *FIGURE_1[4:],
+            ],
+            "win",
+            None,
         ),
         # a game nobody agreed to: the answer was not understood
         (
@@ -129,7 +182,7 @@ GREETED = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playG
                 sys("Salutation(closing)"),
             ],
             "stopped",
-            "asks for a move again after being asked to stop twice",
+            "asks for a move again after a clear stop",
         ),
         # never walk away from a person who wanted to play
         (
@@ -150,6 +203,38 @@ def test_the_rules_for_people_who_say_no_stop_or_are_not_understood(transcript, 
         assert found is None
     else:
         assert found is not None and problem in found, found
+
+
+def test_an_unsure_no_or_stop_may_be_checked_once():
+    """Understood with a low score, a no or a stop may be asked about once; twice it is final."""
+    no_twice = [
+        *GREETED,
+        usr("Reject(playGame=no)"),
+        sys("Request(repeat)"),
+        usr("Reject(playGame=no)"),
+        sys("Acknowledge(playGame=no)"),
+        sys("Salutation(closing)"),
+    ]
+    unsure = [1.0] * len(no_twice)
+    unsure[3] = 0.4
+    assert check_dialogue(no_twice, "declined", scores=unsure) is None
+    assert "after a clear no" in check_dialogue(no_twice, "declined", scores=[1.0] * len(no_twice))
+    asked_thrice = [*no_twice[:6], sys("Request(repeat)"), *no_twice[6:]]
+    unsure_twice = [0.4 if t["speaker"] == "usr" else 1.0 for t in asked_thrice]
+    problem = check_dialogue(asked_thrice, "declined", scores=unsure_twice)
+    assert "after being told no twice" in problem
+    stop = [
+        *FIGURE_1[:8],
+        usr("Request(stop)"),
+        sys("Request(userGameMove)"),
+        usr("Request(stop)"),
+        sys("Request(userGameMove)"),
+        sys("Salutation(closing)"),
+    ]
+    scores = [0.3 if t["speaker"] == "usr" else 1.0 for t in stop]
+    assert "after being asked to stop twice" in check_dialogue(stop, "stopped", scores=scores)
+    checked_once = [*stop[:10], sys("Acknowledge(stop)"), sys("Salutation(closing)")]
+    assert check_dialogue(checked_once, "stopped", scores=scores[:12]) is None
 
 
 def test_the_shipped_policy_never_loses_and_wins_near_the_optimum():
@@ -194,19 +279,17 @@ ONLY = {
 
 @pytest.mark.parametrize(
     ("kind", "outcomes"),
-    [("refuse", {"declined"}), ("stop", {"stopped"}), ("decline", {"win", "draw", "declined"})],
+    [("refuse", {"declined"}), ("stop", {"stopped"}), ("decline", {"win", "draw"})],
 )
 def test_the_shipped_policy_does_what_the_person_wants(kind, outcomes):
-    """Heard cleanly: a person who says no every time is let go, never made to play; one who
-    asks to stop is let go; one who says no once and yes when asked again gets a game."""
+    """Heard cleanly: a person who says "no thanks" is let go, never made to play; one who
+    asks to stop is let go; one who says "maybe later" and yes when asked again gets a game."""
     config = load_config(None, ["dialogue.asr_noise=0", *ONLY[kind]])
     policy = load_policy()
     for robot_starts in (True, False):
         r = evaluate(policy.act_batch, "minimax", robot_starts, 200, config, seed=11)
         assert r.well_formed == 1.0, r.problems
-        # Saying no once or for good sound the same: asking once more is the policy's bet,
-        # measured 97% for the person who then says yes.
-        assert r.task_success >= (0.94 if kind == "decline" else 1.0)
+        assert r.task_success == 1.0
         got = {k for k in OUTCOMES if getattr(r, f"{k}_rate") > 0}
         assert got <= outcomes, got
 
