@@ -40,6 +40,7 @@ from oxbot.game.board import (
     ROBOT,
     USER,
     Board,
+    Ending,
     Outcome,
     outcome,
     play,
@@ -109,7 +110,7 @@ class DialogueState:
         return outcome(self.board)
 
     @property
-    def ending(self) -> str | None:
+    def ending(self) -> Ending | None:
         """How the dialogue stands as the robot sees it: the game's result once it is over,
         "stopped" once the person was understood asking to stop, "declined" once they were
         understood saying no and never yes; else None (unfinished)."""

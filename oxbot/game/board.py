@@ -17,6 +17,9 @@ from oxbot.errors import IllegalMoveError
 
 Board = tuple[int, ...]
 Outcome = Literal["win", "draw", "loss"]
+Ending = Literal["win", "draw", "loss", "declined", "stopped"]
+"""How a dialogue around a game ended as the robot saw it: the game's outcome, or no game
+because the person declined, or a game the person asked to stop."""
 
 SIZE = 3
 """Cells along each side of the grid. Everything below is derived from it and from the row and

@@ -23,7 +23,7 @@ from oxbot.game.board import (
     ROBOT,
     USER,
     Board,
-    Outcome,
+    Ending,
     cell_index,
     outcome,
     play,
@@ -62,7 +62,7 @@ def print_board(console: Console, board: Board, robot_starts: bool) -> None:
     console.print(escape(render(board, robot_starts)))
 
 
-def print_game_over(console: Console, result: Outcome | str | None) -> None:
+def print_game_over(console: Console, result: Ending | None) -> None:
     console.print(f"[bold]Game over: {GAME_OVER[result]}.[/] Type 'new' or 'quit'.")
 
 

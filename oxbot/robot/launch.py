@@ -121,6 +121,7 @@ def catch_up(name: str, component: Component, bus: ZenohBus) -> None:
     """A component joining mid-game takes up the game so far: the eyes learn which cells are
     drawn already; a manager that lost the dialogue (its predecessor died) ends it in words."""
     from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, outcome
+    from oxbot.robot.manager import say_goodbye
     from oxbot.robot.messages import DialogueEnded, GameState
 
     history = bus.game_so_far()
@@ -141,18 +142,6 @@ def catch_up(name: str, component: Component, bus: ZenohBus) -> None:
         component.tracker = tracker  # type: ignore[attr-defined]
     elif name == "manager":
         say_goodbye(bus, component.part, outcome(board))
-
-
-def say_goodbye(bus: Bus, part: str, result: Any) -> None:
-    """The game ends in words because `part` stopped (as `Robot` does for a lost manager)."""
-    from oxbot.dialogue.domain import CLOSING
-    from oxbot.robot.manager import STOPPED_SENTENCE
-    from oxbot.robot.messages import DialogueAct, DialogueEnded, Utterance
-
-    sentence = STOPPED_SENTENCE.format(part=part)
-    bus.publish(DialogueAct(speaker="sys", act=CLOSING, text=sentence))
-    bus.publish(Utterance(text=sentence, act=CLOSING))
-    bus.publish(DialogueEnded(outcome=result))
 
 
 def run_component(
@@ -188,6 +177,7 @@ def run_component(
 
             def on_lost(lost: Component) -> None:
                 from oxbot.game.board import outcome
+                from oxbot.robot.manager import say_goodbye
 
                 say_goodbye(bus, lost.part, outcome(lost.board))  # type: ignore[attr-defined]
 

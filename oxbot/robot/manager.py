@@ -82,6 +82,7 @@ from oxbot.game.board import (
     SIZE,
     USER,
     Board,
+    Ending,
     cell_index,
     symbol_of,
 )
@@ -134,6 +135,16 @@ STOPPED_SENTENCE = "Sorry, my {part} stopped working, so we have to stop here. G
 """The robot's goodbye when a part the game needs is lost for good (as the act CLOSING)."""
 LOST_SENTENCES = {"hearing": "Sorry, my hearing has stopped working. Please type your answers."}
 """What the robot tells the person when a part the game can do without is lost, by part."""
+
+
+def say_goodbye(bus: Bus, part: str, result: Ending | None) -> None:
+    """The game ends in words because `part`, which the game needs, stopped for good."""
+    sentence = STOPPED_SENTENCE.format(part=part)
+    bus.publish(DialogueAct(speaker="sys", act=CLOSING, text=sentence))
+    bus.publish(Utterance(text=sentence, act=CLOSING))
+    bus.publish(DialogueEnded(outcome=result))
+
+
 Understand = Callable[[Sequence[tuple[str, float]], str], UserAct]
 """Reads what the person said (an N-best list) in the context of the robot's last act as
 their dialogue act with a score (`UserActClassifier.intent_of`)."""

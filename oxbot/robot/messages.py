@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar, Literal
 
 from oxbot.errors import InvalidInputError
+from oxbot.game.board import Ending
 
 Direction = Literal["left", "right", "up", "down", "centre"]
 Speaker = Literal["sys", "usr"]
@@ -258,7 +259,7 @@ class DialogueEnded(Message):
     the robot understood them; None for a dialogue that ended otherwise."""
 
     topic: ClassVar[str] = "dialogue/ended"
-    outcome: Literal["win", "draw", "loss", "declined", "stopped"] | None
+    outcome: Ending | None
 
 
 @dataclass(frozen=True)

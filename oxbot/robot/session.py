@@ -37,7 +37,7 @@ import numpy as np
 
 from oxbot.config import OxbotConfig
 from oxbot.dialogue.agent import DQNPolicy
-from oxbot.dialogue.domain import CLOSING, words_of
+from oxbot.dialogue.domain import words_of
 from oxbot.dialogue.state import Turn
 from oxbot.errors import InvalidInputError, SpeechUnavailable
 from oxbot.game.board import (
@@ -57,7 +57,7 @@ from oxbot.robot.frames import frame_message
 from oxbot.robot.game_moves import GameMoveComponent
 from oxbot.robot.head_movement import HeadMovementComponent
 from oxbot.robot.head_tracking import HeadTracker, HeadTrackingComponent
-from oxbot.robot.manager import STOPPED_SENTENCE, InteractionManagerComponent
+from oxbot.robot.manager import InteractionManagerComponent, say_goodbye
 from oxbot.robot.messages import (
     DialogueAct,
     DialogueEnded,
@@ -69,7 +69,6 @@ from oxbot.robot.messages import (
     SourceEnded,
     SpeechAudio,
     SpeechHypotheses,
-    Utterance,
 )
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
 from oxbot.speech.audio import read_wav
@@ -213,10 +212,7 @@ class Robot:
         """The supervisor gave up on `component`: with the manager gone, say goodbye for it."""
         if not isinstance(component, InteractionManagerComponent) or self.finished:
             return
-        sentence = STOPPED_SENTENCE.format(part=component.part)
-        self.bus.publish(DialogueAct(speaker="sys", act=CLOSING, text=sentence))
-        self.bus.publish(Utterance(text=sentence, act=CLOSING))
-        self.bus.publish(DialogueEnded(outcome=outcome(self.board)))
+        say_goodbye(self.bus, component.part, outcome(self.board))
 
     def __enter__(self) -> Robot:
         return self.start()
