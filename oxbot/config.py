@@ -396,6 +396,9 @@ class RobotConfig:
     """oxbot: seconds to wait for the answer to a question before taking silence."""
     move_timeout: float = 30.0
     """oxbot: seconds to wait for the person's drawing after "Your turn"; then it asks again."""
+    give_up_after: int = 3
+    """oxbot: questions and requests for a move left unanswered in a row (each waited out to its
+    timeout) after which the robot takes it that nobody is there and says goodbye; 0: never."""
     speed_factor: float = 1.0
     """oxbot: how many times faster than real time speech, the arm and the waits run (tests)."""
     restart_limit: int = 5
@@ -424,6 +427,7 @@ class RobotConfig:
         _require_positive(self, "speed_factor", "restart_window", "hang_seconds")
         _require_at_least(self, 0, "answer_timeout", "question_timeout", "move_timeout")
         _require_at_least(self, 0, "restart_limit", "hang_limit", "restart_backoff_max")
+        _require_at_least(self, 0, "give_up_after")
         _require_finite(self)
         if not 0 <= self.restart_backoff <= self.restart_backoff_max:
             raise ConfigError(

@@ -13,7 +13,8 @@ user responses:
 - `answer_timeout` seconds after acts a person may or may not answer (silence is one of the
   answers, e.g. "Hello!");
 - `question_timeout` seconds after questions (silence is not an answer: "Would you like to
-  play?"), and `move_timeout` seconds to draw after "Your turn".
+  play?"), and `move_timeout` seconds to draw after "Your turn". After `give_up_after` of
+  these in a row waited out with no word or drawing, nobody is there: the robot says goodbye.
 Words or a drawing that arrive while the robot is still talking or drawing count for the next
 turn. The robot never talks while its arm moves: the act's words come first, then the arm,
 and anything the robot has to say meanwhile (an impossible drawing) waits for ArmDone.
@@ -133,6 +134,8 @@ PAPER_MOVE = "I take {cell}."
 """What the robot says for its GameMove on real paper, where nobody sees an arm point."""
 STOPPED_SENTENCE = "Sorry, my {part} stopped working, so we have to stop here. Goodbye."
 """The robot's goodbye when a part the game needs is lost for good (as the act CLOSING)."""
+NOBODY_SENTENCE = "Nobody seems to be there, so I'll stop here. Goodbye."
+"""The robot's goodbye (as the act CLOSING) after `give_up_after` unanswered questions."""
 LOST_SENTENCES = {"hearing": "Sorry, my hearing has stopped working. Please type your answers."}
 """What the robot tells the person when a part the game can do without is lost, by part."""
 
@@ -269,7 +272,12 @@ class InteractionManagerComponent(Component):
 
     def tick(self) -> None:
         if self.phase is Phase.LISTENING and time.monotonic() >= self._deadline:
-            self._decide()
+            self._unanswered_in_a_row += self._awaits_answer
+            give_up = self.timing.give_up_after
+            if give_up and self._unanswered_in_a_row >= give_up:
+                self._say(CLOSING, NOBODY_SENTENCE)  # nobody there: no more questions to the room
+            else:
+                self._decide()
 
     def restart(self) -> None:
         # Carry on from the board and dialogue so far: decide again at the next tick.
@@ -285,7 +293,15 @@ class InteractionManagerComponent(Component):
         self.state = copy.deepcopy(state, keep)
         self.rng, self.phase, self._deferred = old.rng, old.phase, list(old._deferred)
         self.paper = old.paper
-        for name in ("_moved_since", "_spoke_since", "_speaking", "_arm_cell", "_rematch"):
+        for name in (
+            "_moved_since",
+            "_spoke_since",
+            "_speaking",
+            "_arm_cell",
+            "_rematch",
+            "_awaits_answer",
+            "_unanswered_in_a_row",
+        ):
             setattr(self, name, getattr(old, name))
         self._deadline = old._deadline
 
@@ -300,6 +316,8 @@ class InteractionManagerComponent(Component):
         self._rematch = False
         self._deferred: list[str] = []
         self._deadline = 0.0
+        self._awaits_answer = False  # the robot asked and waits for words or a drawing
+        self._unanswered_in_a_row = 0
         self._broken = False  # a part was lost: only Robot.new_game, which revives it, replays
         if publish:
             self._publish_game()
@@ -320,8 +338,8 @@ class InteractionManagerComponent(Component):
         self._moved_since, self._spoke_since = False, False
         self._say(SYSTEM_ACTS[action])
 
-    def _say(self, act: str) -> None:
-        text = self.model.template(act, self.rng)
+    def _say(self, act: str, text: str | None = None) -> None:
+        text = text if text is not None else self.model.template(act, self.rng)
         self.state.robot_says(act, text)
         self._arm_cell = game_move_cell(act)
         self._speaking = spoken(text)
@@ -360,6 +378,7 @@ class InteractionManagerComponent(Component):
         for sentence in self._deferred:
             self._tell(sentence)
         self._deferred.clear()
+        self._awaits_answer = self._expects_move() or last_act in self._questions
         if self._expects_move():
             wait = self.timing.move_timeout
         elif last_act in self._unanswered:
@@ -391,6 +410,7 @@ class InteractionManagerComponent(Component):
         self.state.person_says(reading.act, text, words, (reading.act, reading.score))
         self._publish_turn("usr", reading.act, text)
         self._spoke_since = True
+        self._unanswered_in_a_row = 0
         if reading.act == NEW_GAME and self.state.outcome is not None:
             self._rematch = True  # after this dialogue's goodbye, another game
         if self.phase is Phase.LISTENING and not (
@@ -416,6 +436,7 @@ class InteractionManagerComponent(Component):
             self._problem(problem)
             return
         self._moved_since = True
+        self._unanswered_in_a_row = 0
         self.state.person_says(game_move(cell), draw_tag("usr", cell))  # heard words stay
         self._publish_turn("usr", game_move(cell), draw_tag("usr", cell))
         self._publish_game()
@@ -442,6 +463,7 @@ class InteractionManagerComponent(Component):
             if self.phase is Phase.LISTENING and self._expects_move():
                 self._tell(GUIDANCE_SENTENCES[kind])
             return
+        self._unanswered_in_a_row = 0  # someone is drawing
         if kind == "out_of_turn" and not self._game_started():
             kind = "not_started"  # "it is my turn" is wrong before anyone agreed to play
         starts = self.state.robot_starts
