@@ -321,12 +321,26 @@ def train_agent_command(
         bool, typer.Option("--resume/--no-resume", help="Continue from OUT/checkpoint.pt.")
     ] = True,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+    init_from: Annotated[
+        Path | None,
+        typer.Option(
+            help="Start from this policy's weights (a fine-tune; its provenance is kept in the "
+            "new policy's metrics)."
+        ),
+    ] = None,
 ) -> None:
     """Train the DQN interaction manager against the user simulator (agent config section)."""
+    from oxbot.dialogue.agent import load_policy
     from oxbot.dialogue.training import train_agent
 
-    with _resumable(ctx, ["train", "agent", "--out", str(out), "--resume"]):
-        result = train_agent(_config(ctx), out, resume=resume, show_progress=not quiet)
+    start = load_policy(init_from) if init_from is not None else None
+    again = ["train", "agent", "--out", str(out), "--resume"]
+    if init_from is not None:
+        again += ["--init-from", str(init_from)]
+    with _resumable(ctx, again):
+        result = train_agent(
+            _config(ctx), out, resume=resume, show_progress=not quiet, init_from=start
+        )
     m = result.metrics
     typer.echo(
         f"trained on {m['experiences']} experiences ({m['games']} games) in "

@@ -370,7 +370,7 @@ def train_agent(
     # --- the result: the best evaluated network (or the last), its metrics and curves ----------
     run.step = cfg.total_steps
     run.elapsed_s += time.perf_counter() - started_at
-    return _finish(config, env, learner, run, out_dir, checkpoint_path)
+    return _finish(config, env, learner, run, out_dir, checkpoint_path, init_from)
 
 
 def _new_learner(env: InteractiveGameEnv, cfg: AgentConfig) -> _Learner:
@@ -444,11 +444,16 @@ def _finish(
     run: TrainingState,
     out_dir: Path,
     checkpoint_path: Path,
+    init_from: DQNPolicy | None = None,
 ) -> TrainingResult:
     """Keep the best evaluated network (or the last); write it, its metrics and curves."""
     if config.agent.eval_every and run.best_state_dict is not None:
         learner.q_network.load_state_dict(run.best_state_dict)
     metrics = _metrics(config, run)
+    if init_from is not None:  # a fine-tune records what it started from, and so on back
+        started = init_from.metadata
+        keys = ("config", "seed", "experiences", "games", "best_step", "init_from")
+        metrics["init_from"] = {k: started[k] for k in keys if k in started}
     policy = DQNPolicy(learner.q_network, env.layout.names, metadata=_json_safe(metrics))
     out_dir.mkdir(parents=True, exist_ok=True)
     policy.save(out_dir / "agent.pt")

@@ -38,6 +38,24 @@ def test_train_agent_writes_its_files(tmp_path):
     assert (tmp_path / "agent.pt").exists() and (tmp_path / "agent_metrics.json").exists()
 
 
+def test_train_agent_can_fine_tune_a_policy_and_records_where_it_started(tmp_path):
+    from oxbot.dialogue.agent import load_policy, shipped_policy_path
+
+    result = oxbot(
+        "--config", "oxbot/data/models/agent.toml",
+        "--set", "agent.total_steps=400", "--set", "agent.learning_starts=100",
+        "--set", "agent.eval_every=0", "--set", "agent.seed=5",
+        "train", "agent", "--out", str(tmp_path), "--quiet",
+        "--init-from", str(shipped_policy_path()),
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    tuned, shipped = load_policy(tmp_path / "agent.pt"), load_policy()
+    started = tuned.metadata["init_from"]
+    assert started["seed"] == shipped.metadata["seed"]
+    assert started["experiences"] == shipped.metadata["experiences"]
+    assert tuned.metadata["seed"] == 5 and tuned.metadata["experiences"] == 400
+
+
 def test_bad_evaluate_options_give_one_clear_line():
     result = oxbot("evaluate", "agent", "--robot-starts", "sometimes")
     assert result.returncode == 2
