@@ -8,7 +8,8 @@
 - script: no learning; the action model's most probable offered act, and the exact solver's
   cell for a move (`oxbot.dialogue.baselines.scripted_policy`).
 - tabular Q: Q-learning with a table over the states read as 0/1, given the DQN's budget in
-  experiences (its metadata's, unless `--experiences`), the same training conditions and the
+  experiences (its metadata's, a fine-tune's and the runs it started from, unless
+  `--experiences`), the same training conditions and the
   same checkpoint selection (`oxbot.dialogue.training.evaluate_checkpoint`); its CPU time is
   printed beside the DQN's.
 
@@ -26,7 +27,7 @@ import time
 from collections import Counter
 
 from oxbot.config import load_config
-from oxbot.dialogue.agent import load_policy, shipped_policy_path
+from oxbot.dialogue.agent import load_policy, shipped_policy_path, training_budget
 from oxbot.dialogue.baselines import scripted_policy, train_tabular_q
 from oxbot.dialogue.evaluation import CONDITIONS, Policy, evaluate
 from oxbot.dialogue.model import build_dialogue_model
@@ -74,8 +75,9 @@ def main() -> None:
     train_config = load_config(shipped_policy_path().with_suffix(".toml"))
     model = build_dialogue_model(load_config())
     dqn = load_policy(args.policy, model.layout.names)
-    experiences = args.experiences or int(dqn.metadata.get("experiences", 300_000))
-    cpu = dqn.metadata.get("wall_clock_s")
+    steps, seconds = training_budget(dqn.metadata)  # a fine-tune's with the runs before it
+    experiences = args.experiences or steps or 300_000
+    cpu = round(seconds, 1)
     print(f"DQN: {experiences:,} experiences, {cpu} s wall-clock (one torch thread)")
     started = time.process_time()
     tabular = train_tabular_q(train_config, experiences)

@@ -349,7 +349,7 @@ def measure_shipped(
 ) -> dict[str, Any]:
     """The shipped perceiver and agent on this run's test sets and games, and the training
     figures their own metrics files recorded."""
-    from oxbot.dialogue.agent import load_policy, shipped_policy_path
+    from oxbot.dialogue.agent import load_policy, shipped_policy_path, training_budget
     from oxbot.perception.classifier import load_classifier, shipped_model_path
     from oxbot.perception.evaluation import evaluate_fonts, evaluate_generated
     from oxbot.perception.seeds import load_seeds
@@ -379,6 +379,7 @@ def measure_shipped(
         None,
     )
     policy = load_policy()
+    earlier_s = training_budget(agent_metrics)[1] - agent_metrics["wall_clock_s"]
     return {
         "perceiver": {
             "accuracy": evaluate_generated(classifier, seeds, p.test_images, p.seed).accuracy,
@@ -395,10 +396,12 @@ def measure_shipped(
             "people": evaluate_conditions(
                 policy.act_batch, budgets.evaluation_games, eval_config, seed=0
             ),
-            "train_s": agent_metrics["wall_clock_s"],
-            "experiences": agent_metrics["experiences"],
+            # a fine-tune's with the runs it started from
+            "train_s": round(training_budget(agent_metrics)[1], 1),
+            "experiences": training_budget(agent_metrics)[0],
             "best_step": agent_metrics["best_step"],
-            "time_to_zero_losses_s": first_zero["elapsed_s"] if first_zero else None,
+            # a fine-tune's counts from the start of the runs before it
+            "time_to_zero_losses_s": (first_zero["elapsed_s"] + earlier_s if first_zero else None),
             "config": agent_metrics["config"],
             "reward_curve": agent_metrics["reward_curve"],
         },

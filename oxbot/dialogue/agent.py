@@ -141,6 +141,17 @@ class DQNPolicy:
         artifacts.save(path, POLICY_KIND, POLICY_VERSION, payload)
 
 
+def training_budget(metadata: dict[str, Any]) -> tuple[int, float]:
+    """Experiences and wall-clock seconds a policy's training took, a fine-tune's together with
+    the runs it started from (`init_from`, and back)."""
+    experiences, seconds, step = 0, 0.0, metadata
+    while step:
+        experiences += int(step.get("experiences", 0))
+        seconds += float(step.get("wall_clock_s", 0.0))
+        step = step.get("init_from")
+    return experiences, seconds
+
+
 def shipped_policy_path() -> Path:
     """Where the shipped trained policy lives: `oxbot/data/models/agent.pt`."""
     return Path(str(resources.files("oxbot") / "data" / "models" / SHIPPED_POLICY))

@@ -452,7 +452,7 @@ def _finish(
     metrics = _metrics(config, run)
     if init_from is not None:  # a fine-tune records what it started from, and so on back
         started = init_from.metadata
-        keys = ("config", "seed", "experiences", "games", "best_step", "init_from")
+        keys = ("config", "seed", "experiences", "games", "wall_clock_s", "best_step", "init_from")
         metrics["init_from"] = {k: started[k] for k in keys if k in started}
     policy = DQNPolicy(learner.q_network, env.layout.names, metadata=_json_safe(metrics))
     out_dir.mkdir(parents=True, exist_ok=True)
