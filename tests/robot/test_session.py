@@ -220,8 +220,11 @@ def test_the_recognisers_word_confidences_reach_the_managers_state():
     assert [round(float(features[layout.word_index[w]]), 2) for w, _ in words] == [0.95, 0.4, 0.7]
 
 
-def talk_until_goodbye(robot: Robot, answers: dict[str, list[str]], seconds: float = 30.0):
-    """Answer the robot's acts by typing, in turn, the texts listed for each; every turn."""
+def talk_until_goodbye(
+    robot: Robot, answers: dict[str, list[str]], seconds: float = 30.0, speak: bool = False
+):
+    """Answer the robot's acts, in turn, with the texts listed for each: typed, or spoken
+    through espeak-ng to the recogniser; every turn."""
     events = robot.bus.subscribe(DialogueAct, DialogueEnded)
     turns: list[DialogueAct] = []
     deadline = time.monotonic() + seconds
@@ -232,22 +235,80 @@ def talk_until_goodbye(robot: Robot, answers: dict[str, list[str]], seconds: flo
         if isinstance(message, DialogueAct):
             turns.append(message)
             queue = answers.get(message.act) if message.speaker == "sys" else None
-            if queue:
+            if queue and speak:
+                from oxbot.speech.synthesis import synthesize
+
+                robot.hear(synthesize(queue.pop(0)))
+            elif queue:
                 robot.say(queue.pop(0))
     raise AssertionError(f"no goodbye within {seconds} s: {[(t.act, t.text) for t in turns]}")
 
 
-def test_no_thanks_is_acknowledged_and_the_robot_says_goodbye():
+@pytest.mark.parametrize("speak", [False, True], ids=["typed", "spoken"])
+def test_no_thanks_is_acknowledged_and_the_robot_says_goodbye(speak):
     with Robot(FAST, seed=11) as robot:
-        turns, ended = talk_until_goodbye(robot, {"Request(playGame)": ["No thanks."] * 3})
+        answers = {"Request(playGame)": ["No thanks."] * 3, "Request(repeat)": ["No thanks."]}
+        turns, ended = talk_until_goodbye(robot, answers, 60.0, speak)
     acts = [t.act for t in turns if t.speaker == "sys"]
     heard = [t.act for t in turns if t.speaker == "usr"]
-    assert heard and set(heard) == {"Reject(playGame=no)"}
-    assert "Acknowledge(playGame=no)" in acts and acts[-1] == "Salutation(closing)"
-    assert acts.index("Acknowledge(playGame=no)") == len(acts) - 2
+    assert heard == ["Reject(playGame=no)"]  # asked once, answered once: a clear no is final
+    assert acts[-2:] == ["Acknowledge(playGame=no)", "Salutation(closing)"]
     assert not any(a.startswith("GameMove") or a == "Reply(playGame=yes)" for a in acts)
-    assert acts.count("Request(playGame)") + acts.count("Request(repeat)") <= 2
+    assert acts.count("Request(playGame)") + acts.count("Request(repeat)") == 1
     assert ended.outcome == "declined"
+
+
+def test_maybe_later_is_asked_once_more_and_a_yes_then_gets_a_game():
+    with Robot(FAST, seed=14) as robot:
+        events = robot.bus.subscribe(DialogueAct)
+        answers = ["Maybe later.", "Okay, let's play."]
+        turns: list[DialogueAct] = []
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and "Reply(playGame=yes)" not in [t.act for t in turns]:
+            message = events.get(0.5)
+            if message is None:
+                continue
+            turns.append(message)
+            if message.act in ("Request(playGame)", "Request(repeat)") and answers:
+                robot.say(answers.pop(0))
+    acts = [t.act for t in turns if t.speaker == "sys"]
+    heard = [t.act for t in turns if t.speaker == "usr"]
+    assert heard == ["Reject(playGame=later)", "Confirm(playGame=yes)"]
+    assert acts.count("Request(playGame)") + acts.count("Request(repeat)") == 2
+    assert acts[-1] == "Reply(playGame=yes)" and "Acknowledge(playGame=no)" not in acts
+
+
+def test_a_robot_nobody_answers_says_goodbye_after_three_unanswered_questions():
+    from oxbot.robot.manager import NOBODY_SENTENCE
+
+    with Robot(FAST, seed=15) as robot:
+        turns, ended = talk_until_goodbye(robot, {"Request(playGame)": ["What?"]}, 30.0)
+    robot_turns = [t for t in turns if t.speaker == "sys"]
+    questions = [t for t in robot_turns if t.act in ("Request(playGame)", "Request(repeat)")]
+    assert [t.act for t in turns if t.speaker == "usr"] == ["Unknown"]
+    assert len(questions) == 4  # the first, answered "what?", then three left unanswered
+    assert robot_turns[-1].act == "Salutation(closing)" and robot_turns[-1].text == NOBODY_SENTENCE
+    assert ended.outcome is None
+
+
+def test_the_count_of_unanswered_questions_starts_again_when_the_person_speaks():
+    config = load_config(
+        None,
+        [
+            "robot.speed_factor=25",
+            "robot.answer_timeout=2",
+            "robot.move_timeout=10",
+            "robot.give_up_after=2",
+        ],
+    )
+    with Robot(config, seed=15) as robot:
+        answers = {"Request(playGame)": ["What?"], "Request(repeat)": ["Hmm."]}
+        turns, _ = talk_until_goodbye(robot, answers, 30.0)
+    heard = [t.act for t in turns if t.speaker == "usr"]
+    questions = [t.act for t in turns if t.act in ("Request(playGame)", "Request(repeat)")]
+    assert heard == ["Unknown", "Unknown"]
+    assert len(questions) == 4  # asked, "what?", asked, "hmm", asked twice unanswered
+    assert turns[-1].act == "Salutation(closing)"
 
 
 def test_stop_mid_game_is_confirmed_or_acknowledged_and_the_robot_lets_go():
