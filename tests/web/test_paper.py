@@ -22,7 +22,9 @@ import pytest
 from playwright.sync_api import Page, sync_playwright
 
 from oxbot.config import load_config
+from oxbot.game.board import CELL_NAMES
 from oxbot.robot.frames import frame_pixels
+from oxbot.robot.manager import cell_in_words
 from oxbot.robot.messages import BoardProblem, BoardSeen, Frame, GameMove
 from oxbot.robot.session import Robot
 from oxbot.testing.browser import CHROMIUM, FLAGS, draw
@@ -41,10 +43,10 @@ CONFIG = load_config(
 )
 """The person starts (circles): the video's first symbol needs no robot move before it."""
 SEED = 1
-PERSON = ("middle", "upperleft", "lowermiddle", "upperright", "middleleft")
-ROBOT = ("lowerright", "lowerleft", "uppermiddle", "middleright")
+PERSON = ("middle", "upperleft", "middleright", "lowermiddle", "lowerleft")
+ROBOT = ("upperright", "lowerright", "middleleft", "uppermiddle")
 """The seeded robot's answers to PERSON (the person plays the solver's best moves: a draw)."""
-DRAWN_FOR_ROBOT = "lowerright"
+DRAWN_FOR_ROBOT = ROBOT[0]
 """The robot's cross that the person draws for it; its other moves stay virtual."""
 MOVE = "GameMove(gridloc="
 
@@ -183,7 +185,8 @@ def play_on_paper(page: Page, video: PaperVideo, watcher: BusWatcher) -> None:
     assert tuple(mine) == PERSON, items
     assert tuple(cell for cell, _ in robots) == ROBOT, items
     # the robot says where it plays: no arm points at the paper
-    assert robots[0][1].startswith("I take the lower right."), robots
+    said = f"I take {cell_in_words(CELL_NAMES.index(ROBOT[0]))}."
+    assert robots[0][1].startswith(said), robots
     assert all(text.startswith("I take the ") for _, text in robots)
     assert items[-1][:2] == ("sys", "Salutation(closing)")
     assert ("sys", "Provide(feedback=draw)") in [(s, a) for s, a, _ in items]
@@ -226,7 +229,8 @@ def play_on_paper(page: Page, video: PaperVideo, watcher: BusWatcher) -> None:
     )
     assert inked > 500, inked  # the virtual crosses, in the robot's ink, over the video
     assert page.evaluate("window.oxbot.paper.stats.sent.length") > 100
-    assert "the middle right" in page.get_by_test_id("paper-hint").inner_text()
+    last = cell_in_words(CELL_NAMES.index(ROBOT[-1]))
+    assert f"plays {last}:" in page.get_by_test_id("paper-hint").inner_text()
 
 
 def test_camera_troubles_are_told_once_and_the_game_goes_on_on_the_canvas(game_video):
