@@ -379,7 +379,9 @@ def measure_shipped(
         None,
     )
     policy = load_policy()
-    earlier_s = training_budget(agent_metrics)[1] - agent_metrics["wall_clock_s"]
+    # a fine-tune's budget counts the runs it started from
+    experiences, train_s = training_budget(agent_metrics)
+    earlier_s = train_s - agent_metrics["wall_clock_s"]
     return {
         "perceiver": {
             "accuracy": evaluate_generated(classifier, seeds, p.test_images, p.seed).accuracy,
@@ -396,9 +398,8 @@ def measure_shipped(
             "people": evaluate_conditions(
                 policy.act_batch, budgets.evaluation_games, eval_config, seed=0
             ),
-            # a fine-tune's with the runs it started from
-            "train_s": round(training_budget(agent_metrics)[1], 1),
-            "experiences": training_budget(agent_metrics)[0],
+            "train_s": round(train_s, 1),
+            "experiences": experiences,
             "best_step": agent_metrics["best_step"],
             # a fine-tune's counts from the start of the runs before it
             "time_to_zero_losses_s": (first_zero["elapsed_s"] + earlier_s if first_zero else None),

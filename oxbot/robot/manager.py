@@ -272,7 +272,10 @@ class InteractionManagerComponent(Component):
 
     def tick(self) -> None:
         if self.phase is Phase.LISTENING and time.monotonic() >= self._deadline:
-            self._unanswered_in_a_row += self._awaits_answer
+            # nothing came since the robot's act, or it would have decided already
+            self._unanswered_in_a_row += (
+                self._expects_move() or self.state.last_act in self._questions
+            )
             give_up = self.timing.give_up_after
             if give_up and self._unanswered_in_a_row >= give_up:
                 self._say(CLOSING, NOBODY_SENTENCE)  # nobody there: no more questions to the room
@@ -299,7 +302,6 @@ class InteractionManagerComponent(Component):
             "_speaking",
             "_arm_cell",
             "_rematch",
-            "_awaits_answer",
             "_unanswered_in_a_row",
         ):
             setattr(self, name, getattr(old, name))
@@ -316,7 +318,6 @@ class InteractionManagerComponent(Component):
         self._rematch = False
         self._deferred: list[str] = []
         self._deadline = 0.0
-        self._awaits_answer = False  # the robot asked and waits for words or a drawing
         self._unanswered_in_a_row = 0
         self._broken = False  # a part was lost: only Robot.new_game, which revives it, replays
         if publish:
@@ -378,7 +379,6 @@ class InteractionManagerComponent(Component):
         for sentence in self._deferred:
             self._tell(sentence)
         self._deferred.clear()
-        self._awaits_answer = self._expects_move() or last_act in self._questions
         if self._expects_move():
             wait = self.timing.move_timeout
         elif last_act in self._unanswered:
