@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import base64
 import hashlib
+import re
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -164,7 +165,9 @@ def play_on_paper(page: Page, video: PaperVideo, watcher: BusWatcher) -> None:
     page.wait_for_function(
         "!document.querySelector('[data-testid=guidance]').hidden", timeout=10_000
     )
-    assert "no grid in view" in page.get_by_test_id("guidance").inner_text()
+    # Either of the finder's refusals: on a compressed frame the index strip below the blank
+    # sheet can pass for crossing lines, which then make no grid.
+    assert re.match(r"no (3x3 )?grid in view", page.get_by_test_id("guidance").inner_text())
     wait_for_act(page, "Inform(problem)", timeout=10_000)
     said = [t for s, a, t in log_items(page) if a == "Inform(problem)"]
     assert said == ["I cannot see the grid. Please hold the camera over the whole sheet."]
