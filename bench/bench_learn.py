@@ -181,6 +181,7 @@ def bench_agent(args: argparse.Namespace) -> None:
             "repeated_questions_per_dialogue",
             "dialogues_with_a_repeat",
             "ill_formed",
+            "ill_formed_by_the_policy",
             "losses",
             "task_success",
             "average_turns",

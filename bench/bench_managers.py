@@ -16,8 +16,9 @@
 Each is measured on the same simulated people, seeded alike: the default people (who decline
 once or for good, stop, chatter, say nothing) heard through the default recogniser noise (0.2)
 and a noisier one (0.4), and cooperative people (who always play a whole game) for game play.
-Printed per manager: task success, turns per dialogue, well-formed share, W/D/L and the most
-common problems, over all six opponent and who-starts conditions. Not a test.
+Printed per manager: task success, turns per dialogue, well-formed share and how many of the
+ill-formed dialogues are its own mistakes rather than mishearing (`wellformed.blame`), W/D/L and
+the most common problems, over all six opponent and who-starts conditions. Not a test.
 """
 
 from __future__ import annotations
@@ -56,7 +57,9 @@ def measure(name: str, policy: Policy, games: int) -> None:
         print(
             f"{name:10s} {people:30s} success {sum(r.task_success for r in rows) / n:6.1%}  "
             f"turns {sum(r.average_turns for r in rows) / n:5.1f}  "
-            f"well-formed {sum(r.well_formed for r in rows) / n:6.1%}  "
+            f"well-formed {sum(r.well_formed for r in rows) / n:6.1%} "
+            f"(own mistakes {sum(r.policy_faults for r in rows):4d} of "
+            f"{sum(round((1 - r.well_formed) * r.games) for r in rows):4d} ill formed)  "
             f"W/D/L {win:.3f}/{draw:.3f}/{loss:.3f}  "
             f"lost games {max(r.loss_rate for r in rows):.2%} at most",
             flush=True,

@@ -452,9 +452,9 @@ def evaluate_agent_command(
             typer.echo(
                 f"{r.opponent:8s} {who:14s} games {r.games}  win {r.win_rate:.2%}  "
                 f"draw {r.draw_rate:.2%}  loss {r.loss_rate:.2%}  reward {r.average_reward:.2f}  "
-                f"turns {r.average_turns:.1f}  well-formed {r.well_formed:.2%}  "
-                f"declined {r.declined_rate:.2%}  stopped {r.stopped_rate:.2%}  "
-                f"abandoned {r.abandoned_rate:.2%}  "
+                f"turns {r.average_turns:.1f}  well-formed {r.well_formed:.2%} "
+                f"(its own mistakes {r.policy_faults})  declined {r.declined_rate:.2%}  "
+                f"stopped {r.stopped_rate:.2%}  abandoned {r.abandoned_rate:.2%}  "
                 f"as wanted {r.task_success:.2%}"
             )
     for r in results:

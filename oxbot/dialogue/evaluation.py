@@ -28,7 +28,7 @@ from oxbot.dialogue.env import InteractiveGameEnv, format_turn
 from oxbot.dialogue.model import DialogueModel, build_dialogue_model
 from oxbot.dialogue.simulator import UserSimulator
 from oxbot.dialogue.state import Turn
-from oxbot.dialogue.wellformed import check_dialogue
+from oxbot.dialogue.wellformed import blame, check_dialogue
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, legal_moves, play, winner
 from oxbot.game.board import outcome as game_outcome
 from oxbot.game.opponents import OPPONENTS
@@ -78,6 +78,9 @@ class EvaluationResult:
     """Share of dialogues that `check_dialogue` accepts."""
     truncated: int
     problems: dict[str, int] = field(default_factory=dict)
+    policy_faults: int = 0
+    """Ill-formed dialogues that are the policy's own mistakes (`wellformed.blame`); the others
+    went wrong only because the robot misheard."""
     transcripts: list[list[Turn]] = field(default_factory=list)
 
     def summary(self) -> dict[str, Any]:
@@ -111,6 +114,7 @@ class _Tally:
     total_turns: int = 0
     good: int = 0
     problems: dict[str, int] = field(default_factory=dict)
+    policy_faults: int = 0
     kept: list[list[Turn]] = field(default_factory=list)
 
     def add(self, info: dict[str, Any], terminated: bool, episode_return: float) -> None:
@@ -132,6 +136,9 @@ class _Tally:
             self.successes += as_wanted(info["person"], result)
         else:
             self.problems[problem] = self.problems.get(problem, 0) + 1
+            heard = understood is not None and scores is not None and terminated
+            if not heard or blame(problem, transcript, understood, scores) == "policy":
+                self.policy_faults += 1
         if len(self.kept) < self.keep_transcripts:
             self.kept.append(transcript)
 
@@ -153,6 +160,7 @@ class _Tally:
             well_formed=self.good / n,
             truncated=self.truncated,
             problems=self.problems,
+            policy_faults=self.policy_faults,
             transcripts=self.kept,
         )
 

@@ -56,13 +56,15 @@ def check_dialogue(
     move after a stop. A clear no to its question ("no thanks", understood with a score of at
     least `SURE_NO`) is final; after a "later", an unsure no or a no said before it asked, it
     may ask once more; asking again about an answer it could not make out (silence, chatter)
-    does not count. A clear stop is final too: no request for a move after it, nor after two
-    stops. A game it plays, it plays properly: introduction and invitation before the first
-    move, the person asked for their move after each robot move until the game is over, and
-    exactly one feedback act, the one of the real outcome. It never walks away from a person
-    who wanted to play. The person's turns are read as the acts they meant (the environment's
-    transcript) or, where `understood` gives one per turn, as the acts the robot understood,
-    with `scores` the understanding's scores (none given: every turn clear).
+    does not count; a no after the game's feedback that answers no question ("oh no") needs no
+    acknowledgement, the goodbye lets it go. A clear stop is final too: no request for a move
+    after it, nor after two stops. A game it plays, it plays properly: introduction and
+    invitation before the first move, the person asked for their move after each robot move
+    until the game is over, and exactly one feedback act, the one of the real outcome. It never
+    walks away from a person who wanted to play. The person's turns are read as the acts they
+    meant (the environment's transcript) or, where `understood` gives one per turn, as the acts
+    the robot understood, with `scores` the understanding's scores (none given: every turn
+    clear).
     """
     sys_acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
     if not sys_acts or sys_acts[0] != GREETING:
@@ -94,6 +96,27 @@ def ignores_the_person(
     )
 
 
+def blame(
+    problem: str, transcript: list[Turn], understood: Sequence[str], scores: Sequence[float]
+) -> str:
+    """Who made a dialogue ill formed (`problem`, from `check_dialogue`): "hearing" when read
+    as the robot understood it (each answer taken as the act it was understood as, with its
+    score) it breaks no rule about the person's will, and the problem is one of those or a
+    walk-away: "later" taken for a yes at 0.8, a yes taken for a clear no. Otherwise "policy":
+    a mistake the robot made about what it understood, or in playing (training can remove
+    these; the others only better hearing, or asking about every answer, can)."""
+    about_the_person = problem.startswith("walks away") or problem == ignores_the_person(
+        transcript, understood, scores
+    )
+    as_heard = [
+        {**turn, "act": act} if turn["speaker"] == "usr" else turn
+        for turn, act in zip(transcript, understood, strict=True)
+    ]
+    if about_the_person and ignores_the_person(as_heard, understood, scores) is None:
+        return "hearing"
+    return "policy"
+
+
 def _agreed_before_playing(transcript: list[Turn]) -> str | None:
     agreed = False
     for turn in transcript:
@@ -105,13 +128,15 @@ def _agreed_before_playing(transcript: list[Turn]) -> str | None:
 
 
 def _lets_a_no_go(transcript: list[Turn], heard: list[str], sure: list[bool]) -> str | None:
-    refused = final = asked = False
+    refused = final = asked = over = False
     asked_after = 0
     last_answer = ""  # the last yes or no understood
     answered = False  # whether the person said anything it made out since it last asked
     for turn, understood, clear in zip(transcript, heard, sure, strict=True):
         act = turn["act"]
         if turn["speaker"] == "usr":
+            if over and not asked and understood in REFUSALS:
+                continue  # "oh no" after the game answers nothing: the goodbye lets it go
             answered = answered or understood not in _UNCLEAR
             if understood in REFUSALS or understood == ACCEPT:
                 refused = refused or understood in REFUSALS
@@ -119,6 +144,7 @@ def _lets_a_no_go(transcript: list[Turn], heard: list[str], sure: list[bool]) ->
                 last_answer = understood
             continue
         asked = act in _ASKING
+        over = over or is_feedback(act)
         if asked and final:
             return "asks to play again after a clear no"
         if asked and refused and answered:  # asking about silence or chatter does not count

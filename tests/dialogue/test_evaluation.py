@@ -5,6 +5,7 @@ import pytest
 from oxbot.config import load_config
 from oxbot.dialogue.agent import load_policy
 from oxbot.dialogue.evaluation import OUTCOMES, check_dialogue, evaluate, losing_positions
+from oxbot.dialogue.wellformed import blame
 from oxbot.game import win_probability_vs_random
 from oxbot.game.board import EMPTY_BOARD, ROBOT
 
@@ -75,6 +76,20 @@ GREETED = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playG
         (
             [*GREETED, usr("Reject(playGame=no)"), sys("Salutation(closing)")],
             "declined",
+            "says goodbye to a no without acknowledging it",
+        ),
+        # "oh no" after the game answers nothing: the goodbye lets it go (the action model
+        # offers nothing but the goodbye there)
+        ([*FIGURE_1[:-1], usr("Reject(playGame=no)"), FIGURE_1[-1]], "win", None),
+        # but a no to its question after the game is a no like any other
+        (
+            [
+                *FIGURE_1[:-1],
+                sys("Request(playGame)"),
+                usr("Reject(playGame=no)"),
+                FIGURE_1[-1],
+            ],
+            "win",
             "says goodbye to a no without acknowledging it",
         ),
         (
@@ -235,6 +250,49 @@ def test_an_unsure_no_or_stop_may_be_checked_once():
     assert "after being asked to stop twice" in check_dialogue(stop, "stopped", scores=scores)
     checked_once = [*stop[:10], sys("Acknowledge(stop)"), sys("Salutation(closing)")]
     assert check_dialogue(checked_once, "stopped", scores=scores[:12]) is None
+
+
+def test_a_fault_is_blamed_on_hearing_only_when_what_was_understood_excuses_it():
+    invited = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playGame)")]
+    later_taken_for_yes = [
+        *invited,
+        usr("Reject(playGame=later)", "later please"),
+        sys("Reply(playGame=yes)"),
+    ]
+    understood = ["", "", "", "Confirm(playGame=yes)", ""]
+    problem = check_dialogue(later_taken_for_yes, None, understood, [1, 1, 1, 0.8, 1])
+    assert problem.startswith("starts a game nobody agreed to")
+    assert blame(problem, later_taken_for_yes, understood, [1, 1, 1, 0.8, 1]) == "hearing"
+
+    # the same "later", understood as it was meant: starting the game is the policy's mistake
+    understood = ["", "", "", "Reject(playGame=later)", ""]
+    problem = check_dialogue(later_taken_for_yes, None, understood, [1, 1, 1, 0.8, 1])
+    assert blame(problem, later_taken_for_yes, understood, [1, 1, 1, 0.8, 1]) == "policy"
+
+    yes_taken_for_no = [
+        *invited,
+        usr("Confirm(playGame=yes)", "yes"),
+        sys("Acknowledge(playGame=no)"),
+        sys("Salutation(closing)"),
+    ]
+    understood = ["", "", "", "Reject(playGame=no)", "", ""]
+    scores = [1, 1, 1, 0.9, 1, 1]
+    problem = check_dialogue(yes_taken_for_no, "abandoned", understood, scores)
+    assert problem == "walks away from a person who wanted to play"
+    assert blame(problem, yes_taken_for_no, understood, scores) == "hearing"
+
+    # asking again after the clear no it understood: its own mistake, whatever was meant
+    asks_again = [*yes_taken_for_no[:4], sys("Request(playGame)")]
+    problem = check_dialogue(asks_again, None, understood[:5], scores[:5])
+    assert "after a clear no" in problem
+    assert blame(problem, asks_again, understood[:5], scores[:5]) == "policy"
+
+    # a game played badly is never the hearing's fault
+    no_feedback = [*FIGURE_1[:12], sys("Salutation(closing)")]
+    problem = check_dialogue(no_feedback, "win")
+    assert "feedback" in problem
+    heard = [t["act"] for t in no_feedback]
+    assert blame(problem, no_feedback, heard, [1.0] * len(heard)) == "policy"
 
 
 def test_the_shipped_policy_never_loses_and_wins_near_the_optimum():
