@@ -371,11 +371,7 @@ def measure_shipped(
         agent_dir / "agent_metrics.json", "the shipped agent's metrics", remedy
     )
     first_zero = next(
-        (
-            e
-            for e in agent_metrics["evaluations"]
-            if all(v[2] == 0 for v in e.values() if isinstance(v, list))
-        ),
+        (e for e in agent_metrics["evaluations"] if all(loss == 0 for loss in _losses(e).values())),
         None,
     )
     policy = load_policy()
@@ -449,6 +445,12 @@ def agent_config_for(config: OxbotConfig, budgets: Budgets) -> OxbotConfig:
     return config
 
 
+def _losses(evaluation: dict[str, Any]) -> dict[str, float]:
+    """The loss rate of each game condition in a training evaluation's record."""
+    keys = (condition_key(name, robot_starts) for name, robot_starts in CONDITIONS)
+    return {k: evaluation[k][2] for k in keys if k in evaluation}
+
+
 def train_and_evaluate_agent(
     work_dir: Path,
     config: OxbotConfig,
@@ -475,7 +477,7 @@ def train_and_evaluate_agent(
         {
             "train_s": e["elapsed_s"],
             "steps": e["step"],
-            "losses": {k: v[2] for k, v in e.items() if isinstance(v, list)},
+            "losses": _losses(e),
         }
         for e in m["evaluations"]
     ]

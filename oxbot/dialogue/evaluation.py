@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from oxbot.config import OxbotConfig
+from oxbot.config import OxbotConfig, with_overrides
 from oxbot.dialogue.action_model import action_mask
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -22,6 +22,8 @@ from oxbot.dialogue.domain import (
     INVITATION,
     LETS_PLAY,
     MOVE_REQUEST,
+    SYSTEM_ACTS,
+    game_move_cell,
     is_game_move,
 )
 from oxbot.dialogue.env import InteractiveGameEnv, format_turn
@@ -260,6 +262,68 @@ class _DecisionStates:
             state.person_says(GAME_MOVE_TEMPLATE, text, heard, understood)
             states.append(state.encode())
         return np.stack(states)
+
+
+PERSON_KINDS = ("decline", "refuse", "stop", "nonsense", "silence", "out_of_turn", "rematch")
+"""The simulated person's `[dialogue]` `*_probability` behaviours."""
+WILLS = ("refuse", "decline", "stop")
+"""The kinds of person whose will the rules are about: who says "no thanks", who says "maybe
+later" and then yes, who asks to stop."""
+
+
+def misread_wills(policy: Policy, config: OxbotConfig, games: int, seed: int = 0) -> int:
+    """Dialogues, heard cleanly, that did not end as the person wanted or broke a rule: `games`
+    per kind of person in WILLS (each person of that kind alone) and who starts, against the
+    random person. A policy that hears right should make none."""
+    missed = 0
+    for kind in WILLS:
+        only = {f"{k}_probability": float(k == kind) for k in PERSON_KINDS}
+        clean = with_overrides(config, {"dialogue": {"asr_noise": 0.0, **only}})
+        for robot_starts in (True, False):
+            r = evaluate(policy, "random", robot_starts, games, clean, seed=seed, n_envs=100)
+            missed += games - round(r.task_success * games)
+    return missed
+
+
+def wins_against_random(
+    policy: Policy, robot_starts: bool, config: OxbotConfig | None = None
+) -> float:
+    """The exact probability that the greedy policy wins against a person who draws in a
+    random empty cell, each drawing heard cleanly in each of its phrasings (the game tree,
+    not sampled games). Where the phrasings lead it to different cells, each counts equally;
+    a board where it draws on none counts as no win. To compare with
+    `oxbot.game.solver.win_probability_vs_random`, the optimum of a policy that never loses."""
+    config = config if config is not None else OxbotConfig()
+    model = build_dialogue_model(config)
+    action_model = model.action_model
+    hearing = UserSimulator(
+        model.domain, rng=np.random.default_rng(0), understanding=model.understanding
+    )
+    decision_states = _DecisionStates(model, robot_starts, hearing, noisy_variants=0)
+    values: dict[tuple[Board, bool], float] = {}
+
+    def value(board: Board, robot_to_move: bool) -> float:
+        if winner(board) == ROBOT:
+            return 1.0
+        if game_outcome(board) is not None:
+            return 0.0
+        key = (board, robot_to_move)
+        if key not in values:
+            if robot_to_move:
+                states = decision_states.at(board)
+                probs = action_model.predict_proba(states)
+                masks = np.stack(
+                    [action_mask(p, board, True, action_model.threshold) for p in probs]
+                )
+                cells = [game_move_cell(SYSTEM_ACTS[a]) for a in policy(states, masks)]
+                after = [value(play(board, c, ROBOT), False) for c in cells if c is not None]
+                values[key] = sum(after) / len(cells)
+            else:
+                cells = legal_moves(board)
+                values[key] = sum(value(play(board, c, USER), True) for c in cells) / len(cells)
+        return values[key]
+
+    return value(EMPTY_BOARD, robot_starts)
 
 
 def losing_positions(

@@ -4,7 +4,7 @@ import pytest
 
 from oxbot.config import load_config
 from oxbot.dialogue.agent import load_policy
-from oxbot.dialogue.training import epsilon_at, train_agent
+from oxbot.dialogue.training import epsilon_at, evaluation_score, train_agent
 from oxbot.errors import ModelFileError
 
 TINY = [
@@ -40,6 +40,9 @@ def test_a_tiny_real_run_writes_policy_metrics_and_curves(trained):
     assert metrics["experiences"] == 3000 and metrics["updates"] == 2800
     assert metrics["seed"] == 0 and metrics["config"]["agent"]["double_dqn"] is True
     assert len(metrics["reward_curve"]) == 3 and len(metrics["evaluations"]) == 2
+    for evaluation in metrics["evaluations"]:  # what checkpoints are ranked by, recorded
+        assert 0 <= evaluation["misread_wills"] <= 3 * 2 * 10
+        assert all(0 <= w <= 1 for w in evaluation["wins_against_random"])
     assert metrics["games"] > 100
     for png in ("agent_reward.png", "agent_win_draw.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -88,3 +91,25 @@ def test_misheard_words_are_absent_words_below_the_action_models_threshold():
     assert (heard[changed] >= 0.1).all() and (heard[changed] < 0.5).all()
     assert not changed[:, layout.n_words :].any() and (heard[:, 0] == 1.0).all()
     assert np.allclose(model.predict_proba(heard), model.predict_proba(states))
+
+
+def test_checkpoints_are_ranked_by_what_is_sure_before_what_is_sampled():
+    def results(losing, misread, exact, faults, wins):
+        games = {"games": 100, "loss_rate": 0.0, "well_formed": 1 - faults / 100}
+        return {
+            "random/robot": {**games, "win_rate": wins},
+            "losing_positions": losing,
+            "misread_wills": misread,
+            "wins_against_random": [exact, exact],
+        }
+
+    order = [
+        results(losing=1, misread=0, exact=0.95, faults=0, wins=1.0),
+        results(losing=0, misread=3, exact=0.95, faults=0, wins=1.0),
+        results(losing=0, misread=0, exact=0.90, faults=0, wins=1.0),
+        results(losing=0, misread=0, exact=0.95, faults=5, wins=1.0),
+        results(losing=0, misread=0, exact=0.95, faults=0, wins=0.8),
+        results(losing=0, misread=0, exact=0.95, faults=0, wins=0.9),
+    ]
+    scores = [evaluation_score(r) for r in order]
+    assert scores == sorted(scores)
