@@ -4,7 +4,14 @@ import pytest
 
 from oxbot.config import load_config
 from oxbot.dialogue.agent import load_policy
-from oxbot.dialogue.evaluation import OUTCOMES, check_dialogue, evaluate, losing_positions
+from oxbot.dialogue.evaluation import (
+    OUTCOMES,
+    check_dialogue,
+    evaluate,
+    losing_positions,
+    misread_wills,
+    wins_against_random,
+)
 from oxbot.dialogue.wellformed import blame
 from oxbot.game import win_probability_vs_random
 from oxbot.game.board import EMPTY_BOARD, ROBOT
@@ -365,11 +372,11 @@ def test_acceptance_ten_thousand_games_per_condition():
             assert r.loss_rate == 0, (opponent, robot_starts, r.summary())
             assert r.well_formed >= 0.99, r.problems
             if opponent == "random":
-                # SPEC §3 asks for 1 point and issue 14 for 0.3; since a clear "no thanks" is
-                # final, this policy is 0.3-0.5 below when it starts and 0.8-1.4 below when the
-                # person starts (seeds 0, 1, 2026: docs/dialogue.md), so neither is met there
+                # SPEC §3: within 1 point of the optimum. (Issue 14 asks for 0.3, not met:
+                # 0.15-0.49 at seeds 0, 1 and 2026, nearly all of it dialogues a yes misheard
+                # as a clear no ends; docs/dialogue.md.)
                 optimum = win_probability_vs_random(EMPTY_BOARD, ROBOT, robot_starts)
-                assert r.win_rate >= optimum - (0.005 if robot_starts else 0.015), r.summary()
+                assert r.win_rate >= optimum - 0.01, r.summary()
     assert time.perf_counter() - started < 240
 
 
@@ -385,3 +392,26 @@ def test_the_tree_check_finds_a_policy_that_can_be_beaten():
         return masks.argmax(axis=1)
 
     assert losing_positions(first_empty_cell, True, noisy_variants=0) > 0
+
+
+@pytest.mark.parametrize("robot_starts", [True, False])
+def test_the_exact_wins_against_random_reach_the_optimum_only_for_the_solver(robot_starts):
+    from oxbot.dialogue.baselines import scripted_policy
+    from oxbot.dialogue.model import build_dialogue_model
+
+    optimum = win_probability_vs_random(EMPTY_BOARD, ROBOT, robot_starts)
+    solver = scripted_policy(build_dialogue_model(load_config()))
+    assert wins_against_random(solver, robot_starts) == pytest.approx(optimum, abs=1e-12)
+
+    def first_empty_cell(states, masks):
+        return masks.argmax(axis=1)
+
+    assert wins_against_random(first_empty_cell, robot_starts) < optimum - 0.1
+
+
+def test_misread_wills_catches_a_script_that_asks_again_after_no_thanks():
+    from oxbot.dialogue.baselines import scripted_policy
+    from oxbot.dialogue.model import build_dialogue_model
+
+    config = load_config()
+    assert misread_wills(scripted_policy(build_dialogue_model(config)), config, 50) > 0

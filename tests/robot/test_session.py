@@ -251,7 +251,8 @@ def test_no_thanks_is_acknowledged_and_the_robot_says_goodbye(speak):
         turns, ended = talk_until_goodbye(robot, answers, 60.0, speak)
     acts = [t.act for t in turns if t.speaker == "sys"]
     heard = [t.act for t in turns if t.speaker == "usr"]
-    assert heard == ["Reject(playGame=no)"]  # asked once, answered once: a clear no is final
+    # asked once, answered once: a clear no is final
+    assert heard == ["Reject(playGame=no)"], [(t.speaker, t.act, t.text) for t in turns]
     assert acts[-2:] == ["Acknowledge(playGame=no)", "Salutation(closing)"]
     assert not any(a.startswith("GameMove") or a == "Reply(playGame=yes)" for a in acts)
     assert acts.count("Request(playGame)") + acts.count("Request(repeat)") == 1

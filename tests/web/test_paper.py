@@ -16,6 +16,7 @@ import re
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -23,10 +24,18 @@ import pytest
 from playwright.sync_api import Page, sync_playwright
 
 from oxbot.config import load_config
-from oxbot.game.board import CELL_NAMES
+from oxbot.game.board import CELL_NAMES, USER
+from oxbot.game.solver import best_moves
 from oxbot.robot.frames import frame_pixels
 from oxbot.robot.manager import cell_in_words
-from oxbot.robot.messages import BoardProblem, BoardSeen, Frame, GameMove
+from oxbot.robot.messages import (
+    BoardProblem,
+    BoardSeen,
+    DialogueAct,
+    DialogueEnded,
+    Frame,
+    GameMove,
+)
 from oxbot.robot.session import Robot
 from oxbot.testing.browser import CHROMIUM, FLAGS, draw
 from oxbot.testing.webcam import PaperVideo, frame_index
@@ -44,30 +53,63 @@ CONFIG = load_config(
 )
 """The person starts (circles): the video's first symbol needs no robot move before it."""
 SEED = 1
-PERSON = ("middle", "upperleft", "middleright", "lowermiddle", "lowerleft")
-ROBOT = ("upperright", "lowerright", "middleleft", "uppermiddle")
-"""The seeded robot's answers to PERSON (the person plays the solver's best moves: a draw)."""
-DRAWN_FOR_ROBOT = ROBOT[0]
-"""The robot's cross that the person draws for it; its other moves stay virtual."""
 MOVE = "GameMove(gridloc="
 
 
+def seeded_game() -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The person's moves (the solver's best, from the middle: a draw) and the seeded robot's
+    answers, played beforehand by typing to the same robot: the video must be made before the
+    game, so it draws what the robot will answer, whatever policy ships."""
+    person, robot = [], []
+    with Robot(CONFIG, seed=SEED) as headless:
+        events = headless.bus.subscribe(DialogueAct, DialogueEnded)
+        while True:
+            message = events.get(30.0)
+            assert message is not None, headless.transcript
+            if isinstance(message, DialogueEnded):
+                return tuple(person), tuple(robot)
+            if message.speaker == "sys" and message.act == "Request(playGame)":
+                headless.say("yes let's play")
+            elif message.speaker == "sys" and message.act == "Request(userGameMove)":
+                cell = 4 if not person else best_moves(headless.board, USER)[0]
+                person.append(CELL_NAMES[cell])
+                headless.draw(cell)
+            elif message.speaker == "sys" and message.act.startswith(MOVE):
+                robot.append(message.act[len(MOVE) : -1])
+
+
+@dataclass(frozen=True)
+class Game:
+    person: tuple[str, ...]
+    robot: tuple[str, ...]
+    """The seeded robot's answers to `person`."""
+    video: PaperVideo
+    y4m: Path
+
+    @property
+    def drawn_for_robot(self) -> str:
+        """The robot's cross that the person draws for it; its other moves stay virtual."""
+        return self.robot[0]
+
+
 @pytest.fixture(scope="module")
-def game_video(tmp_path_factory) -> tuple[PaperVideo, Path]:
+def game_video(tmp_path_factory) -> Game:
     """The whole game as the camera films it: 2.5 s of a sheet without a grid (the robot
     must say what to do), then the grid, and each of the person's circles drawn 3.5 s after
     the last, stroke by stroke; 640x480, 10 frames a second, about 28 s."""
+    person, robot = seeded_game()
     video = PaperVideo(seed=4)
     video.show("no_grid", 2.5)
     video.hold(2.0)
-    for k, cell in enumerate(PERSON):
+    for k, cell in enumerate(person):
         video.draw(cell, "circle", stroke_seconds=0.8)
         video.hold(3.5)
         if k == 0:  # the robot has answered: its cross, drawn for it (two strokes)
-            video.draw(DRAWN_FOR_ROBOT, "cross")
+            video.draw(robot[0], "cross")
             video.hold(0.5)
     video.hold(3.0)
-    return video, video.write_y4m(tmp_path_factory.mktemp("paper") / "game.y4m")
+    y4m = video.write_y4m(tmp_path_factory.mktemp("paper") / "game.y4m")
+    return Game(person, robot, video, y4m)
 
 
 @contextmanager
@@ -132,7 +174,7 @@ def cell_labels(page: Page) -> list[str]:
 
 
 def test_a_whole_game_on_paper_through_the_fake_webcam(game_video):
-    video, y4m = game_video
+    game, y4m = game_video, game_video.y4m
     app = create_app(CONFIG, robot_factory=lambda: Robot(CONFIG, seed=SEED))
     with (
         serving_in_background(app) as url,
@@ -147,7 +189,7 @@ def test_a_whole_game_on_paper_through_the_fake_webcam(game_video):
         (session,) = app.state.sessions.values()
         watcher = BusWatcher(session.robot.bus)
         try:
-            play_on_paper(page, video, watcher)
+            play_on_paper(page, game, watcher)
         except Exception as exc:
             page.screenshot(path=ARTIFACTS / "paper-failure.png", full_page=True)
             raise AssertionError(f"{exc}\nthe page's log: {log_items(page)}") from exc
@@ -155,7 +197,7 @@ def test_a_whole_game_on_paper_through_the_fake_webcam(game_video):
             watcher.close()
 
 
-def play_on_paper(page: Page, video: PaperVideo, watcher: BusWatcher) -> None:
+def play_on_paper(page: Page, game: Game, watcher: BusWatcher) -> None:
     page.get_by_test_id("paper").click()
     page.wait_for_function("window.oxbot.paper.on", timeout=10_000)  # the camera opened
     assert page.get_by_test_id("paper").get_attribute("aria-pressed") == "true"
@@ -185,17 +227,17 @@ def play_on_paper(page: Page, video: PaperVideo, watcher: BusWatcher) -> None:
     items = log_items(page)
     mine = [a[len(MOVE) : -1] for s, a, _ in items if s == "usr" and a.startswith(MOVE)]
     robots = [(a[len(MOVE) : -1], t) for s, a, t in items if s == "sys" and a.startswith(MOVE)]
-    assert tuple(mine) == PERSON, items
-    assert tuple(cell for cell, _ in robots) == ROBOT, items
+    assert tuple(mine) == game.person, items
+    assert tuple(cell for cell, _ in robots) == game.robot, items
     # the robot says where it plays: no arm points at the paper
-    said = f"I take {cell_in_words(CELL_NAMES.index(ROBOT[0]))}."
+    said = f"I take {cell_in_words(CELL_NAMES.index(game.robot[0]))}."
     assert robots[0][1].startswith(said), robots
     assert all(text.startswith("I take the ") for _, text in robots)
     assert items[-1][:2] == ("sys", "Salutation(closing)")
     assert ("sys", "Provide(feedback=draw)") in [(s, a) for s, a, _ in items]
 
     # every move accepted after its symbol was whole on the video, at the 3rd agreeing reading
-    symbols = {s.cell: s for s in video.symbols}
+    symbols = {s.cell: s for s in game.video.symbols}
     events = watcher.events
     for k, event in enumerate(events):
         if event[0] != "move":
@@ -210,19 +252,19 @@ def play_on_paper(page: Page, video: PaperVideo, watcher: BusWatcher) -> None:
         during = [e[1] for e in events[:k] if e[0] == "frame" and e[1] < symbol.complete_frame]
         assert during and max(during) >= symbol.start_frame
     moves = [e[2] for e in events if e[0] == "move"]
-    assert tuple(moves) == PERSON
+    assert tuple(moves) == game.person
     problems = [e[1] for e in events if e[0] == "problem"]
     assert problems == ["no_grid"], problems  # nothing impossible: the robot's cross included
 
     # the robot's moves on the video: virtual, but the one drawn for it is read as its own
     labels = cell_labels(page)
     names = page.evaluate("window.oxbot.hello.cells")
-    for cell in PERSON:
+    for cell in game.person:
         assert labels[names.index(cell)] == "circle", labels
-    assert labels[names.index(DRAWN_FOR_ROBOT)] == "cross", labels
-    for cell in ROBOT[1:]:
+    assert labels[names.index(game.drawn_for_robot)] == "cross", labels
+    for cell in game.robot[1:]:
         assert labels[names.index(cell)] == "nothing", labels
-    assert sorted(page.evaluate("Object.keys(window.oxbot.robotStrokes)")) == sorted(ROBOT)
+    assert sorted(page.evaluate("Object.keys(window.oxbot.robotStrokes)")) == sorted(game.robot)
     inked = page.evaluate(
         """() => { const c = document.getElementById('paper-overlay');
                    const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
@@ -232,12 +274,12 @@ def play_on_paper(page: Page, video: PaperVideo, watcher: BusWatcher) -> None:
     )
     assert inked > 500, inked  # the virtual crosses, in the robot's ink, over the video
     assert page.evaluate("window.oxbot.paper.stats.sent.length") > 100
-    last = cell_in_words(CELL_NAMES.index(ROBOT[-1]))
+    last = cell_in_words(CELL_NAMES.index(game.robot[-1]))
     assert f"plays {last}:" in page.get_by_test_id("paper-hint").inner_text()
 
 
 def test_camera_troubles_are_told_once_and_the_game_goes_on_on_the_canvas(game_video):
-    _, y4m = game_video
+    y4m = game_video.y4m
     with (
         serving_in_background(create_app(CONFIG)) as url,
         serving_in_background(create_app(CONFIG)) as other,
@@ -306,7 +348,7 @@ def test_https_on_the_network_address_with_the_certificate_accepted(game_video, 
 
     from oxbot.web.tls import ensure_certificate, local_addresses
 
-    _, y4m = game_video
+    y4m = game_video.y4m
     host = (local_addresses() or ["127.0.0.1"])[0]
     certificate = ensure_certificate([host], folder=tmp_path)
     key = x509.load_pem_x509_certificate(certificate.cert.read_bytes()).public_key()
