@@ -6,6 +6,7 @@ from oxbot.config import load_config
 from oxbot.dialogue.agent import load_policy
 from oxbot.dialogue.evaluation import (
     OUTCOMES,
+    PERSON_KINDS,
     check_dialogue,
     evaluate,
     losing_positions,
@@ -335,7 +336,6 @@ def test_the_shipped_policy_is_well_formed_when_it_hears_right(cooperative):
             assert r.well_formed == 1.0, r.problems
 
 
-PERSON_KINDS = ("decline", "refuse", "stop", "nonsense", "silence", "out_of_turn", "rematch")
 ONLY = {
     kind: [f"dialogue.{k}_probability={int(k == kind)}" for k in PERSON_KINDS]
     for kind in ("refuse", "stop", "decline")
