@@ -59,7 +59,7 @@ def measure(name: str, policy: Policy, games: int) -> None:
             f"turns {sum(r.average_turns for r in rows) / n:5.1f}  "
             f"well-formed {sum(r.well_formed for r in rows) / n:6.1%} "
             f"(own mistakes {sum(r.policy_faults for r in rows):4d} of "
-            f"{sum(round((1 - r.well_formed) * r.games) for r in rows):4d} ill formed)  "
+            f"{sum(r.ill_formed for r in rows):4d} ill formed)  "
             f"W/D/L {win:.3f}/{draw:.3f}/{loss:.3f}  "
             f"lost games {max(r.loss_rate for r in rows):.2%} at most",
             flush=True,

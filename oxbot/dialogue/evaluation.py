@@ -85,6 +85,11 @@ class EvaluationResult:
     went wrong only because the robot misheard."""
     transcripts: list[list[Turn]] = field(default_factory=list)
 
+    @property
+    def ill_formed(self) -> int:
+        """Dialogues that `check_dialogue` refuses."""
+        return round((1 - self.well_formed) * self.games)
+
     def summary(self) -> dict[str, Any]:
         """The figures as a plain dict (for --json), without the transcripts."""
         data = asdict(self)
@@ -271,14 +276,20 @@ WILLS = ("refuse", "decline", "stop")
 later" and then yes, who asks to stop."""
 
 
+def heard_cleanly(config: OxbotConfig, kind: str) -> OxbotConfig:
+    """`config` with every simulated person of `kind` (one of PERSON_KINDS), heard without
+    recognition noise."""
+    only = {f"{k}_probability": float(k == kind) for k in PERSON_KINDS}
+    return with_overrides(config, {"dialogue": {"asr_noise": 0.0, **only}})
+
+
 def misread_wills(policy: Policy, config: OxbotConfig, games: int, seed: int = 0) -> int:
     """Dialogues, heard cleanly, that did not end as the person wanted or broke a rule: `games`
     per kind of person in WILLS (each person of that kind alone) and who starts, against the
     random person. A policy that hears right should make none."""
     missed = 0
     for kind in WILLS:
-        only = {f"{k}_probability": float(k == kind) for k in PERSON_KINDS}
-        clean = with_overrides(config, {"dialogue": {"asr_noise": 0.0, **only}})
+        clean = heard_cleanly(config, kind)
         for robot_starts in (True, False):
             r = evaluate(policy, "random", robot_starts, games, clean, seed=seed, n_envs=100)
             missed += games - round(r.task_success * games)

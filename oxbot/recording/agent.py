@@ -277,7 +277,7 @@ def measure(
         "dialogues": total,
         "repeated_questions_per_dialogue": sum(repeats) / len(repeats),
         "dialogues_with_a_repeat": sum(r > 0 for r in repeats) / len(repeats),
-        "ill_formed": sum(round((1 - r.well_formed) * r.games) for r in results),
+        "ill_formed": sum(r.ill_formed for r in results),
         "ill_formed_by_the_policy": sum(r.policy_faults for r in results),
         "losses": sum(round(r.loss_rate * r.games) for r in results),
         "task_success": sum(r.task_success * r.games for r in results) / total,

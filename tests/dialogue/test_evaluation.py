@@ -6,9 +6,9 @@ from oxbot.config import load_config
 from oxbot.dialogue.agent import load_policy
 from oxbot.dialogue.evaluation import (
     OUTCOMES,
-    PERSON_KINDS,
     check_dialogue,
     evaluate,
+    heard_cleanly,
     losing_positions,
     misread_wills,
     wins_against_random,
@@ -336,12 +336,6 @@ def test_the_shipped_policy_is_well_formed_when_it_hears_right(cooperative):
             assert r.well_formed == 1.0, r.problems
 
 
-ONLY = {
-    kind: [f"dialogue.{k}_probability={int(k == kind)}" for k in PERSON_KINDS]
-    for kind in ("refuse", "stop", "decline")
-}
-
-
 @pytest.mark.parametrize(
     ("kind", "outcomes"),
     [("refuse", {"declined"}), ("stop", {"stopped"}), ("decline", {"win", "draw"})],
@@ -349,7 +343,7 @@ ONLY = {
 def test_the_shipped_policy_does_what_the_person_wants(kind, outcomes):
     """Heard cleanly: a person who says "no thanks" is let go, never made to play; one who
     asks to stop is let go; one who says "maybe later" and yes when asked again gets a game."""
-    config = load_config(None, ["dialogue.asr_noise=0", *ONLY[kind]])
+    config = heard_cleanly(load_config(), kind)
     policy = load_policy()
     for robot_starts in (True, False):
         r = evaluate(policy.act_batch, "minimax", robot_starts, 200, config, seed=11)
