@@ -251,6 +251,7 @@ def evaluation_score(results: dict[str, Any]) -> tuple[float, ...]:
         for r in results.values()
         if isinstance(r, dict)
     )
+    # absent when evaluate_checkpoint asks about the losing boards alone, before measuring them
     exact = round(sum(results.get("wins_against_random", [])), 9)
     wins = sum(r["win_rate"] for k, r in results.items() if k.startswith("random"))
     return (-results["losing_positions"], -results.get("misread_wills", 0), exact, -faults, wins)
