@@ -14,8 +14,11 @@ the middle of the game (`stop_probability`). In any answer the person may say so
 is none of the game's acts (`nonsense_probability`) or nothing at all (`silence_probability`);
 asked for a move, they may answer out of turn with small talk (`out_of_turn_probability`);
 told the outcome, they may ask for another game (`rematch_probability`). A person who never
-agreed to play answers "Your turn" by asking to stop. `cooperative=True` is a person who always
-agrees and plays a whole game (recognition noise still on), for measuring game play.
+agreed to play answers "Your turn" by asking to stop; one who wants to play but was heard saying
+no (or stop) answers "Okay, maybe another time" (or "Okay, let's stop here") with a yes ("Yes,
+I want to play.", the yeses of the user responses to these acts). `cooperative=True` is a
+person who always agrees and plays a whole game (recognition noise still on), for measuring
+game play.
 
 What the person says is one of the domain's phrasings of the act they mean
 (`user_phrases.txt`, the user responses), each equally often unless `phrasing_weights` says
@@ -29,6 +32,7 @@ understands it with the real `UserActClassifier`, in the context of what the rob
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,6 +42,8 @@ from oxbot.dialogue.domain import (
     ASK_AGAIN,
     DECLINE,
     GAME_MOVE_TEMPLATE,
+    GRANT_REFUSAL,
+    GRANT_STOP,
     GREETING,
     INTRODUCTION,
     INVITATION,
@@ -55,7 +61,7 @@ from oxbot.dialogue.domain import (
     words_of,
 )
 from oxbot.dialogue.understanding import UserActClassifier
-from oxbot.game.board import Board
+from oxbot.game.board import EMPTY_BOARD, Board, outcome
 from oxbot.game.opponents import Opponent, checked_move, random_opponent
 
 Heard = tuple[tuple[str, float], ...]
@@ -181,12 +187,31 @@ class UserSimulator:
         if is_feedback(system_act) and rng.random() < self.rematch_probability:
             return self._say(NEW_GAME, system_act)
         alternatives = self.domain.responses_to(system_act)
+        if system_act in (GRANT_REFUSAL, GRANT_STOP):
+            # "Okay, another time", "Okay, let's stop here": only a person who wanted to play
+            # on, heard saying no or stop, says yes to it
+            yes = [" ".join(u.words) for u in alternatives if u.act == ACCEPT]
+            if yes and self._wants_to_play(system_act, board):
+                self.agreed = True
+                return self._say(ACCEPT, system_act, texts=yes)
+            alternatives = tuple(u for u in alternatives if u.act != ACCEPT)
         if not alternatives:
             return SILENT
         choice = alternatives[rng.integers(len(alternatives))]
         if choice.act == SILENCE:
             return SILENT
         return self._say(choice.act, system_act)
+
+    def _wants_to_play(self, system_act: str, board: Board) -> bool:
+        """Whether this person, told that the game will not be or stops here, wants to play:
+        before the game, one who said yes or would; in it, one who has not asked to stop."""
+        if self.asked_to_stop or outcome(board) is not None:
+            return False
+        if system_act == GRANT_STOP:
+            return self.agreed and board != EMPTY_BOARD
+        return board == EMPTY_BOARD and (
+            self.agreed or not (self.refuses or self.declines_once or self.refused)
+        )
 
     def _asked_to_play(self, system_act: str) -> UserTurn:
         rng = self.rng
@@ -222,10 +247,17 @@ class UserSimulator:
         self.moves += 1
         return self._say(GAME_MOVE_TEMPLATE, MOVE_REQUEST, cell)
 
-    def _say(self, act: str, system_act: str, cell: int | None = None) -> UserTurn:
-        """`act` said in one of its phrasings (a drawing in `cell`), heard and understood."""
-        phrasings = self._phrasings[act]
-        weights = self._weights.get(act)
+    def _say(
+        self,
+        act: str,
+        system_act: str,
+        cell: int | None = None,
+        texts: Sequence[str] | None = None,
+    ) -> UserTurn:
+        """`act` said in one of its phrasings (or of `texts`; a drawing in `cell`), heard
+        and understood."""
+        phrasings = self._phrasings[act] if texts is None else texts
+        weights = self._weights.get(act) if texts is None else None
         if weights is None:  # the same random stream as before weights existed
             text = phrasings[int(self.rng.integers(len(phrasings)))]
         else:

@@ -38,6 +38,8 @@ from oxbot.dialogue.domain import (
     DECLINE,
     FEEDBACK_ACTS,
     GAME_MOVES,
+    GRANT_REFUSAL,
+    GRANT_STOP,
     I_START,
     INVITATION,
     MOVE_REQUEST,
@@ -96,10 +98,17 @@ IN_CONTEXT: dict[str, dict[str, str]] = {
     **{asked: _AS_YES for asked in (INVITATION, ASK_AGAIN)},
     **{told: {ACCEPT: ACKNOWLEDGE} for told in FEEDBACK_ACTS.values()},
     **{playing: _AS_STOP for playing in (MOVE_REQUEST, *GAME_MOVES)},
+    GRANT_REFUSAL: {NEW_GAME: ACCEPT, I_START: ACCEPT},
 }
+_LETTING_GO = (GRANT_REFUSAL, GRANT_STOP)
 """What an act means as the answer to a system act: asked to play, "okay then", "one game" and
 "can I start" all say yes; told who won, "yes" acknowledges it; in the middle of a game, "no",
-"I don't want to" and "goodbye" ask to stop."""
+"I don't want to" and "goodbye" ask to stop; told "okay, another time", "one game" changes the
+person's mind (and a yes only with `CHANGED_MIND`'s words)."""
+CHANGED_MIND = ("play", "game", "let's go", "i'm in", "i do", "i did", "i said", "actually", "wait")
+"""After the robot let a no or a stop go ("Okay, maybe another time.", "Okay, let's stop
+here."), a yes is a change of mind (or a yes or a move it misheard) only with one of these
+words: "okay", "sure" and even a bare "yes" there may only agree."""
 
 
 class Scored(Protocol):
@@ -241,6 +250,8 @@ class UserActClassifier:
         unknown_words = self.words.isdisjoint(words)  # only letters in common
         fragment = len(words) == 1 and text not in self.one_word_answers
         meant = IN_CONTEXT.get(context, {}).get(act, act)
+        if context in _LETTING_GO and meant == ACCEPT and not _holds(text, CHANGED_MIND):
+            meant = ACKNOWLEDGE
         if (
             act == UNKNOWN
             or p < self.min_probability

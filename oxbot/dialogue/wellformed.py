@@ -54,17 +54,18 @@ def check_dialogue(
     (never a game nobody agreed to) and lets a person who declines or asks to stop go: it
     acknowledges (`Acknowledge(playGame=no)`, `Acknowledge(stop)`) and says goodbye, with no
     move after a stop. A clear no to its question ("no thanks", understood with a score of at
-    least `SURE_NO`) is final; after a "later", an unsure no or a no said before it asked, it
+    least `SURE_NO`) is final, unless the person takes it back ("Yes, I want to play": the
+    robot may play, not ask again); after a "later", an unsure no or a no said before it asked, it
     may ask once more; asking again about an answer it could not make out (silence, chatter)
     does not count; a no after the game's feedback that answers no question ("oh no") needs no
     acknowledgement, the goodbye lets it go. A clear stop is final too: no request for a move
-    after it, nor after two stops. A game it plays, it plays properly: introduction and
-    invitation before the first move, the person asked for their move after each robot move
-    until the game is over, and exactly one feedback act, the one of the real outcome. It never
-    walks away from a person who wanted to play. The person's turns are read as the acts they
-    meant (the environment's transcript) or, where `understood` gives one per turn, as the acts
-    the robot understood, with `scores` the understanding's scores (none given: every turn
-    clear).
+    after it, nor after two stops, until a yes takes it back ("I want to play"). A game it
+    plays, it plays properly: introduction and invitation before the first move, the person
+    asked for their move after each robot move until the game is over, and exactly one feedback
+    act, the one of the real outcome. It never walks away from a person who wanted to play.
+    The person's turns are read as the acts they meant (the environment's transcript) or, where
+    `understood` gives one per turn, as the acts the robot understood, with `scores` the
+    understanding's scores (none given: every turn clear).
     """
     sys_acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
     if not sys_acts or sys_acts[0] != GREETING:
@@ -102,12 +103,14 @@ def blame(
     """Who made a dialogue ill formed (`problem`, from `check_dialogue`): "hearing" when read
     as the robot understood it (each answer taken as the act it was understood as, with its
     score) it breaks no rule about the person's will, and the problem is one of those or a
-    walk-away: "later" taken for a yes at 0.8, a yes taken for a clear no. Otherwise "policy":
+    walk-away: "later" taken for a yes at 0.8, a yes taken for a clear no. Otherwise "policy",
+    and for walking away from a person whose last yes, no or stop it understood as a yes:
     a mistake the robot made about what it understood, or in playing (training can remove
     these; the others only better hearing, or asking about every answer, can)."""
-    about_the_person = problem.startswith("walks away") or problem == ignores_the_person(
-        transcript, understood, scores
-    )
+    walks_away = problem.startswith("walks away")
+    if walks_away and _last_answer(transcript, understood) == ACCEPT:
+        return "policy"  # it heard a yes last, and left
+    about_the_person = walks_away or problem == ignores_the_person(transcript, understood, scores)
     as_heard = [
         {**turn, "act": act} if turn["speaker"] == "usr" else turn
         for turn, act in zip(transcript, understood, strict=True)
@@ -115,6 +118,19 @@ def blame(
     if about_the_person and ignores_the_person(as_heard, understood, scores) is None:
         return "hearing"
     return "policy"
+
+
+def _last_answer(transcript: list[Turn], understood: Sequence[str]) -> str | None:
+    """The last yes, no or stop the person was understood to say, or None."""
+    answers = (ACCEPT, STOP, *REFUSALS)
+    return next(
+        (
+            act
+            for turn, act in zip(reversed(transcript), reversed(understood), strict=True)
+            if turn["speaker"] == "usr" and act in answers
+        ),
+        None,
+    )
 
 
 def _agreed_before_playing(transcript: list[Turn]) -> str | None:
@@ -169,7 +185,11 @@ def _lets_a_stop_go(transcript: list[Turn], heard: list[str], sure: list[bool]) 
     for turn, understood, clear in zip(transcript, heard, sure, strict=True):
         act = turn["act"]
         if turn["speaker"] == "usr":
-            stops += act == STOP
+            # a yes after a stop ("I want to play") takes it back; meant and understood
+            # apart, so that a stop misheard as a yes still counts against going on
+            stops = 0 if act == ACCEPT else stops + (act == STOP)
+            if understood == ACCEPT:
+                understood_stops, clear_stop, acknowledged = 0, False, False
             understood_stops += understood == STOP
             clear_stop = clear_stop or (understood == STOP and clear)
         elif stops and is_game_move(act):

@@ -45,11 +45,13 @@ def test_the_model_reproduces_the_seed_dialogues():
     predicted = model.classifier_.classes_[model.class_proba(states).argmax(axis=1)]
     differ = {(str(p), q) for p, q in zip(predicted, labels, strict=True) if p != q}
     # the choices the seeds disagree on, left to the policy: after a first "no" ask once more
-    # or let the person go; after a yes or a stop it was not sure of, ask again or go on
+    # or let the person go; after a yes or a stop it was not sure of, ask again or go on;
+    # after "let's stop here" heard a yes (a stop misheard or taken back), go on or close
     choices = [
         {"Acknowledge(playGame=no)", "Request(playGame)#again"},
         {"Reply(playGame=yes)", "Request(repeat)"},
         {"Acknowledge(stop)", "Request(userGameMove)#again"},
+        {"Request(userGameMove)", "Salutation(closing)"},
     ]
     assert all({p, q} in choices for p, q in differ), differ
     assert "Request(playGame)#again" in labels  # asking again after a "no" is learned apart
@@ -128,3 +130,17 @@ def test_after_a_first_no_the_mask_offers_asking_once_more_and_letting_go():
     assert {"Request(playGame)", "Acknowledge(playGame=no)"} <= offered
     assert "Reply(playGame=yes)" not in offered and not mask[:9].any()
     assert m.action_model.threshold == 0.001
+
+
+def test_after_a_no_or_stop_taken_back_the_mask_offers_to_play_on():
+    let_go = [(GREETING, None), (INTRODUCTION, None), (INVITATION, "Reject(playGame=no)")]
+    state = state_after([*let_go, ("Acknowledge(playGame=no)", ACCEPT)])
+    offered = {SYSTEM_ACTS[i] for i in np.flatnonzero(state.offered()[1])}
+    assert "Reply(playGame=yes)" in offered
+
+    board = play(play(EMPTY_BOARD, 4, 1), 0, 2)
+    playing = [(GREETING, None), (INTRODUCTION, None), (INVITATION, ACCEPT), (LETS_PLAY, None)]
+    playing += [("GameMove(gridloc=middle)", None), (MOVE_REQUEST, "Request(stop)")]
+    state = state_after([*playing, ("Acknowledge(stop)", ACCEPT)], board)
+    offered = {SYSTEM_ACTS[i] for i in np.flatnonzero(state.offered()[1])}
+    assert {MOVE_REQUEST, "Salutation(closing)"} <= offered, offered

@@ -17,17 +17,21 @@ from tests.dialogue.conftest import replace_line
 
 def test_shipped_domain_has_varied_seed_dialogues_games_and_refusals():
     domain = load_domain()
-    assert len(domain.dialogues) == 18
+    assert len(domain.dialogues) == 20
     feedback = Counter(
         u.act for d in domain.dialogues for u in d if u.act.startswith("Provide(feedback=")
     )
     assert set(feedback) == set(FEEDBACK_ACTS.values())  # robot wins, draws and losses
     games = [d for d in domain.dialogues if any(u.cell is not None for u in d)]
     starters = Counter(next(u.speaker for u in d if u.cell is not None) for d in games)
-    assert starters == {"SYS": 8, "USR": 7}
+    assert starters == {"SYS": 9, "USR": 8}
     refusals = [d for d in domain.dialogues if d not in games]
     assert len(refusals) == 3  # no thanks; no twice; maybe later
     assert all("Acknowledge(playGame=no)" in [u.act for u in d] for d in refusals)
+    # a no and a stop taken back after the robot let them go: it plays on (19, 20)
+    taken_back = [d for d in games if "Acknowledge(playGame=no)" in [u.act for u in d]]
+    taken_back += [d for d in games if "Acknowledge(stop)" in [u.act for u in d][:-2]]
+    assert len(taken_back) == 2
     moves = {sum(u.cell is not None for u in d) for d in games}
     assert len(moves) >= 3  # games of different lengths
     openings = {tuple(u.act for u in d[:3]) for d in domain.dialogues}

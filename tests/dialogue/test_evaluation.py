@@ -260,6 +260,38 @@ def test_an_unsure_no_or_stop_may_be_checked_once():
     assert check_dialogue(checked_once, "stopped", scores=scores[:12]) is None
 
 
+def test_a_no_or_a_stop_taken_back_with_a_yes_lets_the_game_go_on():
+    no_then_yes = [
+        *GREETED,
+        usr("Reject(playGame=no)"),
+        sys("Acknowledge(playGame=no)"),
+        usr("Confirm(playGame=yes)"),
+        *FIGURE_1[4:],
+    ]
+    assert check_dialogue(no_then_yes, "win") is None
+    asks_instead = [*no_then_yes[:6], sys("Request(playGame)")]
+    assert "after a clear no" in check_dialogue(asks_instead, None)
+
+    stop_then_yes = [
+        *FIGURE_1[:8],
+        usr("Request(stop)"),
+        sys("Acknowledge(stop)"),
+        usr("Confirm(playGame=yes)"),
+        sys("GameMove(gridloc=lowerright)"),
+        *FIGURE_1[9:],
+    ]
+    assert check_dialogue(stop_then_yes, "win") is None
+    silent = [*stop_then_yes[:10], *stop_then_yes[11:]]
+    assert "goes on playing after the person asked to stop" in check_dialogue(silent, "win")
+    # a stop misheard as a yes: going on is against the person's will, and the hearing's fault
+    understood = [t["act"] for t in stop_then_yes]
+    meant = [*stop_then_yes[:10], usr("Request(stop)"), *stop_then_yes[11:]]
+    scores = [1.0] * len(meant)
+    problem = check_dialogue(meant, "win", understood, scores)
+    assert "goes on playing after the person asked to stop" in problem
+    assert blame(problem, meant, understood, scores) == "hearing"
+
+
 def test_a_fault_is_blamed_on_hearing_only_when_what_was_understood_excuses_it():
     invited = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playGame)")]
     later_taken_for_yes = [
@@ -294,6 +326,14 @@ def test_a_fault_is_blamed_on_hearing_only_when_what_was_understood_excuses_it()
     problem = check_dialogue(asks_again, None, understood[:5], scores[:5])
     assert "after a clear no" in problem
     assert blame(problem, asks_again, understood[:5], scores[:5]) == "policy"
+
+    # it took the yes for a no, and then heard the yes said again: leaving is its own mistake
+    said_again = [*yes_taken_for_no[:5], usr("Confirm(playGame=yes)"), sys("Salutation(closing)")]
+    understood = [*understood[:5], "Confirm(playGame=yes)", ""]
+    scores = [*scores[:5], 0.9, 1]
+    problem = check_dialogue(said_again, "abandoned", understood, scores)
+    assert problem == "walks away from a person who wanted to play"
+    assert blame(problem, said_again, understood, scores) == "policy"
 
     # a game played badly is never the hearing's fault
     no_feedback = [*FIGURE_1[:12], sys("Salutation(closing)")]

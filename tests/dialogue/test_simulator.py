@@ -7,6 +7,8 @@ from oxbot.dialogue.domain import (
     ACCEPT,
     DECLINE,
     FEEDBACK_WIN,
+    GRANT_REFUSAL,
+    GRANT_STOP,
     GREETING,
     INTRODUCTION,
     INVITATION,
@@ -141,6 +143,33 @@ def test_the_person_may_stop_mid_game_and_asks_to_stop_when_nobody_asked_them():
     assert person.kind == "stops"
     unasked = simulator(out_of_turn_probability=0)
     assert unasked.respond(MOVE_REQUEST, EMPTY_BOARD, True).act == STOP
+
+
+def test_a_person_heard_saying_no_or_stop_says_yes_when_the_robot_lets_them_go():
+    """Told "Okay, maybe another time" after a yes misheard as a no (or "Okay, let's stop here"
+    after a drawing misheard as a stop), a person who wants to play says so; one who said no or
+    stop does not."""
+    board = play(EMPTY_BOARD, 4, 1)
+    for seed in range(20):
+        wants = agreed(simulator(seed, asr_noise=0, out_of_turn_probability=0))
+        answer = wants.respond(GRANT_REFUSAL, EMPTY_BOARD, False)
+        assert answer.act == ACCEPT and answer.understood[0] == ACCEPT, answer
+        assert wants.respond(GRANT_STOP, board, True).understood[0] == ACCEPT
+        not_asked_yet = simulator(seed, asr_noise=0, decline_probability=0.0)
+        assert not_asked_yet.respond(GRANT_REFUSAL, EMPTY_BOARD, False).act == ACCEPT
+
+        refuses = simulator(seed, asr_noise=0, refuse_probability=1.0)
+        refuses.respond(INVITATION, EMPTY_BOARD, False)
+        assert refuses.respond(GRANT_REFUSAL, EMPTY_BOARD, False).act != ACCEPT
+        later = simulator(seed, asr_noise=0, decline_probability=1.0)
+        assert later.respond(INVITATION, EMPTY_BOARD, False).act == POSTPONE
+        assert later.respond(GRANT_REFUSAL, EMPTY_BOARD, False).act != ACCEPT
+
+        stops = agreed(simulator(seed, asr_noise=0, stop_probability=1.0))
+        while stops.respond(MOVE_REQUEST, board, True).act != STOP:
+            pass
+        assert stops.respond(GRANT_STOP, board, True).act != ACCEPT
+        assert wants.respond(GRANT_STOP, EMPTY_BOARD, True).act != ACCEPT  # no game yet
 
 
 def test_the_person_may_say_nonsense_or_nothing_and_ask_for_a_rematch():

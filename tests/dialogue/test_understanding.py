@@ -18,6 +18,8 @@ from oxbot.dialogue.domain import (
     DECLINE,
     FEEDBACK_WIN,
     GAME_MOVE_TEMPLATE,
+    GRANT_REFUSAL,
+    GRANT_STOP,
     INVITATION,
     MOVE_REQUEST,
     NEW_GAME,
@@ -97,6 +99,18 @@ def test_an_answer_is_read_in_the_context_of_the_question(classifier):
     assert classifier.classify("one game", INVITATION).act == ACCEPT
     assert classifier.classify("yes", FEEDBACK_WIN).act == ACKNOWLEDGE  # yes, you won
     assert classifier.classify("no", MOVE_REQUEST).act == STOP  # no more, mid-game
+
+
+@pytest.mark.parametrize("context", [GRANT_REFUSAL, GRANT_STOP])
+def test_after_the_robot_lets_a_no_or_stop_go_only_a_yes_about_playing_takes_it_back(
+    classifier, context
+):
+    # "Okay, maybe another time." - "okay" / "yes" / "sure" agree with it; they are no yes
+    for text in ("okay", "yes", "sure", "alright then", "fine"):
+        assert classifier.classify(text, context).act == ACKNOWLEDGE, text
+    for text in ("yes I want to play", "yes let's play", "actually yes", "let's go"):
+        assert classifier.classify(text, context).act == ACCEPT, text
+    assert classifier.classify("no thanks", context).act in (*REFUSALS, STOP)
 
 
 @pytest.mark.parametrize("text", ["oh no", "oh", "hmm", "oops", "wow"])
