@@ -271,6 +271,10 @@ def test_a_no_or_a_stop_taken_back_with_a_yes_lets_the_game_go_on():
     assert check_dialogue(no_then_yes, "win") is None
     asks_instead = [*no_then_yes[:6], sys("Request(playGame)")]
     assert "after a clear no" in check_dialogue(asks_instead, None)
+    # "Hi!" heard as "no thanks" before it asked: the person's yes is invitation enough
+    unasked = [*GREETED[:2], usr("Salutation(greeting)"), *no_then_yes[4:]]
+    assert check_dialogue(unasked, "win") is None
+    assert "does not invite" in check_dialogue([*unasked[:2], *unasked[4:]], "win")
 
     stop_then_yes = [
         *FIGURE_1[:8],

@@ -259,6 +259,28 @@ def test_no_thanks_is_acknowledged_and_the_robot_says_goodbye(speak):
     assert ended.outcome == "declined"
 
 
+@pytest.mark.parametrize("after_the_ack,plays", [("Yes, I want to play.", True), ("Okay.", False)])
+def test_a_no_taken_back_gets_a_game_and_an_okay_does_not(after_the_ack, plays):
+    """ "No thanks." - "Okay, maybe another time." - "Yes, I want to play.": the robot plays."""
+    with Robot(FAST, seed=11) as robot:
+        answers = {
+            "Request(playGame)": ["No thanks."],
+            "Acknowledge(playGame=no)": [after_the_ack],
+            "Request(userGameMove)": ["I want to stop."] * 3,
+        }
+        turns, ended = talk_until_goodbye(robot, answers, 60.0)
+    acts = [t.act for t in turns if t.speaker == "sys"]
+    said = [(t.speaker, t.act, t.text) for t in turns]
+    assert "Acknowledge(playGame=no)" in acts, said
+    after = acts[acts.index("Acknowledge(playGame=no)") + 1 :]
+    if plays:
+        assert after[0] == "Reply(playGame=yes)" and "Request(userGameMove)" in after, said
+        assert ended.outcome == "stopped"
+    else:
+        assert after == ["Salutation(closing)"], said
+        assert ended.outcome == "declined"
+
+
 def test_maybe_later_is_asked_once_more_and_a_yes_then_gets_a_game():
     with Robot(FAST, seed=14) as robot:
         events = robot.bus.subscribe(DialogueAct)
