@@ -8,7 +8,6 @@ evaluations count how many dialogues break them (`oxbot.dialogue.evaluation`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from itertools import pairwise
 
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -61,10 +60,9 @@ def check_dialogue(
     does not count; a no after the game's feedback that answers no question ("oh no") needs no
     acknowledgement, the goodbye lets it go. A clear stop is final too: no request for a move
     after it, nor after two stops, until a yes takes it back ("I want to play"). A game it
-    plays, it plays properly: introduction and invitation (or a no taken back) before the first
-    move, the person asked for their move after each robot move until the game is over, and
-    exactly one feedback act, the one of the real outcome. It never walks away from a person
-    who wanted to play.
+    plays, it plays properly: introduction and invitation before the first move, the person
+    asked for their move after each robot move until the game is over, and exactly one feedback
+    act, the one of the real outcome. It never walks away from a person who wanted to play.
     The person's turns are read as the acts they meant (the environment's transcript) or, where
     `understood` gives one per turn, as the acts the robot understood, with `scores` the
     understanding's scores (none given: every turn clear).
@@ -120,15 +118,6 @@ def blame(
     if about_the_person and ignores_the_person(as_heard, understood, scores) is None:
         return "hearing"
     return "policy"
-
-
-def _took_a_no_back(transcript: list[Turn]) -> bool:
-    """Whether the person answered the robot's acknowledgement of a no with a yes: asked to
-    play of their own accord ("Hi!" misheard as "no thanks", "Yes, I want to play.")."""
-    return any(
-        said["act"] == GRANT_REFUSAL and answer["speaker"] == "usr" and answer["act"] == ACCEPT
-        for said, answer in pairwise(transcript)
-    )
 
 
 def _last_answer(transcript: list[Turn], understood: Sequence[str]) -> str | None:
@@ -224,7 +213,7 @@ def _played_properly(transcript: list[Turn], outcome: str | None) -> str | None:
     before = {t["act"] for t in transcript[:first_move] if t["speaker"] == "sys"}
     if INTRODUCTION not in before:
         return "does not introduce itself before the first move"
-    if INVITATION not in before and not _took_a_no_back(transcript[:first_move]):
+    if INVITATION not in before:
         return "does not invite the person before the first move"
     board: Board = EMPTY_BOARD
     sys_index = -1

@@ -271,10 +271,10 @@ def test_a_no_or_a_stop_taken_back_with_a_yes_lets_the_game_go_on():
     assert check_dialogue(no_then_yes, "win") is None
     asks_instead = [*no_then_yes[:6], sys("Request(playGame)")]
     assert "after a clear no" in check_dialogue(asks_instead, None)
-    # "Hi!" heard as "no thanks" before it asked: the person's yes is invitation enough
+    # "Hi!" heard as "no thanks" before it asked, then "Yes, I want to play": the rule still
+    # asks for an invitation before the first move (docs/dialogue.md, "A no or a stop taken back")
     unasked = [*GREETED[:2], usr("Salutation(greeting)"), *no_then_yes[4:]]
-    assert check_dialogue(unasked, "win") is None
-    assert "does not invite" in check_dialogue([*unasked[:2], *unasked[4:]], "win")
+    assert "does not invite" in check_dialogue(unasked, "win")
 
     stop_then_yes = [
         *FIGURE_1[:8],
@@ -410,11 +410,10 @@ def test_acceptance_ten_thousand_games_per_condition():
             assert r.loss_rate == 0, (opponent, robot_starts, r.summary())
             assert r.well_formed >= 0.99, r.problems
             if opponent == "random":
-                # SPEC §3: within 1 point of the optimum. (Issue 14 asks for 0.3, not met:
-                # 0.15-0.49 at seeds 0, 1 and 2026, nearly all of it dialogues a yes misheard
-                # as a clear no ends; docs/dialogue.md.)
+                # Issue 14: within 0.3 points of the optimum (SPEC §3: 1 point). Measured at
+                # seed 2026: 0.01 and 0.07 below; seeds 0 and 1 in docs/dialogue.md.
                 optimum = win_probability_vs_random(EMPTY_BOARD, ROBOT, robot_starts)
-                assert r.win_rate >= optimum - 0.01, r.summary()
+                assert r.win_rate >= optimum - 0.003, r.summary()
     assert time.perf_counter() - started < 240
 
 
