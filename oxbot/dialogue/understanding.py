@@ -100,7 +100,6 @@ IN_CONTEXT: dict[str, dict[str, str]] = {
     **{playing: _AS_STOP for playing in (MOVE_REQUEST, *GAME_MOVES)},
     GRANT_REFUSAL: {NEW_GAME: ACCEPT, I_START: ACCEPT},
 }
-_LETTING_GO = (GRANT_REFUSAL, GRANT_STOP)
 """What an act means as the answer to a system act: asked to play, "okay then", "one game" and
 "can I start" all say yes; told who won, "yes" acknowledges it; in the middle of a game, "no",
 "I don't want to" and "goodbye" ask to stop; told "okay, another time", "one game" changes the
@@ -109,6 +108,7 @@ CHANGED_MIND = ("play", "game", "let's go", "i'm in", "i do", "i did", "i said",
 """After the robot let a no or a stop go ("Okay, maybe another time.", "Okay, let's stop
 here."), a yes is a change of mind (or a yes or a move it misheard) only with one of these
 words: "okay", "sure" and even a bare "yes" there may only agree."""
+_LETTING_GO = (GRANT_REFUSAL, GRANT_STOP)
 
 
 class Scored(Protocol):

@@ -103,10 +103,10 @@ def blame(
     """Who made a dialogue ill formed (`problem`, from `check_dialogue`): "hearing" when read
     as the robot understood it (each answer taken as the act it was understood as, with its
     score) it breaks no rule about the person's will, and the problem is one of those or a
-    walk-away: "later" taken for a yes at 0.8, a yes taken for a clear no. Otherwise "policy",
-    and for walking away from a person whose last yes, no or stop it understood as a yes:
-    a mistake the robot made about what it understood, or in playing (training can remove
-    these; the others only better hearing, or asking about every answer, can)."""
+    walk-away: "later" taken for a yes at 0.8, a yes taken for a clear no. Otherwise "policy"
+    (walking away after it understood a yes last, too): a mistake the robot made about what it
+    understood, or in playing (training can remove these; the others only better hearing, or
+    asking about every answer, can)."""
     walks_away = problem.startswith("walks away")
     if walks_away and _last_answer(transcript, understood) == ACCEPT:
         return "policy"  # it heard a yes last, and left
