@@ -1,0 +1,455 @@
+"""Board photos composed from real handwriting on real paper: issue 15's independent test.
+
+Nobody here drew these symbols and nobody here made these sheets: the circles and crosses (and,
+where the source has them, the grid's lines) are people's own drawings from a public dataset,
+the paper, whiteboards and desks are public photos, and only the putting together is ours. It
+was written for that purpose without looking at `oxbot.testing.render` or the training
+synthesiser, and nothing here imports `oxbot.perception`: a reader that learnt their quirks
+cannot pass by recognising them. The sources are not in git; see
+`bench/data/composite_boards/SOURCES.md` for what they are and how to restore them.
+
+    HandwritingSource.load(folder, manifest)
+                                     circle.json, cross.json (and line.json): lists of drawings,
+                                     each a list of strokes, each a list of [x, y] points; the
+                                     manifest says who drew each (the parts split by writer)
+    PaperSource.load(folder, regions, part)
+                                     the blank stretches of paper, whiteboard and desk photos
+                                     that a CSV file lists, with the part each belongs to
+    compose(rng, hands, papers)      one photo (RGB uint8) and its 9 labels, row by row
+    write_set(out, hands, papers, n, seed, split)
+                                     n photos of one part's drawings (`papers` already of that
+                                     part) and a labels.csv that bench_real_boards.py reads
+
+How a photo is made, stage by stage: a crop of a paper photo (or a whiteboard) is the sheet; the
+grid's four lines are a person's line drawings where the source has them (otherwise a slow,
+wavering pen path), overshooting their crossings by a random amount; each symbol is a person's
+drawing fitted into its cell at its own size, place and slant; ink is laid over the paper
+subtractively (the paper shows through it) in a pen, marker or pencil colour; the sheet lies on
+a desk photo and is seen by a camera: turned, in perspective, lit unevenly, with a shadow,
+defocus or shake, sensor noise, and saved at a webcam or phone size as JPEG.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from oxbot.atomic import atomic_write
+
+PAPER_KINDS = ("plain", "squared", "ruled", "dotted", "whiteboard")
+"""Photos a sheet can be cut from; `desk_*` photos are only ever what the sheet lies on."""
+LABELS = ("circle", "cross", "nothing")
+SHEET = 1000  # the sheet is composed at this many pixels a side before the camera sees it
+CELLS = tuple(f"c{r}{c}" for r in range(3) for c in range(3))
+COLUMNS = ("file", "board", "split", "paper", "ink", "grid_frac", *CELLS, "notes")
+
+# Ink colours as what they let through of each RGB channel (1 = all of it).
+INKS = {
+    "blue ballpoint": (0.25, 0.30, 0.65),
+    "black pen": (0.12, 0.12, 0.14),
+    "black marker": (0.05, 0.05, 0.06),
+    "blue marker": (0.10, 0.25, 0.70),
+    "red marker": (0.75, 0.12, 0.15),
+    "green marker": (0.12, 0.55, 0.25),
+    "pencil": (0.45, 0.45, 0.47),
+}
+
+
+@dataclass(frozen=True)
+class HandwritingSource:
+    """People's drawings by class: each drawing a list of (K, 2) float strokes, and who drew
+    it (one writer per drawing where nothing says otherwise)."""
+
+    drawings: dict[str, list[list[np.ndarray]]]
+    writers: dict[str, list[str]]
+
+    @classmethod
+    def load(cls, folder: str | Path, manifest: str | Path | None = None) -> HandwritingSource:
+        """circle.json, cross.json (and line.json) in `folder`; `manifest`, a CSV file with a
+        row (class, index, writer) per drawing, says who drew what."""
+        folder = Path(folder)
+        writer_of: dict[tuple[str, int], str] = {}
+        if manifest is not None:
+            with Path(manifest).open(newline="", encoding="utf-8") as handle:
+                for row in csv.DictReader(handle):
+                    writer_of[row["class"], int(row["index"])] = row["writer"]
+        drawings: dict[str, list[list[np.ndarray]]] = {}
+        writers: dict[str, list[str]] = {}
+        for name in ("circle", "cross", "line"):
+            path = folder / f"{name}.json"
+            if not path.is_file():
+                continue
+            raw = json.loads(path.read_text(encoding="utf-8"))
+            drawings[name], writers[name] = [], []
+            for index, drawing in enumerate(raw):
+                strokes = [np.asarray(s, np.float64).reshape(-1, 2) for s in drawing if len(s)]
+                if strokes and np.ptp(np.concatenate(strokes), axis=0).max() > 0:
+                    drawings[name].append(strokes)
+                    writers[name].append(writer_of.get((name, index), f"{name}:{index}"))
+        for name in ("circle", "cross"):
+            if not drawings.get(name):
+                raise FileNotFoundError(
+                    f"{folder / (name + '.json')} is missing or empty; restore the handwriting "
+                    f"as bench/data/composite_boards/SOURCES.md says"
+                )
+        return cls(drawings, writers)
+
+    def split(self, part: str) -> HandwritingSource:
+        """The drawings of one part, by writer: `dev` those of a quarter of the writers (by a
+        hash of their name), `test` the others'; no writer is in both."""
+
+        def in_part(writer: str) -> bool:
+            dev = int(hashlib.sha1(writer.encode()).hexdigest(), 16) % 4 == 0
+            return dev == (part == "dev")
+
+        drawings, writers = {}, {}
+        for name, items in self.drawings.items():
+            keep = [i for i, w in enumerate(self.writers[name]) if in_part(w)]
+            drawings[name] = [items[i] for i in keep]
+            writers[name] = [self.writers[name][i] for i in keep]
+        return HandwritingSource(drawings, writers)
+
+
+@dataclass(frozen=True)
+class PaperSource:
+    """Blank stretches of photos of writing surfaces, and desks, by kind: each an RGB uint8
+    image with the name of the photo it was cut from and the part it belongs to."""
+
+    photos: dict[str, list[tuple[str, np.ndarray]]]
+
+    @classmethod
+    def load(cls, folder: str | Path, regions: str | Path, part: str | None = None) -> PaperSource:
+        """The regions listed in the CSV file `regions` (file, kind, split, x0, y0, x1, y1: a
+        blank stretch of a photo in `folder`, chosen by looking at it), of one part or all."""
+        folder = Path(folder)
+        with Path(regions).open(newline="", encoding="utf-8") as handle:
+            rows = list(csv.DictReader(handle))
+        photos: dict[str, list[tuple[str, np.ndarray]]] = {}
+        for row in rows:
+            if row["kind"] not in (*PAPER_KINDS, "desk"):
+                raise ValueError(f"{regions}: kind {row['kind']!r} is not one of {PAPER_KINDS}")
+            if part is not None and row["split"] != part:
+                continue
+            image = cv2.imread(str(folder / row["file"]), cv2.IMREAD_COLOR)
+            if image is None:
+                raise FileNotFoundError(
+                    f"{folder / row['file']} is missing or unreadable; restore the paper photos "
+                    f"as bench/data/composite_boards/SOURCES.md says"
+                )
+            x0, y0, x1, y1 = (int(row[k]) for k in ("x0", "y0", "x1", "y1"))
+            region = image[y0:y1, x0:x1, ::-1].copy()
+            photos.setdefault(row["kind"], []).append((row["file"], region))
+        if not any(k in photos for k in PAPER_KINDS):
+            raise FileNotFoundError(f"{regions} lists no paper of part {part!r}")
+        return cls(photos)
+
+
+def random_position(rng: np.random.Generator) -> list[str]:
+    """The 9 cells of a position of a game: crosses first, as many or one more than circles,
+    from empty to full (no check for a finished line: a photo can be taken of any sheet)."""
+    moves = int(rng.integers(0, 10))
+    cells = rng.permutation(9)[:moves]
+    labels = ["nothing"] * 9
+    for turn, cell in enumerate(cells):
+        labels[cell] = "cross" if turn % 2 == 0 else "circle"
+    return labels
+
+
+def _fit(strokes: list[np.ndarray]) -> list[np.ndarray]:
+    """Strokes moved and scaled so that their box's longer side spans [-1, 1], centred."""
+    points = np.concatenate(strokes)
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre, half = (low + high) / 2, max(np.ptp(points, axis=0).max() / 2, 1e-9)
+    return [(s - centre) / half for s in strokes]
+
+
+def _wobbly_line(rng: np.random.Generator, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """A slow pen's straight line: a gentle bow and a tremor along it."""
+    t = np.linspace(0, 1, 60)[:, None]
+    along = end - start
+    normal = np.array([-along[1], along[0]]) / max(np.linalg.norm(along), 1e-9)
+    bow = rng.normal(0, 0.012) * np.linalg.norm(along) * np.sin(np.pi * t)
+    tremor = np.cumsum(rng.normal(0, 0.35, (60, 1)), axis=0)
+    tremor -= np.linspace(tremor[0], tremor[-1], 60)
+    return start + t * along + normal * (bow + tremor)
+
+
+def _line_from(
+    hands: HandwritingSource, rng: np.random.Generator, start: np.ndarray, end: np.ndarray
+) -> np.ndarray:
+    """A person's line drawing laid from `start` to `end`, or a wobbly line without one."""
+    lines = hands.drawings.get("line")
+    if not lines:
+        return _wobbly_line(rng, start, end)
+    drawing = lines[int(rng.integers(len(lines)))]
+    stroke = max(drawing, key=len)
+    if len(stroke) < 2:
+        return _wobbly_line(rng, start, end)
+    # Put the stroke's own ends on start and end: a similarity transform of the plane.
+    a, b = stroke[0], stroke[-1]
+    if np.linalg.norm(b - a) < 1e-6:
+        return _wobbly_line(rng, start, end)
+    src, dst = complex(*(b - a)), complex(*(end - start))
+    z = (stroke[:, 0] - a[0]) + 1j * (stroke[:, 1] - a[1])
+    w = z * (dst / src)
+    return np.stack([w.real + start[0], w.imag + start[1]], axis=1)
+
+
+def _draw(mask: np.ndarray, strokes: list[np.ndarray], width: float, up: int = 4) -> None:
+    """Adds the strokes' ink to `mask` (float32 0..1), drawn `up` times larger, then shrunk."""
+    points = np.concatenate(strokes)
+    low = np.floor(points.min(axis=0) - width * 2).astype(int)
+    high = np.ceil(points.max(axis=0) + width * 2).astype(int)
+    low = np.maximum(low, 0)
+    high = np.minimum(high, [mask.shape[1] - 1, mask.shape[0] - 1])
+    if np.any(high <= low):
+        return
+    w, h = high - low + 1
+    big = np.zeros((h * up, w * up), np.uint8)
+    thickness = max(1, round(width * up))
+    for s in strokes:
+        pts = np.round((s - low) * up).astype(np.int32).reshape(-1, 1, 2)
+        cv2.polylines(big, [pts], False, 255, thickness, cv2.LINE_AA)
+    small = cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA).astype(np.float32) / 255
+    region = mask[low[1] : high[1] + 1, low[0] : high[0] + 1]
+    np.maximum(region, small, out=region)
+
+
+def _crop(photo: np.ndarray, rng: np.random.Generator, side: int) -> np.ndarray:
+    """A random square crop of at least half the photo's shorter side, resized to `side`."""
+    h, w = photo.shape[:2]
+    size = int(min(h, w) * rng.uniform(0.5, 1.0))
+    y, x = int(rng.integers(0, h - size + 1)), int(rng.integers(0, w - size + 1))
+    return cv2.resize(photo[y : y + size, x : x + size], (side, side), interpolation=cv2.INTER_AREA)
+
+
+def _sheet(
+    hands: HandwritingSource, papers: PaperSource, rng: np.random.Generator
+) -> tuple[np.ndarray, list[str], np.ndarray, str, str]:
+    """The drawn sheet (RGB float32 0..255, SHEET a side), its 9 labels, the grid's 4 outer
+    corners in sheet pixels, the paper kind and the ink."""
+    kinds = [k for k in PAPER_KINDS if k in papers.photos]
+    kind = kinds[int(rng.integers(len(kinds)))]
+    name, photo = papers.photos[kind][int(rng.integers(len(papers.photos[kind])))]
+    sheet = _crop(photo, rng, SHEET).astype(np.float32)
+    # Pencil on paper one time in five; on a whiteboard only markers.
+    pens = [n for n in INKS if n != "pencil" and (kind != "whiteboard" or "marker" in n)]
+    pencil = kind != "whiteboard" and rng.random() < 0.2
+    ink = "pencil" if pencil else pens[int(rng.integers(len(pens)))]
+    symbol_ink = ink
+    if rng.random() < 0.25:  # the symbols in another pen than the grid
+        symbol_ink = pens[int(rng.integers(len(pens)))]
+    pen = {"marker": rng.uniform(5, 11), "pencil": rng.uniform(2, 3.5)}
+    width = next((v for k, v in pen.items() if k in ink), rng.uniform(2.5, 5))
+    symbol_width = next((v for k, v in pen.items() if k in symbol_ink), rng.uniform(2.5, 5))
+
+    # The grid: the 3x3 block's side and place on the sheet, lines at roughly equal thirds.
+    side = rng.uniform(0.55, 0.8) * SHEET
+    x0 = rng.uniform(0.1 * SHEET, SHEET - side - 0.1 * SHEET)
+    y0 = rng.uniform(0.1 * SHEET, SHEET - side - 0.1 * SHEET)
+    xs = x0 + side * np.array([0, 1 / 3 + rng.normal(0, 0.02), 2 / 3 + rng.normal(0, 0.02), 1])
+    ys = y0 + side * np.array([0, 1 / 3 + rng.normal(0, 0.02), 2 / 3 + rng.normal(0, 0.02), 1])
+    tilt = rng.normal(0, 0.03)  # the drawer's own slant of the lines
+    grid_mask = np.zeros((SHEET, SHEET), np.float32)
+    lines = []
+    for i in (1, 2):
+        over = side * rng.uniform(0.0, 0.12, 2)
+        lines.append(
+            (np.array([xs[i] + tilt * side, ys[0] - over[0]]), np.array([xs[i], ys[3] + over[1]]))
+        )
+        over = side * rng.uniform(0.0, 0.12, 2)
+        lines.append(
+            (np.array([xs[0] - over[0], ys[i]]), np.array([xs[3] + over[1], ys[i] - tilt * side]))
+        )
+    for start, end in lines:
+        _draw(grid_mask, [_line_from(hands, rng, start, end)], width)
+
+    labels = random_position(rng)
+    symbol_mask = np.zeros((SHEET, SHEET), np.float32)
+    for cell, label in enumerate(labels):
+        if label == "nothing":
+            continue
+        r, c = divmod(cell, 3)
+        cx, cy = (xs[c] + xs[c + 1]) / 2, (ys[r] + ys[r + 1]) / 2
+        w, h = xs[c + 1] - xs[c], ys[r + 1] - ys[r]
+        choices = hands.drawings[label]
+        strokes = _fit(choices[int(rng.integers(len(choices)))])
+        size = min(w, h) * rng.uniform(0.45, 0.8) / 2
+        angle = rng.normal(0, 0.15)
+        turn = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        stretch = np.array([rng.uniform(0.85, 1.15), 1.0])
+        shift = np.array([rng.normal(0, 0.07) * w, rng.normal(0, 0.07) * h])
+        placed = [(s * stretch) @ turn.T * size + np.array([cx, cy]) + shift for s in strokes]
+        _draw(symbol_mask, placed, symbol_width)
+
+    for mask, name_ in ((grid_mask, ink), (symbol_mask, symbol_ink)):
+        strength = rng.uniform(0.75, 1.0) if "pencil" not in name_ else rng.uniform(0.45, 0.75)
+        if name_ == "pencil":  # graphite is grainy: paper shows through in specks
+            mask = mask * (rng.random(mask.shape) < 0.75)
+            mask = cv2.GaussianBlur(mask.astype(np.float32), (3, 3), 0.6)
+        through = np.array(INKS[name_], np.float32)
+        a = (mask * strength)[:, :, None]
+        sheet = sheet * (1 - a + a * through)
+    corners = np.array([[xs[0], ys[0]], [xs[3], ys[0]], [xs[3], ys[3]], [xs[0], ys[3]]])
+    return (
+        sheet,
+        labels,
+        corners,
+        f"{kind} ({name})",
+        ink if ink == symbol_ink else (f"{ink} grid; {symbol_ink} symbols"),
+    )
+
+
+def _desk(papers: PaperSource, rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
+    """What the sheet lies on: a desk photo where there is one, else a plain dull colour."""
+    h, w = shape
+    desks = papers.photos.get("desk")
+    if desks:
+        photo = desks[int(rng.integers(len(desks)))][1]
+        side = max(h, w)
+        return _crop(photo, rng, side)[:h, :w].astype(np.float32)
+    colour = rng.uniform(40, 170, 3).astype(np.float32)
+    return np.broadcast_to(colour, (h, w, 3)).copy()
+
+
+CAMERAS = ((640, 480), (1280, 720), (960, 720), (1024, 768), (800, 600))
+
+
+def compose(
+    rng: np.random.Generator, hands: HandwritingSource, papers: PaperSource
+) -> tuple[np.ndarray, list[str], dict[str, str]]:
+    """One photo of a board: RGB uint8, its 9 labels row by row, and what it shows."""
+    sheet, labels, corners, paper_name, ink = _sheet(hands, papers, rng)
+    width, height = CAMERAS[int(rng.integers(len(CAMERAS)))]
+    # Where the grid lands in the frame: a turn of up to 35 degrees and a perspective tilt of
+    # the camera, then a size at which the box round the grid covers 15-60% of the frame (and
+    # fits in it).
+    angle = np.deg2rad(rng.uniform(-35, 35))
+    centre = corners.mean(axis=0)
+    sheet_corners = np.array([[0, 0], [SHEET, 0], [SHEET, SHEET], [0, SHEET]], np.float64)
+    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    away = rng.uniform(0, 0.35)  # one side of the sheet further from the camera than the other
+    direction = rng.uniform(0, 2 * np.pi)
+    unit = np.array([np.cos(direction), np.sin(direction)])
+
+    def seen_from_camera(points: np.ndarray) -> np.ndarray:
+        turned = (points - centre) @ rot.T
+        reach = np.abs(((sheet_corners - centre) @ rot.T) @ unit).max()
+        return turned / (1 + away * (turned @ unit) / reach)[:, None]
+
+    placed, grid_in = seen_from_camera(sheet_corners), seen_from_camera(corners)
+    box = np.ptp(grid_in, axis=0)
+    scale = np.sqrt(rng.uniform(0.15, 0.6) * width * height / (box[0] * box[1]))
+    scale = min(scale, 0.95 * width / box[0], 0.95 * height / box[1])
+    placed, grid_in = placed * scale, grid_in * scale
+    # Move so that the grid's box is in view, with an occasional grid cut by the frame.
+    low, high = grid_in.min(axis=0), grid_in.max(axis=0)
+    margin = -0.04 * (high - low) if rng.random() < 0.15 else np.zeros(2)
+    lo = -low + margin
+    hi = np.array([width, height]) - high - margin
+    offset = np.array(
+        [rng.uniform(min(lo[k], hi[k]), max(lo[k], hi[k])) for k in range(2)], np.float64
+    )
+    frame_corners = (placed + offset).astype(np.float32)
+    homography = cv2.getPerspectiveTransform(sheet_corners.astype(np.float32), frame_corners)
+    grid_frame = cv2.perspectiveTransform(
+        corners.reshape(-1, 1, 2).astype(np.float32), homography
+    ).reshape(-1, 2)
+    box = np.ptp(grid_frame, axis=0)
+    grid_frac = float(box[0] * box[1] / (width * height))
+
+    desk = _desk(papers, rng, (height, width))
+    seen = cv2.warpPerspective(sheet, homography, (width, height), flags=cv2.INTER_AREA)
+    cover = cv2.warpPerspective(
+        np.ones((SHEET, SHEET), np.float32), homography, (width, height), flags=cv2.INTER_LINEAR
+    )[:, :, None]
+    frame = desk * (1 - cover) + seen * cover
+
+    # Light: a slope across the frame, a soft shadow (a hand, the phone), a colour cast.
+    yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
+    slope_dir = rng.uniform(0, 2 * np.pi)
+    ramp = (np.cos(slope_dir) * xx / width + np.sin(slope_dir) * yy / height) * rng.uniform(0, 0.45)
+    light = 1.0 - ramp + ramp.mean()
+    if rng.random() < 0.5:
+        sx, sy = rng.uniform(0, width), rng.uniform(0, height)
+        radius = rng.uniform(0.15, 0.45) * max(width, height)
+        blob = np.exp(-(((xx - sx) ** 2 + (yy - sy) ** 2) / (2 * radius**2)))
+        light = light * (1 - rng.uniform(0.15, 0.45) * blob)
+    cast = rng.uniform(0.88, 1.08, 3).astype(np.float32)
+    frame = frame * light[:, :, None] * cast * rng.uniform(0.75, 1.1)
+
+    # Optics and sensor: defocus or shake, noise, then JPEG.
+    if rng.random() < 0.5:
+        frame = cv2.GaussianBlur(frame, (0, 0), rng.uniform(0.4, 1.6))
+    else:
+        length = int(rng.integers(2, 7))
+        kernel = np.zeros((length, length), np.float32)
+        kernel[length // 2, :] = 1 / length
+        turn = cv2.getRotationMatrix2D((length / 2 - 0.5, length / 2 - 0.5), rng.uniform(0, 180), 1)
+        kernel = cv2.warpAffine(kernel, turn, (length, length))
+        frame = cv2.filter2D(frame, -1, kernel / max(kernel.sum(), 1e-9))
+    frame = frame + rng.normal(0, rng.uniform(1, 6), frame.shape).astype(np.float32)
+    frame = np.clip(frame, 0, 255).astype(np.uint8)
+    quality = int(rng.integers(35, 92))
+    ok, data = cv2.imencode(".jpg", frame[:, :, ::-1], [cv2.IMWRITE_JPEG_QUALITY, quality])
+    assert ok
+    photo = cv2.imdecode(data, cv2.IMREAD_COLOR)[:, :, ::-1]
+    notes = {
+        "paper": paper_name,
+        "ink": ink,
+        "grid_frac": f"{grid_frac:.2f}",
+        "notes": (
+            f"{width}x{height} JPEG {quality}; turned {np.rad2deg(angle):.0f} deg; "
+            f"perspective {away:.2f}"
+        ),
+    }
+    return photo, labels, notes
+
+
+def write_set(
+    out: str | Path,
+    hands: HandwritingSource,
+    papers: PaperSource,
+    n: int,
+    seed: int,
+    split: str,
+) -> Path:
+    """`n` photos of the `split` part's drawings on `papers` in `out/images`, and
+    `out/labels.csv` (bench/bench_real_boards.py's format; each photo its own board)."""
+    out = Path(out)
+    (out / "images").mkdir(parents=True, exist_ok=True)
+    hands = hands.split(split)
+    rng = np.random.default_rng([seed, 0 if split == "dev" else 1])
+    rows = []
+    for i in range(n):
+        photo, labels, notes = compose(rng, hands, papers)
+        ok, data = cv2.imencode(".png", photo[:, :, ::-1])
+        assert ok
+        with atomic_write(out / "images" / f"{split}_{i:04d}.png") as handle:
+            handle.write(data.tobytes())
+        name = f"{split}_{i:04d}.png"
+        rows.append(
+            {
+                "file": name,
+                "board": f"{split}-{i}",
+                "split": split,
+                **{k: notes[k] for k in ("paper", "ink", "grid_frac", "notes")},
+                **dict(zip(CELLS, labels, strict=True)),
+            }
+        )
+    labels_path = out / "labels.csv"
+    existing = []
+    if labels_path.is_file():
+        with labels_path.open(newline="", encoding="utf-8") as handle:
+            existing = [r for r in csv.DictReader(handle) if r["split"] != split]
+    with atomic_write(labels_path, "w") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+        writer.writeheader()
+        writer.writerows(existing + rows)
+    return labels_path
