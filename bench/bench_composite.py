@@ -18,12 +18,18 @@ from __future__ import annotations
 
 import argparse
 import csv
-from collections import defaultdict
+from collections import Counter, defaultdict
 from pathlib import Path
 
+import numpy as np
+
 from bench.bench_real_boards import Tally, measure, report
-from oxbot.config import load_config
-from oxbot.testing.composite import HandwritingSource, PaperSource, write_set
+from oxbot.config import OxbotConfig, load_config
+from oxbot.perception.board import deepen_faint_ink
+from oxbot.perception.cells import wipe_background
+from oxbot.perception.classifier import load_classifier
+from oxbot.perception.wholeness import veto_partial
+from oxbot.testing.composite import HandwritingSource, PaperSource, symbol_cells, write_set
 
 DATA = Path(__file__).resolve().parent / "data" / "composite_boards"
 
@@ -33,6 +39,11 @@ def main() -> None:
     parser.add_argument("--split", choices=("dev", "test"), default="test")
     parser.add_argument("--photos", type=int, default=200, help="photos to make and read")
     parser.add_argument("--seed", type=int, default=15)
+    parser.add_argument(
+        "--cells",
+        action="store_true",
+        help="read every circle and cross of the part alone in a cell instead of boards",
+    )
     parser.add_argument("--hands", type=Path, default=DATA / "sources" / "handwriting")
     parser.add_argument("--papers", type=Path, default=DATA / "sources" / "paper")
     parser.add_argument(
@@ -48,6 +59,9 @@ def main() -> None:
         papers = PaperSource.load(args.papers, DATA / "paper_regions.csv", args.split)
     except FileNotFoundError as err:
         raise SystemExit(f"bench_composite: {err}") from None
+    if args.cells:
+        read_cells(hands.split(args.split), papers, args.seed, load_config(assignments=args.set))
+        return
     out = DATA / args.split
     labels = write_set(out, hands, papers, args.photos, args.seed, args.split)
     with labels.open(newline="", encoding="utf-8") as handle:
@@ -68,6 +82,45 @@ def main() -> None:
             f"NoGridFound {part.no_grid:>3}, empty as empty {part.empty_right}/{part.empty}, "
             f"symbols right {part.symbols_right}/{part.symbols}, sure wrong {part.sure_wrong}"
         )
+
+
+def read_cells(
+    hands: HandwritingSource, papers: PaperSource, seed: int, config: OxbotConfig
+) -> None:
+    """Each real circle and cross alone in a cell, read as the board reader reads a cell (the
+    paper's pattern wiped, faint ink deepened, the network, the wholeness check)."""
+    cells, labels, writers = symbol_cells(hands, papers, np.random.default_rng([seed, 2]))
+    cells = deepen_faint_ink(wipe_background(cells))
+    readings = load_classifier().read(cells)
+    perception = config.perception
+    if perception.wholeness:
+        readings = veto_partial(
+            cells, readings, perception.max_circle_gap, perception.plus_is_cross
+        )
+    sure = config.tracker.min_confidence
+    print(f"{len(labels)} real symbols alone in a cell, seed {seed}")
+    for source in ("quickdraw", "unipen", ""):
+        for label in ("circle", "cross", ""):
+            picked = [
+                i
+                for i, (w, lab) in enumerate(zip(writers, labels, strict=True))
+                if w.startswith(source) and lab.startswith(label)
+            ]
+            if not picked:
+                continue
+            said = Counter(readings[i].label for i in picked)
+            right = said[label] if label else sum(readings[i].label == labels[i] for i in picked)
+            wrong_sure = sum(
+                readings[i].label in ("circle", "cross")
+                and readings[i].label != labels[i]
+                and readings[i].confidence >= sure
+                for i in picked
+            )
+            name = f"{source or 'all'} {label or 'symbols'}"
+            print(
+                f"  {name:<22} {right}/{len(picked)} right ({100 * right / len(picked):.2f}%), "
+                f"read as {dict(said)}, wrong at the tracker's {sure:g}: {wrong_sure}"
+            )
 
 
 if __name__ == "__main__":

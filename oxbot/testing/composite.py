@@ -180,21 +180,36 @@ def _wobbly_line(rng: np.random.Generator, start: np.ndarray, end: np.ndarray) -
     return start + t * along + normal * (bow + tremor)
 
 
+MAX_LINE_BOW = 0.05
+"""A person's line drawing is a grid line if it strays from the straight line between its ends
+by at most this share of its length: Quick, Draw!'s "line" doodles, drawn in a hurry, hook and
+bow more than a grid drawn to play on (a bow of 5% is a sixth of a cell)."""
+
+
+def _bow(stroke: np.ndarray) -> float:
+    """How far the stroke strays from the chord between its ends, over the chord's length."""
+    chord = stroke[-1] - stroke[0]
+    length = float(np.linalg.norm(chord))
+    if length < 1e-6:
+        return float("inf")
+    normal = np.array([-chord[1], chord[0]]) / length
+    return float(np.abs((stroke - stroke[0]) @ normal).max() / length)
+
+
 def _line_from(
     hands: HandwritingSource, rng: np.random.Generator, start: np.ndarray, end: np.ndarray
 ) -> np.ndarray:
     """A person's line drawing laid from `start` to `end`, or a wobbly line without one."""
-    lines = hands.drawings.get("line")
+    lines = [
+        stroke
+        for stroke in (max(d, key=len) for d in hands.drawings.get("line", []))
+        if len(stroke) >= 2 and _bow(stroke) <= MAX_LINE_BOW
+    ]
     if not lines:
         return _wobbly_line(rng, start, end)
-    drawing = lines[int(rng.integers(len(lines)))]
-    stroke = max(drawing, key=len)
-    if len(stroke) < 2:
-        return _wobbly_line(rng, start, end)
+    stroke = lines[int(rng.integers(len(lines)))]
     # Put the stroke's own ends on start and end: a similarity transform of the plane.
     a, b = stroke[0], stroke[-1]
-    if np.linalg.norm(b - a) < 1e-6:
-        return _wobbly_line(rng, start, end)
     src, dst = complex(*(b - a)), complex(*(end - start))
     z = (stroke[:, 0] - a[0]) + 1j * (stroke[:, 1] - a[1])
     w = z * (dst / src)
@@ -453,3 +468,32 @@ def write_set(
         writer.writeheader()
         writer.writerows(existing + rows)
     return labels_path
+
+
+def symbol_cells(
+    hands: HandwritingSource, papers: PaperSource, rng: np.random.Generator, side: int = 40
+) -> tuple[np.ndarray, list[str], list[str]]:
+    """Every circle and cross of `hands` alone in a cell, as the board reader cuts one: a
+    square of paper `side` pixels wide (gray, the darkest channel, as the reader sees ink of
+    any colour), the symbol 72% as wide as the cell in a pen of random width, slightly
+    blurred. uint8 (N, side, side), the labels, and the writers."""
+    up = 6
+    kinds = [k for k in PAPER_KINDS if k in papers.photos]
+    cells, labels, writers = [], [], []
+    for label in ("circle", "cross"):
+        for strokes, writer in zip(hands.drawings[label], hands.writers[label], strict=True):
+            kind = kinds[int(rng.integers(len(kinds)))]
+            photo = papers.photos[kind][int(rng.integers(len(papers.photos[kind])))][1]
+            paper = _crop(photo, rng, side * up).astype(np.float32).min(axis=2)
+            mask = np.zeros(paper.shape, np.float32)
+            fitted = _fit(strokes)
+            half = 0.36 * side * up
+            placed = [s * half + side * up / 2 for s in fitted]
+            _draw(mask, placed, rng.uniform(0.04, 0.1) * side * up, up=1)
+            ink = paper * (1 - rng.uniform(0.7, 0.95) * mask)
+            cell = cv2.resize(ink, (side, side), interpolation=cv2.INTER_AREA)
+            cell = cv2.GaussianBlur(cell, (0, 0), rng.uniform(0.3, 0.8))
+            cells.append(np.clip(cell, 0, 255).astype(np.uint8))
+            labels.append(label)
+            writers.append(writer)
+    return np.stack(cells), labels, writers

@@ -17,6 +17,7 @@ from oxbot.testing.composite import (
     PaperSource,
     compose,
     random_position,
+    symbol_cells,
     write_set,
 )
 
@@ -118,3 +119,15 @@ def test_the_labels_are_what_the_reader_sees_on_easy_photos(sources):
             read += 1
             right += got == labels
     assert read >= 5 and right >= read - 1
+
+
+def test_symbol_cells_are_what_the_classifier_reads(sources):
+    hands, folder, regions = sources
+    papers = PaperSource.load(folder, regions)
+    cells, labels, writers = symbol_cells(hands, papers, np.random.default_rng(0))
+    assert cells.shape == (16, 40, 40) and cells.dtype == np.uint8
+    assert labels.count("circle") == labels.count("cross") == 8 and len(writers) == 16
+    from oxbot.perception import load_classifier
+
+    read = [r.label for r in load_classifier().read(cells)]
+    assert sum(r == label for r, label in zip(read, labels, strict=True)) >= 14
