@@ -19,6 +19,7 @@ cannot pass by recognising them. The sources are not in git; see
     write_set(out, hands, papers, n, seed, split)
                                      n photos of one part's drawings (`papers` already of that
                                      part) and a labels.csv that bench_real_boards.py reads
+    symbol_cells(hands, papers, rng) every circle and cross alone in a 40x40 cell
 
 How a photo is made, stage by stage: a crop of a paper photo (or a whiteboard) is the sheet; the
 grid's four lines are a person's line drawings where the source has them (otherwise a slow,
@@ -43,8 +44,8 @@ import numpy as np
 from oxbot.atomic import atomic_write
 
 PAPER_KINDS = ("plain", "squared", "ruled", "dotted", "whiteboard")
-"""Photos a sheet can be cut from; `desk_*` photos are only ever what the sheet lies on."""
-LABELS = ("circle", "cross", "nothing")
+"""Kinds of surface a sheet can be cut from; regions of kind "desk" are only ever what the
+sheet lies on."""
 SHEET = 1000  # the sheet is composed at this many pixels a side before the camera sees it
 CELLS = tuple(f"c{r}{c}" for r in range(3) for c in range(3))
 COLUMNS = ("file", "board", "split", "paper", "ink", "grid_frac", *CELLS, "notes")
