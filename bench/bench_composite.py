@@ -70,9 +70,11 @@ def main() -> None:
     tally = Tally()
     by_kind: dict[str, Tally] = defaultdict(Tally)
     for row in rows:
-        measure(row, out / "images", tally, config)
+        one = Tally()  # each photo read once, counted in all and in its kind
+        measure(row, out / "images", one, config)
         kind = row["paper"].split(" ", 1)[0] + (", pencil" if "pencil" in row["ink"] else "")
-        measure(row, out / "images", by_kind[kind], config)
+        tally.add(one)
+        by_kind[kind].add(one)
     print(f"{len(rows)} composed photos, seed {args.seed}, in {out}")
     report(args.split, tally)
     print("\nby paper (and pencil apart):")

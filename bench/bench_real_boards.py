@@ -59,6 +59,17 @@ class Tally:
     seconds: float = 0.0
     failures: list[str] = field(default_factory=list)
 
+    def add(self, other: Tally) -> None:
+        """Count `other`'s photos in this tally too."""
+        for name, value in vars(other).items():
+            mine = getattr(self, name)
+            if isinstance(mine, set):
+                mine |= value
+            elif isinstance(mine, list):
+                mine.extend(value)
+            else:
+                setattr(self, name, mine + value)
+
 
 def short(labels: list[str]) -> str:
     """The 9 labels as `XO.|...|..O`, row by row."""

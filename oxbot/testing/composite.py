@@ -197,15 +197,20 @@ def _bow(stroke: np.ndarray) -> float:
     return float(np.abs((stroke - stroke[0]) @ normal).max() / length)
 
 
-def _line_from(
-    hands: HandwritingSource, rng: np.random.Generator, start: np.ndarray, end: np.ndarray
-) -> np.ndarray:
-    """A person's line drawing laid from `start` to `end`, or a wobbly line without one."""
-    lines = [
+def _grid_lines(hands: HandwritingSource) -> list[np.ndarray]:
+    """The people's line drawings straight enough to be grid lines (each its longest stroke)."""
+    return [
         stroke
         for stroke in (max(d, key=len) for d in hands.drawings.get("line", []))
         if len(stroke) >= 2 and _bow(stroke) <= MAX_LINE_BOW
     ]
+
+
+def _line_from(
+    lines: list[np.ndarray], rng: np.random.Generator, start: np.ndarray, end: np.ndarray
+) -> np.ndarray:
+    """One of `lines` (people's line drawings) laid from `start` to `end`, or a wobbly line
+    where there are none."""
     if not lines:
         return _wobbly_line(rng, start, end)
     stroke = lines[int(rng.integers(len(lines)))]
@@ -273,6 +278,7 @@ def _sheet(
     ys = y0 + side * np.array([0, 1 / 3 + rng.normal(0, 0.02), 2 / 3 + rng.normal(0, 0.02), 1])
     tilt = rng.normal(0, 0.03)  # the drawer's own slant of the lines
     grid_mask = np.zeros((SHEET, SHEET), np.float32)
+    people_lines = _grid_lines(hands)
     lines = []
     for i in (1, 2):
         over = side * rng.uniform(0.0, 0.12, 2)
@@ -284,7 +290,7 @@ def _sheet(
             (np.array([xs[0] - over[0], ys[i]]), np.array([xs[3] + over[1], ys[i] - tilt * side]))
         )
     for start, end in lines:
-        _draw(grid_mask, [_line_from(hands, rng, start, end)], width)
+        _draw(grid_mask, [_line_from(people_lines, rng, start, end)], width)
 
     labels = random_position(rng)
     symbol_mask = np.zeros((SHEET, SHEET), np.float32)
@@ -354,9 +360,10 @@ def compose(
     direction = rng.uniform(0, 2 * np.pi)
     unit = np.array([np.cos(direction), np.sin(direction)])
 
+    reach = np.abs(((sheet_corners - centre) @ rot.T) @ unit).max()
+
     def seen_from_camera(points: np.ndarray) -> np.ndarray:
         turned = (points - centre) @ rot.T
-        reach = np.abs(((sheet_corners - centre) @ rot.T) @ unit).max()
         return turned / (1 + away * (turned @ unit) / reach)[:, None]
 
     placed, grid_in = seen_from_camera(sheet_corners), seen_from_camera(corners)
@@ -445,11 +452,11 @@ def write_set(
     rows = []
     for i in range(n):
         photo, labels, notes = compose(rng, hands, papers)
+        name = f"{split}_{i:04d}.png"
         ok, data = cv2.imencode(".png", photo[:, :, ::-1])
         assert ok
-        with atomic_write(out / "images" / f"{split}_{i:04d}.png") as handle:
+        with atomic_write(out / "images" / name) as handle:
             handle.write(data.tobytes())
-        name = f"{split}_{i:04d}.png"
         rows.append(
             {
                 "file": name,
