@@ -115,6 +115,18 @@ def component_process(name: str, robot: str, *endpoint_args: str) -> subprocess.
     )
 
 
+def bus_when_listening(robot: str, port: int, process: subprocess.Popen) -> ZenohBus:
+    """A bus connected to the component `process` listening on `port`, once it listens: its
+    start (Python, numpy, Zenoh) can outlast the connect timeout on a busy machine."""
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            return ZenohBus(robot, Endpoints((f"tcp/127.0.0.1:{port}",), scouting=False))
+        except BusUnreachable:
+            if process.poll() is not None or time.monotonic() > deadline:
+                raise
+
+
 def wait_alive(bus: ZenohBus, names: set[str], seconds: float = 60.0) -> dict[str, int]:
     deadline = time.monotonic() + seconds
     while time.monotonic() < deadline:
@@ -136,7 +148,7 @@ def test_twins_other_versions_unreachable_endpoints_and_lost_processes_are_clear
     first = component_process("head-movement", robot, "--listen", f"tcp/127.0.0.1:{port}")
     twin = old_first = None
     try:
-        with ZenohBus(robot, Endpoints((f"tcp/127.0.0.1:{port}",), scouting=False)) as bus:
+        with bus_when_listening(robot, port, first) as bus:
             pid = wait_alive(bus, {"head-movement"})["head-movement"]
             assert pid == first.pid
 
@@ -164,11 +176,14 @@ def test_twins_other_versions_unreachable_endpoints_and_lost_processes_are_clear
             assert old_first.returncode == 2, err
             assert "speaks message format 0-0000000000" in err
 
-            # the first still works: a head direction in, its mirror out
-            moves = bus.subscribe(HeadMove)
-            time.sleep(0.2)
-            bus.publish(HeadDirection(direction="left"))
-            assert collect(moves, lambda m: True)[0].direction == "right"
+            # the first still works: a head direction in, its mirror out (said again until the
+            # subscription's declaration has reached the process, slow on a busy machine)
+            moves, mirrored = bus.subscribe(HeadMove), None
+            deadline = time.monotonic() + 30
+            while mirrored is None and time.monotonic() < deadline:
+                bus.publish(HeadDirection(direction="left"))
+                mirrored = moves.get(timeout=0.5)
+            assert mirrored is not None and mirrored.direction == "right"
 
             # killed and not respawned: noticed at once, lost after the rejoin time
             news = bus.subscribe(ComponentFailed, ComponentLost)
