@@ -99,11 +99,16 @@ def test_a_game_kept_through_the_page_then_learnt_from(page: Page, data_dir: Pat
     assert labels.get(user, 0) > 0 and labels.get("nothing", 0) > 0
 
     result = CliRunner().invoke(app, ["learn", "perceiver", "--data-dir", str(data_dir), "--quiet"])
-    assert result.exit_code == 0, result.output
-    assert (data_dir / "learned" / "perceiver.pt").exists()
+    learnt = data_dir / "learned" / "perceiver.pt"
+    # The crops come from a game in real time, so the fine-tune differs from run to run; now
+    # and then it loses a cell of the project's sets and is refused, as it must be.
+    refused = result.exit_code == 2 and "is refused" in result.output
+    assert result.exit_code == 0 or refused, result.output
+    assert learnt.exists() != refused
+    assert (data_dir / "learned" / "perceiver.metrics.json").exists()
 
     page.goto(page.base_url + "/learned")  # type: ignore[attr-defined]
     page.wait_for_selector("[data-testid=sessions] tbody tr")
     rows = page.locator("[data-testid=sessions] tbody tr")
     assert rows.count() == 1 and rows.first.get_attribute("data-session") == str(session.id)
-    assert "learned/perceiver.pt" in page.locator("#model").inner_text()
+    assert ("learned/perceiver.pt" in page.locator("#model").inner_text()) != refused
