@@ -109,6 +109,9 @@ CHANGED_MIND = ("play", "game", "let's go", "i'm in", "i do", "i did", "i said",
 here."), a yes is a change of mind (or a yes or a move it misheard) only with one of these
 words: "okay", "sure" and even a bare "yes" there may only agree."""
 _LETTING_GO = (GRANT_REFUSAL, GRANT_STOP)
+YES_NO_QUESTIONS = (INVITATION, ASK_AGAIN)
+"""The robot's acts that ask a yes/no question ("Shall we play?"): only an answer to one of
+these may be read from the keyword model alone (`oxbot.speech.keywords.keyword_rescue`)."""
 
 
 class Scored(Protocol):

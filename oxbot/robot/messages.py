@@ -58,6 +58,9 @@ class SpeechHypotheses(Message):
     source: Literal["microphone", "text"] = "microphone"
     words: tuple[tuple[str, float], ...] = ()
     """The best hypothesis word by word with each word's confidence (typed text: 1 each)."""
+    keywords: tuple[float, ...] = ()
+    """The keyword model's P(yes), P(no), P(other) of a short answer (`oxbot.speech.keywords`),
+    empty when it was not asked; the manager uses it only for the answer to a yes/no question."""
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from oxbot.robot.messages import (
     Utterance,
 )
 from oxbot.speech.audio import read_wav
-from oxbot.speech.recognition import Recognizer, load_recognizer
+from oxbot.speech.recognition import PocketsphinxRecognizer, Recognizer, load_recognizer
 from oxbot.speech.synthesis import Voice, espeak_available, synthesize
 
 log = logging.getLogger(__name__)
@@ -136,7 +136,12 @@ class SpeechRecognitionComponent(Component):
                 log.warning("speech recognition is off, type your answers instead: %s", exc)
                 return
         self.expect(read_wav(message.audio).seconds)  # a long recording takes longer to hear
-        hypotheses = self.recognizer.recognize(message.audio)
+        if isinstance(self.recognizer, PocketsphinxRecognizer):
+            hypotheses, keywords = self.recognizer.hear(message.audio)
+        else:  # another recogniser: an N-best list and no keyword model
+            hypotheses, keywords = self.recognizer.recognize(message.audio), ()
         nbest = tuple((h.text, h.confidence) for h in hypotheses)
         words = hypotheses[0].words if hypotheses else ()
-        self.bus.publish(SpeechHypotheses(nbest=nbest, source="microphone", words=words))
+        self.bus.publish(
+            SpeechHypotheses(nbest=nbest, source="microphone", words=words, keywords=keywords)
+        )

@@ -40,10 +40,11 @@ from pathlib import Path
 import numpy as np
 
 from oxbot.dialogue.domain import INVITATION, SILENCE, UNKNOWN, Domain, is_game_move
-from oxbot.dialogue.understanding import UserActClassifier
+from oxbot.dialogue.understanding import YES_NO_QUESTIONS, UserActClassifier
 from oxbot.errors import DataError, SpeechUnavailable
 from oxbot.speech.audio import RATE, add_noise, pcm16
-from oxbot.speech.recognition import Recognizer, default_recognizer
+from oxbot.speech.keywords import keyword_rescue
+from oxbot.speech.recognition import PocketsphinxRecognizer, Recognizer, default_recognizer
 from oxbot.speech.speech_commands import speaker_of
 from oxbot.speech.synthesis import Voice, synthesize
 
@@ -441,7 +442,7 @@ def _hear(
     noise_key: str,
     conditions: Sequence[Condition],
     classifier: UserActClassifier,
-    recognizer: Recognizer,
+    recognizer: PocketsphinxRecognizer,
     seed: int,
 ) -> list[Trial]:
     """One utterance under every condition: decoded, timed and understood, as an answer to the
@@ -453,8 +454,11 @@ def _hear(
         key = zlib.crc32(f"{noise_key}|{condition.seed_key}".encode())
         samples = condition.apply(clean, np.random.default_rng([seed, key]))
         started = time.perf_counter()
-        nbest = recognizer.decode(samples)
+        listening = recognizer.listen(samples)
         decode_seconds = time.perf_counter() - started
+        nbest = listening.hypotheses if listening is not None else []
+        if listening is not None and listening.keywords is not None and context in YES_NO_QUESTIONS:
+            nbest = keyword_rescue(nbest, listening.keywords)  # as the robot does (manager.py)
         top = classifier.classify(nbest[0].text, context).act if nbest else SILENCE
         trials.append(
             Trial(

@@ -247,10 +247,11 @@ def shipped_keyword_spotter() -> KeywordSpotter | None:
 
 def second_opinion(
     hypotheses: list[Hypothesis],
-    probabilities: np.ndarray | None,
+    probabilities: np.ndarray | Sequence[float] | None,
     sure: float = SURE,
     agree: float = AGREE,
     doubt: float = DOUBT,
+    rescue: bool = True,
 ) -> list[Hypothesis]:
     """The N-best list with the keyword model's opinion of a short answer joined in.
 
@@ -263,17 +264,16 @@ def second_opinion(
     2. Both say the same word (the keyword model with at least `agree`): the recogniser's words
        stay ("no thanks" remains "no thanks") and the best one's confidence becomes that of two
        independent listeners agreeing, 1 - (1 - c)(1 - p).
-    3. The recogniser's best words say neither ("hi" for a mumbled "no"), none of its
-       hypotheses says the opposite, and the keyword model is `sure` of yes (or no): the list
-       becomes that word alone, with its probability. (The keyword model knows single words;
-       espeak-ng's Scottish "no thanks" at 20 dB was "yes" to it at 0.89, heard by the
-       recogniser as "go on" above "nope not me".)
+    3. With `rescue`, `keyword_rescue`: the recogniser heard neither and the keyword model is
+       sure of one. The recogniser leaves this step out (it does not know what the robot
+       asked); the robot takes it only for the answer to a yes/no question
+       (`oxbot.dialogue.understanding.YES_NO_QUESTIONS`), where a "hi" is a mumbled "no", not
+       a greeting.
     4. Otherwise the recogniser's list stays as it is.
     """
     from oxbot.dialogue.understanding import polarity
-    from oxbot.speech.recognition import Hypothesis
 
-    if probabilities is None or not hypotheses:
+    if probabilities is None or len(probabilities) == 0 or not hypotheses:
         return hypotheses
     p = dict(zip(LABELS, (float(v) for v in probabilities), strict=True))
     heard = polarity(hypotheses[0].text)
@@ -286,6 +286,24 @@ def second_opinion(
             both = 1.0 - (1.0 - best.confidence) * (1.0 - p[heard])
             return [dataclasses.replace(best, confidence=both), *hypotheses[1:]]
         return hypotheses
+    return keyword_rescue(hypotheses, probabilities, sure) if rescue else hypotheses
+
+
+def keyword_rescue(
+    hypotheses: list[Hypothesis], probabilities: np.ndarray | Sequence[float], sure: float = SURE
+) -> list[Hypothesis]:
+    """Step 3 of `second_opinion`: when the recogniser's best words say neither yes nor no ("hi"
+    for a mumbled "no"), none of its hypotheses says the opposite and the keyword model is
+    `sure` of yes (or no), the list becomes that word alone, with its probability; otherwise
+    `hypotheses` unchanged. (The keyword model knows single words; espeak-ng's Scottish "no
+    thanks" at 20 dB was "yes" to it at 0.89, heard by the recogniser as "go on" above "nope
+    not me".)"""
+    from oxbot.dialogue.understanding import polarity
+    from oxbot.speech.recognition import Hypothesis
+
+    if len(probabilities) == 0 or not hypotheses or polarity(hypotheses[0].text) is not None:
+        return hypotheses
+    p = dict(zip(LABELS, (float(v) for v in probabilities), strict=True))
     said = {polarity(h.text) for h in hypotheses}
     for word in ("yes", "no"):
         if p[word] >= sure and ("no" if word == "yes" else "yes") not in said:

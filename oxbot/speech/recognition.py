@@ -20,8 +20,10 @@ goes through up to three searches, one after the other:
 
 A short answer (at most 1.25 s of sound) is also heard by a keyword model trained on real
 people saying yes, no and other words (`oxbot.speech.keywords`); its opinion is joined into the
-N-best list: both agreeing makes the answer surer, disagreeing makes it Unknown, and a mumbled
-"no" that the recogniser took for "hi" becomes "no" when the keyword model is sure.
+N-best list: both agreeing makes the answer surer, disagreeing makes it Unknown. A mumbled "no"
+that the recogniser took for "hi" becomes "no" when the keyword model is sure, but only as the
+answer to a yes/no question: `hear` hands the keyword model's opinion on, and the robot, which
+knows what it asked, decides (`oxbot.speech.keywords.keyword_rescue`).
 
 Before decoding, the recording's level is brought to a fixed peak, its silence trimmed to 0.2 s
 either side of the sound (`oxbot.speech.audio`), and a faint hiss added (`NOISE_FLOOR`), so that
@@ -167,7 +169,8 @@ class Listening:
     hypotheses: list[Hypothesis] = field(default_factory=list)
     keywords: np.ndarray | None = None
     """The keyword model's P(yes), P(no), P(other) of a short answer, joined into `hypotheses`
-    (`oxbot.speech.keywords.second_opinion`); None when it was not asked."""
+    (`oxbot.speech.keywords.second_opinion`, steps 1-2; step 3, `keyword_rescue`, is the
+    robot's, in context); None when it was not asked."""
 
     @property
     def fit(self) -> float:
@@ -285,8 +288,21 @@ class PocketsphinxRecognizer:
         from oxbot.speech.keywords import second_opinion
 
         keywords = self.keywords.probabilities(samples)
-        hypotheses = second_opinion(listening.hypotheses, keywords)
+        # steps 1-2 only: whether a bare keyword may stand for the answer depends on what the
+        # robot asked, which the robot knows and the recogniser does not
+        hypotheses = second_opinion(listening.hypotheses, keywords, rescue=False)
         return dataclasses.replace(listening, hypotheses=hypotheses, keywords=keywords)
+
+    def hear(
+        self, wav: str | os.PathLike[str] | bytes
+    ) -> tuple[list[Hypothesis], tuple[float, ...]]:
+        """`recognize`, with the keyword model's P(yes), P(no), P(other) of a short answer
+        (empty when it was not asked), for `oxbot.speech.keywords.keyword_rescue`."""
+        listening = self.listen(pcm16(wav))
+        if listening is None:
+            return [], ()
+        keywords = () if listening.keywords is None else tuple(map(float, listening.keywords))
+        return listening.hypotheses, keywords
 
     def choose(
         self,

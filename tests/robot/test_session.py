@@ -378,3 +378,37 @@ def test_a_drawing_before_anyone_agreed_to_play_is_not_called_the_robots_turn(ro
     person.play(on_message=draw_early)
     problems = [t["text"] for t in robot.transcript if t["act"] == "Inform(problem)"]
     assert drew and problems and "not started" in problems[0], robot.transcript
+
+
+MUMBLED_NO = SpeechHypotheses(nbest=(("hi", 0.6),), keywords=(0.01, 0.97, 0.02))
+"""A "no" the recogniser heard as "hi", which the keyword model is sure was "no"."""
+
+
+def heard_after(robot: Robot, asked: str, answers: dict[str, str], seconds: float = 30.0) -> str:
+    """The act the person's answer to the robot's first `asked` was understood as: that answer is
+    MUMBLED_NO, the robot's other acts listed in `answers` get those typed words."""
+    events = robot.bus.subscribe(DialogueAct)
+    deadline, waiting = time.monotonic() + seconds, False
+    while time.monotonic() < deadline:
+        message = events.get(0.5)
+        if message is None:
+            continue
+        if waiting and message.speaker == "usr":
+            return message.act
+        if message.speaker == "sys" and message.act == asked and not waiting:
+            robot.bus.publish(MUMBLED_NO)
+            waiting = True
+        elif message.speaker == "sys" and message.act in answers and not waiting:
+            robot.say(answers.pop(message.act))
+    raise AssertionError(f"no answer to {asked} within {seconds} s")
+
+
+def test_a_mumbled_no_is_a_no_only_as_the_answer_to_a_yes_no_question():
+    with Robot(FAST, seed=11) as robot:
+        assert heard_after(robot, "Request(playGame)", {}) == "Reject(playGame=no)"
+    # in the game "hi" is no "no": the robot does not stop a game nobody asked to stop
+    with Robot(FAST, seed=12) as robot:
+        answer = heard_after(
+            robot, "Request(userGameMove)", {"Request(playGame)": "Yes, let's play."}
+        )
+        assert answer not in ("Request(stop)", "Reject(playGame=no)"), answer

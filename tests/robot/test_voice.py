@@ -82,7 +82,8 @@ def test_recordings_become_nbest_hypotheses():
     with SpeechRecognitionComponent(bus, recognizer):
         bus.publish(SpeechAudio(audio=synthesize("no thanks")))
         bus.publish(SpeechAudio(audio=click))
-        answer, nothing = take(heard, 2)
+        bus.publish(SpeechAudio(audio=synthesize("no")))
+        answer, nothing, short = take(heard, 3)
     assert answer.source == "microphone"
     assert answer.nbest[0][0] == "no thanks"
     assert all(0.0 <= confidence <= 1.0 for _, confidence in answer.nbest)
@@ -90,3 +91,5 @@ def test_recordings_become_nbest_hypotheses():
     assert [word for word, _ in answer.words] == ["no", "thanks"]
     assert all(0.0 <= confidence <= 1.0 for _, confidence in answer.words)
     assert nothing.nbest == () and nothing.words == ()
+    # a short answer carries the keyword model's P(yes), P(no), P(other) for the manager
+    assert len(short.keywords) == 3 and short.keywords[1] > 0.5, short.keywords

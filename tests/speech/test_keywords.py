@@ -10,6 +10,7 @@ from oxbot.speech.keywords import (
     KeywordConfig,
     KeywordData,
     KeywordSpotter,
+    keyword_rescue,
     second_opinion,
     shipped_keyword_path,
     shipped_keyword_spotter,
@@ -80,6 +81,13 @@ def test_the_keyword_model_makes_a_mumbled_no_a_no_when_sure(classifier):
     heard = [Hypothesis("hi", 0.6)]
     joined = second_opinion(heard, np.array([0.01, 0.97, 0.02]))
     assert classifier.intent_of(joined, INVITATION).act == DECLINE
+    # the recogniser leaves that step to the robot, which knows whether it asked yes or no
+    assert second_opinion(heard, np.array([0.01, 0.97, 0.02]), rescue=False) == heard
+    assert keyword_rescue(heard, (0.01, 0.97, 0.02))[0].text == "no"
+    assert keyword_rescue(heard, (0.01, 0.6, 0.39)) == heard  # not sure enough
+    assert (
+        keyword_rescue([Hypothesis("hi", 0.6), Hypothesis("yes", 0.2)], (0, 1, 0))[0].text == "hi"
+    )
 
 
 def test_disagreeing_listeners_give_unknown(classifier):
