@@ -26,8 +26,10 @@ import numpy as np
 
 from oxbot.dialogue.domain import (
     ACCEPT,
+    ACTION_INDEX,
     ASK_AGAIN,
     INVITATION,
+    LETS_PLAY,
     REFUSALS,
     STOP,
     game_move_cell,
@@ -37,6 +39,7 @@ from oxbot.errors import IllegalMoveError
 from oxbot.game.board import (
     EMPTY,
     EMPTY_BOARD,
+    N_CELLS,
     ROBOT,
     USER,
     Board,
@@ -202,11 +205,30 @@ class DialogueState:
             self._features = self.layout.encode(self)
         return self._features
 
+    @property
+    def agreed(self) -> bool:
+        """Whether the person was understood saying yes to a game (`ACCEPT`: "one game", "can I
+        start" and a change of mind are one in context), or has drawn on the sheet."""
+        return ACCEPT in self.person_acts or USER in self.board
+
     def offered(self) -> tuple[np.ndarray, np.ndarray]:
-        """Pr(a|s) of every act and the action mask (paper §2.2), from the action model."""
+        """Pr(a|s) of every act and the action mask (paper §2.2), from the action model.
+
+        Until the person was understood saying yes or drew (`agreed`), "let's play" and moves
+        are never offered, whatever the learnt model offers, and asking again is: the policy
+        met people who greeted or complained after "Sorry, I didn't catch that. Shall we play?"
+        too rarely in training and started a game nobody agreed to. (A yes misheard still
+        starts one: the check of `wellformed` can fail there.)"""
         if self.action_model is None:
             raise TypeError("this DialogueState has no action model to offer acts with")
-        return self.action_model.offered(self.encode(), self.board, self.robot_to_move)
+        probs, mask = self.action_model.offered(self.encode(), self.board, self.robot_to_move)
+        if not self.agreed and (mask[:N_CELLS].any() or mask[ACTION_INDEX[LETS_PLAY]]):
+            # where the model would start a game, the robot asks whether the person wants one
+            mask = mask.copy()
+            mask[:N_CELLS] = False
+            mask[ACTION_INDEX[LETS_PLAY]] = False
+            mask[ACTION_INDEX[ASK_AGAIN]] = True
+        return probs, mask
 
     def at(self, board: Board) -> DialogueState:
         """A copy of this state with the game at `board` (walking the game tree)."""

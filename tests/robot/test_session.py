@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from oxbot.config import load_config
-from oxbot.dialogue.domain import N_ACTIONS
+from oxbot.dialogue.domain import N_ACTIONS, plays
 from oxbot.errors import IllegalMoveError, InvalidInputError
 from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, outcome
 from oxbot.robot.messages import (
@@ -412,3 +412,16 @@ def test_a_mumbled_no_is_a_no_only_as_the_answer_to_a_yes_no_question():
             robot, "Request(userGameMove)", {"Request(playGame)": "Yes, let's play."}
         )
         assert answer not in ("Request(stop)", "Reject(playGame=no)"), answer
+
+
+@pytest.mark.parametrize("answer", ["Hello.", "This is boring."])
+def test_an_answer_that_says_no_yes_never_starts_a_game(answer):
+    """Found by hand: asked again after a silence, a greeting or a complaint made the shipped
+    policy draw, a game nobody agreed to (`DialogueState.offered` now asks again instead)."""
+    with Robot(FAST, seed=0) as robot:
+        turns, ended = talk_until_goodbye(robot, {"Request(repeat)": [answer]}, 60.0)
+    said = [(t.speaker, t.act, t.text) for t in turns]
+    assert ("usr", "Request(repeat)") not in [(s, a) for s, a, _ in said]
+    assert any(s == "usr" for s, _, _ in said), said  # the answer was heard
+    assert not any(plays(a) for s, a, _ in said if s == "sys"), said
+    assert ended.outcome is None
