@@ -93,17 +93,19 @@ UNSURE = ("not sure", "don't know", "dunno", "don't understand", "it depends", "
 """Words that say the person has not decided: whatever they were read as, not understood."""
 
 _AS_YES = {ACKNOWLEDGE: ACCEPT, NEW_GAME: ACCEPT, I_START: ACCEPT}
+_AS_ANSWER = {**_AS_YES, CLOSING: DECLINE, STOP: DECLINE}
 _AS_STOP = {DECLINE: STOP, POSTPONE: STOP, CLOSING: STOP}
 IN_CONTEXT: dict[str, dict[str, str]] = {
-    **{asked: _AS_YES for asked in (INVITATION, ASK_AGAIN)},
+    **{asked: _AS_ANSWER for asked in (INVITATION, ASK_AGAIN)},
     **{told: {ACCEPT: ACKNOWLEDGE} for told in FEEDBACK_ACTS.values()},
     **{playing: _AS_STOP for playing in (MOVE_REQUEST, *GAME_MOVES)},
     GRANT_REFUSAL: {NEW_GAME: ACCEPT, I_START: ACCEPT},
 }
 """What an act means as the answer to a system act: asked to play, "okay then", "one game" and
-"can I start" all say yes; told who won, "yes" acknowledges it; in the middle of a game, "no",
-"I don't want to" and "goodbye" ask to stop; told "okay, another time", "one game" changes the
-person's mind (and a yes only with `CHANGED_MIND`'s words)."""
+"can I start" all say yes, "goodbye" and "I have to go" no; told who won, "yes" acknowledges
+it; in the middle of a game, "no", "I don't want to" and "goodbye" ask to stop; told "okay,
+another time", "one game" changes the person's mind (and a yes only with `CHANGED_MIND`'s
+words)."""
 CHANGED_MIND = ("play", "game", "let's go", "i'm in", "i do", "i did", "i said", "actually", "wait")
 """After the robot let a no or a stop go ("Okay, maybe another time.", "Okay, let's stop
 here."), a yes is a change of mind (or a yes or a move it misheard) only with one of these

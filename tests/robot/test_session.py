@@ -425,3 +425,18 @@ def test_an_answer_that_says_no_yes_never_starts_a_game(answer):
     assert any(s == "usr" for s, _, _ in said), said  # the answer was heard
     assert not any(plays(a) for s, a, _ in said if s == "sys"), said
     assert ended.outcome is None
+
+
+@pytest.mark.parametrize("answer", ["Goodbye.", "I have to go."])
+def test_goodbye_to_the_invitation_is_a_no_acknowledged_with_a_goodbye(answer):
+    """Found by hand: "Goodbye." to "Would you like to play?" was asked again twice, then told
+    "Nobody seems to be there"."""
+    with Robot(FAST, seed=0) as robot:
+        turns, ended = talk_until_goodbye(robot, {"Request(playGame)": [answer]}, 60.0)
+    said = [(t.speaker, t.act, t.text) for t in turns]
+    assert [a for s, a, _ in said if s == "usr"] == ["Reject(playGame=no)"], said
+    assert [a for s, a, _ in said if s == "sys"][-2:] == [
+        "Acknowledge(playGame=no)",
+        "Salutation(closing)",
+    ], said
+    assert ended.outcome == "declined"
