@@ -71,6 +71,10 @@ def test_the_learn_perceiver_command(recordings, tmp_path):
     result = runner.invoke(
         app, ["learn", "perceiver", "--data-dir", str(folder), "--quiet"], catch_exceptions=False
     )
-    assert result.exit_code == 0, result.output
+    # The recorded game ran in real time, so its crops, and the fine-tune, differ from run to
+    # run; losing a cell of the project's sets is refused (exit 2), as the rule says.
+    refused = result.exit_code == 2 and "is refused" in result.output
+    assert result.exit_code == 0 or refused, result.output
     assert "generated test images" in result.output and "->" in result.output
-    assert (folder / "learned" / "perceiver.pt").exists()
+    assert (folder / "learned" / "perceiver.pt").exists() != refused
+    assert (folder / "learned" / "perceiver.metrics.json").exists()
