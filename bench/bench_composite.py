@@ -25,10 +25,8 @@ import numpy as np
 
 from bench.bench_real_boards import Tally, measure, report
 from oxbot.config import OxbotConfig, load_config
-from oxbot.perception.board import deepen_faint_ink
+from oxbot.perception.board import BoardReader, deepen_faint_ink
 from oxbot.perception.cells import wipe_background
-from oxbot.perception.classifier import load_classifier
-from oxbot.perception.wholeness import veto_partial
 from oxbot.testing.composite import HandwritingSource, PaperSource, symbol_cells, write_set
 
 DATA = Path(__file__).resolve().parent / "data" / "composite_boards"
@@ -90,15 +88,11 @@ def read_cells(
     hands: HandwritingSource, papers: PaperSource, seed: int, config: OxbotConfig
 ) -> None:
     """Each real circle and cross alone in a cell, read as the board reader reads a cell (the
-    paper's pattern wiped, faint ink deepened, the network, the wholeness check)."""
+    paper's pattern wiped, faint ink deepened, then `BoardReader.classify`)."""
     cells, labels, writers = symbol_cells(hands, papers, np.random.default_rng([seed, 2]))
-    cells = deepen_faint_ink(wipe_background(cells))
-    readings = load_classifier().read(cells)
-    perception = config.perception
-    if perception.wholeness:
-        readings = veto_partial(
-            cells, readings, perception.max_circle_gap, perception.plus_is_cross
-        )
+    readings = BoardReader(config=config.perception).classify(
+        deepen_faint_ink(wipe_background(cells))
+    )
     sure = config.tracker.min_confidence
     print(f"{len(labels)} real symbols alone in a cell, seed {seed}")
     for source in ("quickdraw", "unipen", ""):

@@ -150,6 +150,16 @@ class BoardReader:
         confidence is the rule's, 1).
         """
         cells, grid, sheet, cleaned, painted = cut_board(frame)
+        readings = self.classify(cells, painted)
+        for i in grid.cells_out_of_view():
+            readings[i] = CellReading(OUT_OF_VIEW, 1.0, 0.0)
+        labels = tuple("nothing" if r.label == OUT_OF_VIEW else r.spec_label for r in readings)
+        return BoardReading(labels, grid, sheet, cleaned, cells, tuple(readings))
+
+    def classify(self, cells: np.ndarray, painted: np.ndarray | None = None) -> list[CellReading]:
+        """The readings of cut cells (N, 40, 40) as `read` gives them (the network, the
+        single-stroke rule, the wholeness check); `painted`: where a grid line was painted over
+        in each cell (`cut_board`), if known."""
         if hasattr(self.classifier, "read"):
             readings = list(self.classifier.read(cells))
         else:  # a SPEC-only classifier: its labels, fully trusted
@@ -167,10 +177,7 @@ class BoardReader:
             readings = veto_partial(
                 cells, readings, self.config.max_circle_gap, self.config.plus_is_cross, painted
             )
-        for i in grid.cells_out_of_view():
-            readings[i] = CellReading(OUT_OF_VIEW, 1.0, 0.0)
-        labels = tuple("nothing" if r.label == OUT_OF_VIEW else r.spec_label for r in readings)
-        return BoardReading(labels, grid, sheet, cleaned, cells, tuple(readings))
+        return readings
 
 
 def ink_elongation(cells: np.ndarray) -> np.ndarray:
