@@ -72,7 +72,7 @@ from oxbot.dialogue.domain import (
 )
 from oxbot.dialogue.model import build_dialogue_model
 from oxbot.dialogue.state import DialogueState, Turn
-from oxbot.dialogue.understanding import YES_NO_QUESTIONS, UserAct
+from oxbot.dialogue.understanding import UserAct
 from oxbot.game.board import (
     CELL_NAMES,
     COLUMN_NAMES,
@@ -106,7 +106,7 @@ from oxbot.robot.messages import (
     SpeechHypotheses,
     Utterance,
 )
-from oxbot.speech.keywords import keyword_rescue
+from oxbot.speech.keywords import answer_to
 from oxbot.speech.recognition import Hypothesis
 
 log = logging.getLogger(__name__)
@@ -406,11 +406,11 @@ class InteractionManagerComponent(Component):
         if not message.nbest:
             return  # the recogniser heard nothing: as if nobody spoke
         nbest, words = message.nbest, message.words
-        if message.keywords and self.state.last_act in YES_NO_QUESTIONS:
-            # the answer to a yes/no question: a "hi" the keyword model is sure was "no" is a no
-            rescued = keyword_rescue([Hypothesis(t, c) for t, c in nbest], message.keywords)
-            if rescued[0].text != nbest[0][0]:
-                nbest, words = tuple((h.text, h.confidence) for h in rescued), rescued[0].words
+        # the answer to a yes/no question: a "hi" the keyword model is sure was "no" is a no
+        heard = [Hypothesis(t, c) for t, c in nbest]
+        read = answer_to(self.state.last_act, heard, message.keywords)
+        if read is not heard:
+            nbest, words = tuple((h.text, h.confidence) for h in read), read[0].words
         text, confidence = nbest[0]
         # per-word confidences when the recogniser gives them (paper §2.2), else the utterance's
         words = words or tuple((w, confidence) for w in words_of(text))

@@ -40,10 +40,10 @@ from pathlib import Path
 import numpy as np
 
 from oxbot.dialogue.domain import INVITATION, SILENCE, UNKNOWN, Domain, is_game_move
-from oxbot.dialogue.understanding import YES_NO_QUESTIONS, UserActClassifier
+from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.errors import DataError, SpeechUnavailable
 from oxbot.speech.audio import RATE, add_noise, pcm16
-from oxbot.speech.keywords import keyword_rescue
+from oxbot.speech.keywords import answer_to
 from oxbot.speech.recognition import PocketsphinxRecognizer, Recognizer, default_recognizer
 from oxbot.speech.speech_commands import speaker_of
 from oxbot.speech.synthesis import Voice, synthesize
@@ -456,9 +456,9 @@ def _hear(
         started = time.perf_counter()
         listening = recognizer.listen(samples)
         decode_seconds = time.perf_counter() - started
-        nbest = listening.hypotheses if listening is not None else []
-        if listening is not None and listening.keywords is not None and context in YES_NO_QUESTIONS:
-            nbest = keyword_rescue(nbest, listening.keywords)  # as the robot does (manager.py)
+        nbest = (  # read as the robot reads them (manager.py)
+            answer_to(context, listening.hypotheses, listening.keywords) if listening else []
+        )
         top = classifier.classify(nbest[0].text, context).act if nbest else SILENCE
         trials.append(
             Trial(

@@ -289,6 +289,19 @@ def second_opinion(
     return keyword_rescue(hypotheses, probabilities, sure) if rescue else hypotheses
 
 
+def answer_to(
+    asked: str, hypotheses: list[Hypothesis], probabilities: np.ndarray | Sequence[float] | None
+) -> list[Hypothesis]:
+    """`hypotheses` as the robot reads them after its act `asked`: with `keyword_rescue` when
+    `asked` is a yes/no question (`oxbot.dialogue.understanding.YES_NO_QUESTIONS`) and the
+    keyword model was asked, as they are otherwise."""
+    from oxbot.dialogue.understanding import YES_NO_QUESTIONS
+
+    if probabilities is None or asked not in YES_NO_QUESTIONS:
+        return hypotheses
+    return keyword_rescue(hypotheses, probabilities)
+
+
 def keyword_rescue(
     hypotheses: list[Hypothesis], probabilities: np.ndarray | Sequence[float], sure: float = SURE
 ) -> list[Hypothesis]:
