@@ -22,9 +22,7 @@ from oxbot.dialogue.domain import (
     INVITATION,
     MOVE_REQUEST,
     REFUSALS,
-    SILENCE,
     STOP,
-    UNKNOWN,
     game_move_cell,
     is_feedback,
     is_game_move,
@@ -39,7 +37,9 @@ SURE_NO = 0.6
 at once. Below it (an accept misheard as a no keeps a lower score 92-100% of the time on the
 simulated recogniser at noise 0.2-0.4) the robot may check once. See docs/dialogue.md."""
 _ASKING = (INVITATION, ASK_AGAIN)
-_UNCLEAR = (UNKNOWN, SILENCE)
+_ANSWERS = frozenset({ACCEPT, STOP, CLOSING, *REFUSALS})
+"""What answers a question to play; anything else (silence, chatter, a "thank you", a greeting)
+it could not make out as an answer, and asking again about it does not count."""
 
 
 def check_dialogue(
@@ -56,10 +56,13 @@ def check_dialogue(
     move after a stop. A clear no to its question ("no thanks", understood with a score of at
     least `SURE_NO`) is final, unless the person takes it back ("Yes, I want to play": the
     robot may play, not ask again); after a "later", an unsure no or a no said before it asked, it
-    may ask once more; asking again about an answer it could not make out (silence, chatter)
-    does not count; a no after the game's feedback that answers no question ("oh no") needs no
-    acknowledgement, the goodbye lets it go. A clear stop is final too: no request for a move
-    after it, nor after two stops, until a yes takes it back ("I want to play"). A game it
+    may ask once more; asking again about an answer it could not make out (silence, chatter, a
+    "thank you") does not count; once it acknowledged a no, the goodbye may follow further noes
+    ("catch you later") until a yes; a no after the game's feedback that answers no question
+    ("oh no") needs no acknowledgement, the goodbye lets it go. A clear stop is final too: no
+    request for a move after it, nor after two stops, until the person takes it back with a yes
+    ("I want to play") or by drawing their move (the drawing outweighs the words heard with it,
+    as in `DialogueState.agreed`). A game it
     plays, it plays properly: introduction and invitation before the first move, the person
     asked for their move after each robot move until the game is over, and exactly one feedback
     act, the one of the real outcome. It never walks away from a person who wanted to play.
@@ -144,7 +147,7 @@ def _agreed_before_playing(transcript: list[Turn]) -> str | None:
 
 
 def _lets_a_no_go(transcript: list[Turn], heard: list[str], sure: list[bool]) -> str | None:
-    refused = final = asked = over = False
+    refused = final = asked = over = acknowledged = False
     asked_after = 0
     last_answer = ""  # the last yes or no understood
     answered = False  # whether the person said anything it made out since it last asked
@@ -153,9 +156,10 @@ def _lets_a_no_go(transcript: list[Turn], heard: list[str], sure: list[bool]) ->
         if turn["speaker"] == "usr":
             if over and not asked and understood in REFUSALS:
                 continue  # "oh no" after the game answers nothing: the goodbye lets it go
-            answered = answered or understood not in _UNCLEAR
+            answered = answered or understood in _ANSWERS
             if understood in REFUSALS or understood == ACCEPT:
                 refused = refused or understood in REFUSALS
+                acknowledged = acknowledged and understood != ACCEPT
                 final = final or (asked and understood == DECLINE and clear)
                 last_answer = understood
             continue
@@ -170,10 +174,10 @@ def _lets_a_no_go(transcript: list[Turn], heard: list[str], sure: list[bool]) ->
         elif last_answer in REFUSALS:
             if plays(act):
                 return "plays with a person who said no"
-            if act == CLOSING:
+            if act == CLOSING and not acknowledged:
                 return "says goodbye to a no without acknowledging it"
             if act == GRANT_REFUSAL:
-                last_answer = ""  # acknowledged: the goodbye may follow
+                last_answer, acknowledged = "", True  # the goodbye may follow
         if asked:
             answered = False
     return None
@@ -185,11 +189,13 @@ def _lets_a_stop_go(transcript: list[Turn], heard: list[str], sure: list[bool]) 
     for turn, understood, clear in zip(transcript, heard, sure, strict=True):
         act = turn["act"]
         if turn["speaker"] == "usr":
-            # a yes after a stop ("I want to play") takes it back; meant and understood
-            # apart, so that a stop misheard as a yes still counts against going on
-            stops = 0 if act == ACCEPT else stops + (act == STOP)
-            if understood == ACCEPT:
+            # a yes after a stop ("I want to play") or a drawn move takes it back; meant and
+            # understood apart, so that a stop misheard as a yes still counts against going on
+            drew = is_game_move(act)  # seen on the paper, whatever the words were heard as
+            stops = 0 if act == ACCEPT or drew else stops + (act == STOP)
+            if understood == ACCEPT or drew:
                 understood_stops, clear_stop, acknowledged = 0, False, False
+                continue
             understood_stops += understood == STOP
             clear_stop = clear_stop or (understood == STOP and clear)
         elif stops and is_game_move(act):

@@ -178,6 +178,46 @@ GREETED = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playG
             "win",
             None,
         ),
+        # a "thank you" answers nothing: asking again about it does not count either
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=later)"),
+                sys("Request(playGame)"),
+                usr("Thank"),
+                sys("Request(playGame)"),
+                usr("Confirm(playGame=yes)"),
+                *FIGURE_1[4:],
+            ],
+            "win",
+            None,
+        ),
+        # a no acknowledged: the goodbye may follow a further "later"
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=no)"),
+                sys("Acknowledge(playGame=no)"),
+                usr("Reject(playGame=later)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
+            None,
+        ),
+        # ... but not a no said after a yes took the first back
+        (
+            [
+                *GREETED,
+                usr("Reject(playGame=later)"),
+                sys("Acknowledge(playGame=no)"),
+                usr("Confirm(playGame=yes)"),
+                sys("Request(repeat)"),
+                usr("Reject(playGame=no)"),
+                sys("Salutation(closing)"),
+            ],
+            "declined",
+            "says goodbye to a no without acknowledging it",
+        ),
         # a game nobody agreed to: the answer was not understood
         (
             [*GREETED, usr("Unknown"), sys("Reply(playGame=yes)"), sys("Salutation(closing)")],
@@ -294,6 +334,31 @@ def test_a_no_or_a_stop_taken_back_with_a_yes_lets_the_game_go_on():
     problem = check_dialogue(meant, "win", understood, scores)
     assert "goes on playing after the person asked to stop" in problem
     assert blame(problem, meant, understood, scores) == "hearing"
+
+
+def test_a_move_drawn_after_a_stop_takes_the_stop_back():
+    """The drawing on the paper outweighs the words heard with it or before it."""
+    drawn_on = [
+        *FIGURE_1[:8],
+        usr("Request(stop)"),
+        sys("Acknowledge(stop)"),
+        usr("GameMove(gridloc=middle)"),
+        sys("GameMove(gridloc=lowerright)"),
+        sys("Request(userGameMove)"),
+        usr("GameMove(gridloc=upperleft)"),
+        sys("GameMove(gridloc=lowerleft)"),
+        sys("Provide(feedback=win)"),
+        sys("Salutation(closing)"),
+    ]
+    assert check_dialogue(drawn_on, "win") is None
+    # the words said with the drawing heard as a clear stop: the drawing still wins
+    understood = [t["act"] for t in drawn_on]
+    understood[10] = "Request(stop)"
+    assert check_dialogue(drawn_on, "win", understood, [1.0] * len(drawn_on)) is None
+    # without the drawing, asking for a move after the clear stop is a fault
+    not_drawn = [*drawn_on[:10], usr("Request(stop)"), *drawn_on[11:]]
+    problem = check_dialogue(not_drawn, "win", understood, [1.0] * len(drawn_on))
+    assert problem is not None and "stop" in problem
 
 
 def test_a_fault_is_blamed_on_hearing_only_when_what_was_understood_excuses_it():
