@@ -49,6 +49,7 @@ from oxbot.dialogue.domain import (
     SILENCE,
     STOP,
     UNKNOWN,
+    WHO_STARTS,
     Domain,
     words_of,
 )
@@ -92,7 +93,7 @@ APPROVING = (*POSITIVE, "cool", "nice", "great", "good", "fine", "right")
 UNSURE = ("not sure", "don't know", "dunno", "don't understand", "it depends", "maybe not")
 """Words that say the person has not decided: whatever they were read as, not understood."""
 
-_AS_YES = {ACKNOWLEDGE: ACCEPT, NEW_GAME: ACCEPT, I_START: ACCEPT}
+_AS_YES = {ACKNOWLEDGE: ACCEPT, NEW_GAME: ACCEPT, I_START: ACCEPT, WHO_STARTS: ACCEPT}
 _AS_ANSWER = {**_AS_YES, CLOSING: DECLINE, STOP: DECLINE}
 _AS_STOP = {DECLINE: STOP, POSTPONE: STOP, CLOSING: STOP}
 IN_CONTEXT: dict[str, dict[str, str]] = {
@@ -101,8 +102,9 @@ IN_CONTEXT: dict[str, dict[str, str]] = {
     **{playing: _AS_STOP for playing in (MOVE_REQUEST, *GAME_MOVES)},
     GRANT_REFUSAL: {NEW_GAME: ACCEPT, I_START: ACCEPT},
 }
-"""What an act means as the answer to a system act: asked to play, "okay then", "one game" and
-"can I start" all say yes, "goodbye" and "I have to go" no; told who won, "yes" acknowledges
+"""What an act means as the answer to a system act: asked to play, "okay then", "one game",
+"can I start" and "who starts?" all say yes (the robot's "let's play" and its first move, or its
+"your turn", answer who starts), "goodbye" and "I have to go" no; told who won, "yes" acknowledges
 it; in the middle of a game, "no", "I don't want to" and "goodbye" ask to stop; told "okay,
 another time", "one game" changes the person's mind (and a yes only with `CHANGED_MIND`'s
 words)."""

@@ -28,6 +28,7 @@ from oxbot.dialogue.domain import (
     SILENCE,
     STOP,
     UNKNOWN,
+    WHO_STARTS,
     Domain,
     load_domain,
 )
@@ -97,6 +98,10 @@ def test_a_yes_that_says_no_is_not_understood_and_the_reverse(classifier):
 def test_an_answer_is_read_in_the_context_of_the_question(classifier):
     assert classifier.classify("okay then", INVITATION).act == ACCEPT
     assert classifier.classify("one game", INVITATION).act == ACCEPT
+    # asked who starts in answer to "Shall we play?": a yes ("Sorry, I didn't catch that" before)
+    for text in ("who starts", "who goes first", "is it my turn"):
+        assert classifier.classify(text, INVITATION).act == ACCEPT, text
+        assert classifier.classify(text).act == WHO_STARTS, text
     assert classifier.classify("yes", FEEDBACK_WIN).act == ACKNOWLEDGE  # yes, you won
     assert classifier.classify("no", MOVE_REQUEST).act == STOP  # no more, mid-game
 
