@@ -207,15 +207,20 @@ class DialogueState:
 
     @property
     def agreed(self) -> bool:
-        """Whether the person was understood saying yes to a game (`ACCEPT`: "one game", "can I
-        start" and a change of mind are one in context), or has drawn on the sheet."""
-        return ACCEPT in self.person_acts or USER in self.board
+        """Whether the person has drawn on the sheet, or their last answer about a game was
+        understood as yes (`ACCEPT`: "one game", "can I start" and a change of mind are one in
+        context), not a no or a "later" said after it."""
+        if USER in self.board:
+            return True
+        answers = [act for act in self.person_acts if act == ACCEPT or act in REFUSALS]
+        return bool(answers) and answers[-1] == ACCEPT
 
     def offered(self) -> tuple[np.ndarray, np.ndarray]:
         """Pr(a|s) of every act and the action mask (paper §2.2), from the action model.
 
-        Until the person was understood saying yes or drew (`agreed`), "let's play" and moves
-        are never offered, whatever the learnt model offers, and asking again is: the policy
+        Until the person was understood saying yes (and no no since) or drew (`agreed`), "let's
+        play" and moves are never offered, whatever the learnt model offers, and asking again
+        is: the policy
         met people who greeted or complained after "Sorry, I didn't catch that. Shall we play?"
         too rarely in training and started a game nobody agreed to. (A yes misheard still
         starts one: the check of `wellformed` can fail there.)"""

@@ -4,6 +4,7 @@ import pytest
 from oxbot.dialogue.action_model import ActionModel, act_class, action_mask, seed_examples
 from oxbot.dialogue.domain import (
     ACCEPT,
+    ACTION_INDEX,
     GAME_MOVE_TEMPLATE,
     GREETING,
     INTRODUCTION,
@@ -130,6 +131,18 @@ def test_after_a_first_no_the_mask_offers_asking_once_more_and_letting_go():
     assert {"Request(playGame)", "Acknowledge(playGame=no)"} <= offered
     assert "Reply(playGame=yes)" not in offered and not mask[:9].any()
     assert m.action_model.threshold == 0.001
+
+
+def test_a_no_heard_after_a_yes_means_no_game_is_offered_until_another_yes():
+    """Found in the simulator: a yes heard unsure, asked again, then "later": the policy drew
+    (`DialogueState.agreed` took any yes ever heard)."""
+    asked = [(GREETING, None), (INTRODUCTION, None), (INVITATION, ACCEPT)]
+    state = state_after([*asked, ("Request(repeat)", "Reject(playGame=later)")])
+    _, mask = state.offered()
+    assert not state.agreed
+    assert not mask[:9].any() and not mask[ACTION_INDEX[LETS_PLAY]]
+    state = state_after([*asked, ("Request(repeat)", ACCEPT)])
+    assert state.agreed and state.offered()[1][ACTION_INDEX[LETS_PLAY]]
 
 
 def test_after_a_no_or_stop_taken_back_the_mask_offers_to_play_on():
