@@ -50,6 +50,8 @@ from oxbot.game.board import (
     to_move,
 )
 
+_LETS_PLAY_INDEX = ACTION_INDEX[LETS_PLAY]
+
 if TYPE_CHECKING:
     from oxbot.dialogue.action_model import ActionModel
     from oxbot.dialogue.features import FeatureLayout
@@ -220,19 +222,21 @@ class DialogueState:
 
         Until the person was understood saying yes (and no no since) or drew (`agreed`), "let's
         play" and moves are never offered, whatever the learnt model offers, and asking again
-        is: the policy
-        met people who greeted or complained after "Sorry, I didn't catch that. Shall we play?"
-        too rarely in training and started a game nobody agreed to. (A yes misheard still
-        starts one: the check of `wellformed` can fail there.)"""
+        is: the policy met people who greeted or complained after "Sorry, I didn't catch that.
+        Shall we play?" too rarely in training and started a game nobody agreed to. (A yes
+        misheard still starts one: the check of `wellformed` can fail there.) Likewise, until
+        the robot has invited the person, inviting is offered instead: a yes heard before it
+        asked ("Hi!" heard as a no, then "Yes, I want to play.") left only "let's play"."""
         if self.action_model is None:
             raise TypeError("this DialogueState has no action model to offer acts with")
         probs, mask = self.action_model.offered(self.encode(), self.board, self.robot_to_move)
-        if not self.agreed and (mask[:N_CELLS].any() or mask[ACTION_INDEX[LETS_PLAY]]):
+        uninvited = INVITATION not in self.said
+        if (not self.agreed or uninvited) and (mask[:N_CELLS].any() or mask[_LETS_PLAY_INDEX]):
             # where the model would start a game, the robot asks whether the person wants one
             mask = mask.copy()
             mask[:N_CELLS] = False
-            mask[ACTION_INDEX[LETS_PLAY]] = False
-            mask[ACTION_INDEX[ASK_AGAIN]] = True
+            mask[_LETS_PLAY_INDEX] = False
+            mask[ACTION_INDEX[ASK_AGAIN if not self.agreed else INVITATION]] = True
         return probs, mask
 
     def at(self, board: Board) -> DialogueState:

@@ -113,7 +113,8 @@ def test_the_memoised_mask_is_the_same_as_computing_it():
         probs = model.predict_proba(obs)[0]
         robot_to_move = bool(obs[layout.flags.start])
         assert np.allclose(env.action_probabilities, probs)
-        assert (info["action_mask"] == action_mask(probs, env.board, robot_to_move, 0.001)).all()
+        memoised = model.offered(obs, env.board, robot_to_move)[1]
+        assert (memoised == action_mask(probs, env.board, robot_to_move, 0.001)).all()
         obs, _, terminated, truncated, info = env.step(
             int(rng.choice(np.flatnonzero(info["action_mask"])))
         )
@@ -143,6 +144,16 @@ def test_a_no_heard_after_a_yes_means_no_game_is_offered_until_another_yes():
     assert not mask[:9].any() and not mask[ACTION_INDEX[LETS_PLAY]]
     state = state_after([*asked, ("Request(repeat)", ACCEPT)])
     assert state.agreed and state.offered()[1][ACTION_INDEX[LETS_PLAY]]
+
+
+def test_a_yes_heard_before_the_invitation_is_met_with_the_invitation():
+    """ "Hi!" heard as a no, then "Yes, I want to play.": the learnt mask offered only "let's
+    play", and the game began without the invitation the rules ask for."""
+    state = state_after([(GREETING, "Reject(playGame=no)"), ("Acknowledge(playGame=no)", ACCEPT)])
+    offered = {SYSTEM_ACTS[i] for i in np.flatnonzero(state.offered()[1])}
+    assert offered == {INVITATION}
+    invited = state_after([(GREETING, None), (INTRODUCTION, None), (INVITATION, ACCEPT)])
+    assert invited.offered()[1][ACTION_INDEX[LETS_PLAY]]
 
 
 def test_after_a_no_or_stop_taken_back_the_mask_offers_to_play_on():
