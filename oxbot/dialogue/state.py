@@ -30,9 +30,12 @@ from oxbot.dialogue.domain import (
     ASK_AGAIN,
     INVITATION,
     LETS_PLAY,
+    MOVE_REQUEST,
+    N_ACTIONS,
     REFUSALS,
     STOP,
     game_move_cell,
+    starts_game,
     words_of,
 )
 from oxbot.errors import IllegalMoveError
@@ -50,7 +53,12 @@ from oxbot.game.board import (
     to_move,
 )
 
-_LETS_PLAY_INDEX = ACTION_INDEX[LETS_PLAY]
+_PLAYING = np.zeros(N_ACTIONS, dtype=bool)
+_PLAYING[[*range(N_CELLS), ACTION_INDEX[LETS_PLAY]]] = True
+"""The acts that play: "let's play" and the moves (`domain.plays`)."""
+_STARTING = _PLAYING.copy()
+_STARTING[ACTION_INDEX[MOVE_REQUEST]] = True
+"""Before the game is on, "your turn" starts it too (`domain.starts_game`)."""
 
 if TYPE_CHECKING:
     from oxbot.dialogue.action_model import ActionModel
@@ -226,17 +234,18 @@ class DialogueState:
         Shall we play?" too rarely in training and started a game nobody agreed to. (A yes
         misheard still starts one: the check of `wellformed` can fail there.) Likewise, until
         the robot has invited the person, inviting is offered instead: a yes heard before it
-        asked ("Hi!" heard as a no, then "Yes, I want to play.") left only "let's play"."""
+        asked ("Hi!" heard as a no, then "Yes, I want to play.") left only "let's play". Before
+        the game is on, "your turn" starts it, and is held back the same way."""
         if self.action_model is None:
             raise TypeError("this DialogueState has no action model to offer acts with")
         probs, mask = self.action_model.offered(self.encode(), self.board, self.robot_to_move)
         uninvited = INVITATION not in self.said
-        if (not self.agreed or uninvited) and (mask[:N_CELLS].any() or mask[_LETS_PLAY_INDEX]):
+        if not self.agreed or uninvited:
             # where the model would start a game, the robot asks whether the person wants one
-            mask = mask.copy()
-            mask[:N_CELLS] = False
-            mask[_LETS_PLAY_INDEX] = False
-            mask[ACTION_INDEX[ASK_AGAIN if not self.agreed else INVITATION]] = True
+            starting = _PLAYING if any(starts_game(act) for act in self.said) else _STARTING
+            if (mask & starting).any():
+                mask = mask & ~starting
+                mask[ACTION_INDEX[ASK_AGAIN if not self.agreed else INVITATION]] = True
         return probs, mask
 
     def at(self, board: Board) -> DialogueState:

@@ -154,6 +154,10 @@ def test_a_yes_heard_before_the_invitation_is_met_with_the_invitation():
     assert offered == {INVITATION}
     invited = state_after([(GREETING, None), (INTRODUCTION, None), (INVITATION, ACCEPT)])
     assert invited.offered()[1][ACTION_INDEX[LETS_PLAY]]
+    # the person starts: "your turn" would start the game uninvited just the same
+    early = state_after([(GREETING, None), (INTRODUCTION, ACCEPT)], robot_starts=False)
+    assert not early.offered()[1][ACTION_INDEX[MOVE_REQUEST]]
+    assert early.offered()[1][ACTION_INDEX[INVITATION]]
 
 
 def test_after_a_no_or_stop_taken_back_the_mask_offers_to_play_on():
