@@ -114,8 +114,8 @@ def blame(
     if walks_away and _last_answer(transcript, understood) == ACCEPT:
         return "policy"  # it heard a yes last, and left
     about_the_person = walks_away or problem == ignores_the_person(transcript, understood, scores)
-    as_heard = [
-        {**turn, "act": act} if turn["speaker"] == "usr" else turn
+    as_heard = [  # a drawing is seen, not heard: it stays a drawing
+        {**turn, "act": act} if turn["speaker"] == "usr" and not is_game_move(turn["act"]) else turn
         for turn, act in zip(transcript, understood, strict=True)
     ]
     if about_the_person and ignores_the_person(as_heard, understood, scores) is None:

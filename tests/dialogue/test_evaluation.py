@@ -361,6 +361,18 @@ def test_a_move_drawn_after_a_stop_takes_the_stop_back():
     assert problem is not None and "stop" in problem
 
 
+def test_a_drawing_heard_as_a_stop_does_not_turn_a_mishearing_into_the_policys_fault():
+    """Read as heard, a drawing stays a drawing: only its words were misheard."""
+    meant = [*FIGURE_1[:3], usr("Reject(playGame=no)"), *FIGURE_1[4:]]
+    understood = [t["act"] for t in meant]
+    understood[3] = "Confirm(playGame=yes)"  # the no heard as a yes: a game nobody agreed to
+    understood[7] = "Request(stop)"  # the drawing's words heard as a clear stop
+    scores = [1.0] * len(meant)
+    problem = check_dialogue(meant, "win", understood, scores)
+    assert "starts a game nobody agreed to" in problem
+    assert blame(problem, meant, understood, scores) == "hearing"
+
+
 def test_a_fault_is_blamed_on_hearing_only_when_what_was_understood_excuses_it():
     invited = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playGame)")]
     later_taken_for_yes = [
