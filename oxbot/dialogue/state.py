@@ -29,12 +29,11 @@ from oxbot.dialogue.domain import (
     ACTION_INDEX,
     ASK_AGAIN,
     INVITATION,
-    LETS_PLAY,
-    MOVE_REQUEST,
-    N_ACTIONS,
     REFUSALS,
     STOP,
+    SYSTEM_ACTS,
     game_move_cell,
+    plays,
     starts_game,
     words_of,
 )
@@ -42,7 +41,6 @@ from oxbot.errors import IllegalMoveError
 from oxbot.game.board import (
     EMPTY,
     EMPTY_BOARD,
-    N_CELLS,
     ROBOT,
     USER,
     Board,
@@ -53,12 +51,10 @@ from oxbot.game.board import (
     to_move,
 )
 
-_PLAYING = np.zeros(N_ACTIONS, dtype=bool)
-_PLAYING[[*range(N_CELLS), ACTION_INDEX[LETS_PLAY]]] = True
-"""The acts that play: "let's play" and the moves (`domain.plays`)."""
-_STARTING = _PLAYING.copy()
-_STARTING[ACTION_INDEX[MOVE_REQUEST]] = True
-"""Before the game is on, "your turn" starts it too (`domain.starts_game`)."""
+_PLAYING = np.array([plays(act) for act in SYSTEM_ACTS])
+"""The acts that play, as a mask: "let's play" and the moves."""
+_STARTING = np.array([starts_game(act) for act in SYSTEM_ACTS])
+"""The acts that start a game before it is on: those and "your turn"."""
 
 if TYPE_CHECKING:
     from oxbot.dialogue.action_model import ActionModel
@@ -216,6 +212,11 @@ class DialogueState:
         return self._features
 
     @property
+    def game_started(self) -> bool:
+        """Whether the robot has said an act after which the game is on (`starts_game`)."""
+        return any(starts_game(act) for act in self.said)
+
+    @property
     def agreed(self) -> bool:
         """Whether the person has drawn on the sheet, or their last answer about a game was
         understood as yes (`ACCEPT`: "one game", "can I start" and a change of mind are one in
@@ -242,7 +243,7 @@ class DialogueState:
         uninvited = INVITATION not in self.said
         if not self.agreed or uninvited:
             # where the model would start a game, the robot asks whether the person wants one
-            starting = _PLAYING if any(starts_game(act) for act in self.said) else _STARTING
+            starting = _PLAYING if self.game_started else _STARTING
             if (mask & starting).any():
                 mask = mask & ~starting
                 mask[ACTION_INDEX[ASK_AGAIN if not self.agreed else INVITATION]] = True

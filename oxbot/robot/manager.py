@@ -67,7 +67,6 @@ from oxbot.dialogue.domain import (
     game_move,
     game_move_cell,
     is_game_move,
-    starts_game,
     words_of,
 )
 from oxbot.dialogue.model import build_dialogue_model
@@ -454,7 +453,7 @@ class InteractionManagerComponent(Component):
     def _illegal(self, cell: int, symbol: str) -> str | None:
         """Why the person may not draw `symbol` in `cell` now, as a problem kind, or None."""
         state = self.state
-        if not self._game_started():
+        if not self.state.game_started:
             return "not_started"  # a drawing before the person agreed is no move
         if state.outcome is not None:
             return "game_over"
@@ -472,7 +471,7 @@ class InteractionManagerComponent(Component):
                 self._tell(GUIDANCE_SENTENCES[kind])
             return
         self._unanswered_in_a_row = 0  # someone is drawing
-        if kind == "out_of_turn" and not self._game_started():
+        if kind == "out_of_turn" and not self.state.game_started:
             kind = "not_started"  # "it is my turn" is wrong before anyone agreed to play
         starts = self.state.robot_starts
         sentence = PROBLEM_SENTENCES.get(kind, "Something is wrong on the sheet.").format(
@@ -510,9 +509,6 @@ class InteractionManagerComponent(Component):
         elif message.part == "arm" and self.phase is Phase.DRAWING and self._arm_cell is not None:
             symbol = symbol_of(ROBOT, self.state.robot_starts)
             self.bus.publish(ArmCommand(where=CELL_NAMES[self._arm_cell], symbol=symbol))
-
-    def _game_started(self) -> bool:
-        return any(starts_game(act) for act in self.state.said)
 
     def _tell(self, sentence: str) -> None:
         self.state.robot_informs(PROBLEM, sentence)
