@@ -12,10 +12,13 @@ Writes are buffered and committed one transaction per turn (each DialogueAct, an
 goodbye), so a crash loses at most the turn under way.
 
 Labels come from the finished game, never from the classifier: when the dialogue ends, a crop
-of a cell where the person's move had already been accepted when it was read gets the person's
-symbol, and a crop of a cell still empty at the end gets "nothing". The robot's own cells get
-no label (on the web page its ink is on an overlay the camera image does not show), nor do the
-person's cells read before their move was accepted (a drawing under way). An interrupted
+of a cell still empty at the end gets "nothing", and a crop of a cell the person played gets
+their symbol when it shows that cell's last ink (`ink_change` below `SAME_INK`) and the last
+ink is a drawing (it differs from the cell's first crop by `SOME_INK` or more). So the crops
+read before the move was accepted count once the drawing was whole: those the robot could not
+read, and the person typed instead, are the ones active learning wants most. A drawing under
+way, a hand over the cell, a move typed without drawing, and the robot's own cells (on the web
+page its ink is on an overlay the camera image does not show) get no label. An interrupted
 dialogue (a new game before the goodbye) labels only the person's settled cells.
 """
 
@@ -28,6 +31,9 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
+
+import cv2
+import numpy as np
 
 from oxbot.dialogue.domain import ASK_AGAIN
 from oxbot.game.board import EMPTY, EMPTY_BOARD, USER, Board, symbol_of
@@ -51,6 +57,22 @@ NOTICE = (
     "outcome and timings are kept on this computer in {path}; `oxbot data forget` deletes them."
 )
 """The one-line notice shown wherever recording is on."""
+
+
+INK_LEVELS = 64
+"""Grey levels by which a pixel must differ to count as ink added or removed."""
+SAME_INK = 0.01
+"""Two crops of a cell show the same ink when fewer than this share of pixels differ."""
+SOME_INK = 0.02
+"""A cell's last crop shows a drawing when at least this share differs from its first."""
+
+
+def ink_change(a: bytes, b: bytes) -> float:
+    """Share of pixels that differ by more than `INK_LEVELS` between two PNG crops."""
+    x, y = (cv2.imdecode(np.frombuffer(i, np.uint8), cv2.IMREAD_GRAYSCALE) for i in (a, b))
+    if x is None or y is None or x.shape != y.shape:
+        return 1.0
+    return float((np.abs(x.astype(np.int16) - y) > INK_LEVELS).mean())
 
 
 def notice(store: RecordingStore, keep_audio: bool = False) -> str:
@@ -277,6 +299,26 @@ class Recorder(Component):
         with self.store.transaction() as db:
             self._write_pending(db, current)
 
+    @staticmethod
+    def _label_drawing(db: Any, session_id: int, cell: int, person: str) -> None:
+        """Give the person's symbol to the crops of their `cell` that show its last ink, if
+        that is a drawing (see the module docstring)."""
+        rows = db.execute(
+            "SELECT reading, image FROM crops WHERE session_id = ? AND cell = ? ORDER BY reading",
+            (session_id, cell),
+        ).fetchall()
+        if len(rows) < 2 or ink_change(rows[0][1], rows[-1][1]) < SOME_INK:
+            return
+        last = rows[-1][1]
+        db.executemany(
+            "UPDATE crops SET label = ? WHERE session_id = ? AND reading = ? AND cell = ?",
+            [
+                (person, session_id, reading, cell)
+                for reading, image in rows
+                if ink_change(image, last) < SAME_INK
+            ],
+        )
+
     def _close(self, current: _Open, status: str, outcome: str | None) -> None:
         """Write what is left, the outcome and final board, and the labels the game confirms."""
         board = current.board
@@ -287,9 +329,10 @@ class Recorder(Component):
             self._write_pending(db, current)
             db.executemany(
                 "UPDATE crops SET label = ? WHERE session_id = ? AND cell = ? AND cell_state = ?",
-                [(person, current.id, cell, USER) for cell in person_cells]
-                + [("nothing", current.id, cell, EMPTY) for cell in empty_cells],
+                [("nothing", current.id, cell, EMPTY) for cell in empty_cells],
             )
+            for cell in person_cells:
+                self._label_drawing(db, current.id, cell, person)
             db.execute(
                 "UPDATE sessions SET ended_at = ?, status = ?, outcome = ?, final_board = ? "
                 "WHERE id = ?",

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
-from oxbot.game.board import EMPTY_BOARD
+import cv2
+import numpy as np
+
+from oxbot.game.board import EMPTY_BOARD, USER
 from oxbot.recording import Recorder, RecordingStore
 from oxbot.robot.bus import LocalBus
 from oxbot.robot.messages import (
+    BoardSeen,
     DialogueAct,
     DialogueEnded,
     GameState,
@@ -94,3 +98,51 @@ def test_a_robot_stopped_before_the_goodbye_leaves_its_session_closed_as_left(tm
         2,
         1,
     )
+
+
+def crop(strokes: int, smudge: int = 0) -> bytes:
+    """A 40x40 cell crop as the tracker sends it: `strokes` of a cross drawn (0-2), plus light
+    camera noise."""
+    image = np.full((40, 40), 235, np.uint8)
+    for (x0, y0), (x1, y1) in [((8, 8), (32, 32)), ((32, 8), (8, 32))][:strokes]:
+        cv2.line(image, (x0, y0), (x1, y1), 20, 3)
+    image = cv2.add(image, np.full_like(image, smudge))
+    return cv2.imencode(".png", image)[1].tobytes()
+
+
+def seen(cell_crops: dict[int, bytes]) -> BoardSeen:
+    cells = tuple(cell_crops.get(i, crop(0)) for i in range(9))
+    return BoardSeen(labels=("nothing",) * 9, cells=cells)
+
+
+def test_a_drawing_is_labelled_from_when_it_was_whole_a_typed_blank_cell_never(tmp_path):
+    """Cell 0: drawn in two strokes, read whole twice before the robot took it (as when the
+    person types a move the robot could not read), then once after. Cell 4: a move typed with
+    nothing drawn. Cell 8 stays empty."""
+    played_0 = tuple(USER if i == 0 else 0 for i in range(9))
+    played_both = tuple(USER if i in (0, 4) else 0 for i in range(9))
+    with RecordingStore(tmp_path) as store:
+        recorder = Recorder(LocalBus(), store)
+        play(
+            recorder,
+            GameState(board=EMPTY_BOARD, robot_starts=True),
+            ASK,
+            HEARD,
+            YES,
+            seen({0: crop(0)}),
+            seen({0: crop(1)}),  # under way
+            seen({0: crop(2)}),
+            seen({0: crop(2, smudge=6)}),  # the same drawing, the light changed a little
+            GameState(board=played_0, robot_starts=True),
+            seen({0: crop(2)}),
+            GameState(board=played_both, robot_starts=True),
+            seen({0: crop(2)}),
+            DialogueEnded(outcome="stopped"),
+        )
+        labels = {
+            (r["reading"], r["cell"]): r["label"]
+            for r in store.query("SELECT reading, cell, label FROM crops")
+        }
+    assert [labels[(k, 0)] for k in range(1, 7)] == [None, None, *["cross"] * 4]
+    assert {labels[(k, 4)] for k in range(1, 7)} == {None}
+    assert {labels[(k, 8)] for k in range(1, 7)} == {"nothing"}

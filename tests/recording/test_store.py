@@ -37,14 +37,16 @@ def test_crops_are_labelled_by_the_finished_game_not_by_the_classifier(recorded)
     with RecordingStore(folder) as store:
         (summary,) = store.sessions()
         board = [int(v) for v in store.session(summary.id)["final_board"].split(",")]
-        crops = store.query("SELECT cell, cell_state, label, image FROM crops")
+        crops = store.query("SELECT cell, cell_state, label, image, read_as FROM crops")
     assert crops and all(len(c["image"]) > 50 for c in crops)
     for c in crops:
         if board[c["cell"]] == EMPTY:
             assert c["label"] == "nothing"
         elif board[c["cell"]] == USER and c["cell_state"] == USER:
             assert c["label"] == "cross"  # the robot started: the person drew crosses
-        else:  # the robot's cells, and the person's drawing before it was accepted
+        elif board[c["cell"]] == USER:  # before the move was accepted: once the ink was there
+            assert c["label"] == ("cross" if c["read_as"] != "nothing" else None), c
+        else:  # the robot's cells
             assert c["label"] is None
     labels = {c["label"] for c in crops}
     assert {"cross", "nothing", None} <= labels
