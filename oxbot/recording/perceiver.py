@@ -64,8 +64,10 @@ class LearnPerceiverConfig:
     """Share of the person's drawings kept back to measure on (at least one per label)."""
     uncertainty_weight: float = 4.0
     """A crop's weight is 1 + this x (1 - the model's probability of its right label)."""
-    person_repeats: int = 4
-    """Each recorded crop is shown this many times per epoch (in different turns and flips)."""
+    person_repeats: int = 8
+    """Each recorded crop is shown this many times per epoch (in different turns and flips); at
+    4 a plus-shaped hand's crosses were still read as circles now and then (98.89% of its later
+    cells with one seed, docs/learning.md)."""
     replay_images: int = 3_000
     """Generated images from the seeds mixed in, so that the model keeps what it knew."""
     epochs: int = 4
