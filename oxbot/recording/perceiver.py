@@ -217,7 +217,9 @@ def learn_perceiver(
             + ", ".join(
                 f"{k} {acc(metrics_before, k):.2%} -> {acc(metrics_after, k):.2%}" for k in worse
             )
-            + (f"; see {metrics_path}" if metrics_path else ""),
+            + (f"; see {metrics_path}" if metrics_path else "")
+            + ". The shipped model stays in use; record more games, or try another --seed (a "
+            "fine-tune that loses a single cell of a test set is refused too)",
             result,
         )
     return result
