@@ -90,7 +90,7 @@ class Budgets:
 
 
 FULL = Budgets(None, None, None, None, 10_000)
-QUICK = Budgets(1_000, 8_000, 4_000, 100, 300)
+QUICK = Budgets(1_000, 4_000, 2_000, 100, 300)
 
 
 @dataclass

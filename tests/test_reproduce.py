@@ -71,7 +71,7 @@ def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path:
     assert figures["data"]["seed_dialogues"] == len(load_domain().dialogues)
     assert figures["perceiver"]["train_images"] == 1_000
     assert f"{100 * figures['perceiver']['accuracy']:.1f}%" in report
-    assert figures["agent"]["experiences"] == 8_000
+    assert figures["agent"]["experiences"] == 4_000
     for peer in ("dqn", "maskable_ppo"):
         p = figures["agent_peers"][peer]
         assert p["budget_s"] == pytest.approx(figures["agent"]["train_s"], abs=0.1)
@@ -79,7 +79,7 @@ def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path:
     assert set(figures["seeds"]) == {"perception", "agent", "evaluation", "peers"}
     env = figures["environment"]
     assert env["packages"]["torch"] and env["packages"]["stable-baselines3"] and env["cpu"]
-    assert figures["configs"]["train"]["agent"]["total_steps"] == 8_000
+    assert figures["configs"]["train"]["agent"]["total_steps"] == 4_000
     assert (work / MARKER).exists()
 
 
