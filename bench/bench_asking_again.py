@@ -35,7 +35,7 @@ from oxbot.dialogue.domain import (
     UNKNOWN,
 )
 from oxbot.dialogue.env import InteractiveGameEnv
-from oxbot.recording.agent import ASKED_TWICE
+from oxbot.recording.agent import asks_again
 from oxbot.testing.simulated_people import population
 
 ASKING = (INVITATION, ASK_AGAIN, GRANT_REFUSAL)
@@ -121,7 +121,7 @@ def count_repeats(info: dict, repeats: Counter[str]) -> None:
         if turn["speaker"] == "usr":
             heard = (act, score)
             continue
-        if turn["act"] == ASK_AGAIN or (turn["act"] == said and said in ASKED_TWICE):
+        if asks_again(turn["act"], said):
             if heard is None:
                 repeats[f"{turn['act']} after silence"] += 1
             else:

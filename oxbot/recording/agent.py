@@ -240,16 +240,20 @@ def fit_person(
     )
 
 
+def asks_again(act: str, previous: str | None) -> bool:
+    """Whether the robot's `act`, after its `previous` act, asks again: `Request(repeat)`, or
+    the same question twice in a row."""
+    return act == ASK_AGAIN or (act == previous and act in ASKED_TWICE)
+
+
 def repeated_questions(transcript: list[Turn]) -> int:
-    """How often the robot asked again in a dialogue: `Request(repeat)`, or the same question
-    as its previous act."""
+    """How often the robot asked again in a dialogue (`asks_again`)."""
     count, previous = 0, None
     for turn in transcript:
         if turn["speaker"] != "sys":
             continue
-        act = turn["act"]
-        count += act == ASK_AGAIN or (act == previous and act in ASKED_TWICE)
-        previous = act
+        count += asks_again(turn["act"], previous)
+        previous = turn["act"]
     return count
 
 
