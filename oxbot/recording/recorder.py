@@ -67,12 +67,12 @@ SOME_INK = 0.02
 """A cell's last crop shows a drawing when at least this share differs from its first."""
 
 
-def ink_change(a: bytes, b: bytes) -> float:
-    """Share of pixels that differ by more than `INK_LEVELS` between two PNG crops."""
-    x, y = (cv2.imdecode(np.frombuffer(i, np.uint8), cv2.IMREAD_GRAYSCALE) for i in (a, b))
-    if x is None or y is None or x.shape != y.shape:
+def ink_change(a: np.ndarray | None, b: np.ndarray | None) -> float:
+    """Share of pixels that differ by more than `INK_LEVELS` between two gray crops (1 when
+    either could not be decoded or their sizes differ)."""
+    if a is None or b is None or a.shape != b.shape:
         return 1.0
-    return float((np.abs(x.astype(np.int16) - y) > INK_LEVELS).mean())
+    return float((np.abs(a.astype(np.int16) - b) > INK_LEVELS).mean())
 
 
 def notice(store: RecordingStore, keep_audio: bool = False) -> str:
@@ -307,15 +307,16 @@ class Recorder(Component):
             "SELECT reading, image FROM crops WHERE session_id = ? AND cell = ? ORDER BY reading",
             (session_id, cell),
         ).fetchall()
-        if len(rows) < 2 or ink_change(rows[0][1], rows[-1][1]) < SOME_INK:
+        gray = cv2.IMREAD_GRAYSCALE
+        crops = [cv2.imdecode(np.frombuffer(png, np.uint8), gray) for _, png in rows]
+        if len(crops) < 2 or ink_change(crops[0], crops[-1]) < SOME_INK:
             return
-        last = rows[-1][1]
         db.executemany(
             "UPDATE crops SET label = ? WHERE session_id = ? AND reading = ? AND cell = ?",
             [
                 (person, session_id, reading, cell)
-                for reading, image in rows
-                if ink_change(image, last) < SAME_INK
+                for (reading, _), crop in zip(rows, crops, strict=True)
+                if ink_change(crop, crops[-1]) < SAME_INK
             ],
         )
 
