@@ -33,7 +33,6 @@ painted over, nine 40x40 cells cut).
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -100,9 +99,6 @@ class Grid:
     in_view: tuple[bool, ...] = (True,) * (SIZE * SIZE)
     """For each cell, row-major: whether its middle is in the frame (`IN_VIEW`), so that
     what is drawn there can be read. A grid cut by the frame's edge has some cells False."""
-    faint: bool = False
-    """Found only by the second, faint look (pencil, a pale pen): its symbols may be too
-    faint to read, and the person is better told to draw with a dark pen."""
 
     def cells_out_of_view(self) -> list[int]:
         """The cells (0-8, row-major) too far out of the frame to read."""
@@ -264,10 +260,9 @@ def find_grid(frame: np.ndarray) -> Grid:
             raise
         faint = cv2.max(ink, _faint_lines(darkness))
         try:
-            grid = _find_in(faint, darkness, 1 / shrink, w, h)
+            return _find_in(faint, darkness, 1 / shrink, w, h)
         except NoGridFound:
             raise pen_look from None  # the pen look's reason says what the person can do
-        return dataclasses.replace(grid, faint=True)
 
 
 def _find_in(ink: np.ndarray, darkness: np.ndarray, scale: float, w: int, h: int) -> Grid:

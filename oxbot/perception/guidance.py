@@ -5,8 +5,7 @@ picture. A person holding a phone over a sheet needs to know why: the room is to
 picture is blurred, a hand is in the way, the sheet is partly out of the picture or the camera
 is too close. `diagnose` looks at a frame the reader refused, cheaply (a few milliseconds on a
 320-pixel copy), and names the likeliest cause with what to do about it; when none of these
-fits, the finder's own words stand. A grid found only in faint lines (`Grid.faint`: pencil) is
-read, but the person is told `FAINT` too, since its symbols may be too faint to read.
+fits, the finder's own words stand.
 
     guidance = diagnose(frame, str(no_grid_found), last_grid=corners)
     guidance.kind   # "too_dark", "blurred", "hand", "off_edge", "too_close" or "no_grid"
@@ -27,7 +26,7 @@ from oxbot.perception.grid import as_gray
 
 GuidanceKind = str
 """One of KINDS."""
-KINDS = ("too_dark", "blurred", "hand", "off_edge", "too_close", "no_grid", "faint")
+KINDS = ("too_dark", "blurred", "hand", "off_edge", "too_close", "no_grid")
 
 WORK_SIDE = 320
 """Longest side of the copy of the frame that is looked at."""
@@ -58,13 +57,6 @@ class Guidance:
 
     kind: GuidanceKind
     text: str
-
-
-FAINT = Guidance(
-    "faint",
-    "Your lines are very faint: draw with a dark pen or a marker, or I may miss your move.",
-)
-"""What to tell a person whose grid was found only by the faint look (`Grid.faint`)."""
 
 
 def diagnose(frame: np.ndarray, refusal: str = "", last_grid: np.ndarray | None = None) -> Guidance:
@@ -173,4 +165,4 @@ def _skin_over(frame: np.ndarray, shape: tuple[int, int], corners: np.ndarray) -
     return float(skin[inside].mean()) if inside.any() else 0.0
 
 
-__all__ = ["FAINT", "KINDS", "Guidance", "diagnose"]
+__all__ = ["KINDS", "Guidance", "diagnose"]

@@ -14,9 +14,9 @@ impossible ones. A frame without a readable board (a camera's) is diagnosed
 picture): BoardSeen's `refusal` says what to do at once, and once the board has stayed
 unreadable for `guidance_seconds` a BoardProblem of the guidance's kind says it again, once
 per kind every GUIDANCE_REPEAT_SECONDS until the board is read again, for the robot to say out
-loud. A grid seen only in faint lines (pencil, `Grid.faint`) is read, and its kind "faint" told
-the same way. Listens to ArmCommand, because the tracker must know the robot's own drawings
-before they appear, and to NewGame, which starts a clean sheet.
+loud. Listens
+to ArmCommand, because the tracker must know the robot's own drawings before they appear, and
+to NewGame, which starts a clean sheet.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from oxbot.game.board import SIZE
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
 from oxbot.perception.cells import CELL_SIZE, SHEET_CELL
 from oxbot.perception.classifier import CellReading, ink_share
-from oxbot.perception.guidance import FAINT, Guidance, diagnose
+from oxbot.perception.guidance import Guidance, diagnose
 from oxbot.perception.sources import FrameSource
 from oxbot.perception.tracker import AcceptedDrawing, ImpossibleEvent, MoveTracker
 from oxbot.robot.bus import Bus, Component
@@ -224,8 +224,7 @@ class GameMoveComponent(Component):
                     grid=grid,
                 )
             )
-        faint = reading is not None and reading.grid.faint
-        self._guide(FAINT if faint else guidance, frame, grid)
+        self._guide(guidance, frame, grid)
         if accepted:
             log.info("accepted %s", event)
             self.bus.publish(move_message(event))
@@ -234,13 +233,11 @@ class GameMoveComponent(Component):
             self.bus.publish(BoardProblem(reason=event.message, kind=event.kind))
 
     def _guide(self, guidance: Guidance | None, frame: np.ndarray, grid: tuple) -> None:
-        """Count the readings without a board (or with a faint one); say why once they last
-        `guidance_seconds`."""
-        if grid:
-            corners = np.array(grid).reshape(4, 4, 2)[[0, 0, 3, 3], [0, 3, 3, 0]]
-            self._corners = (corners, frame.shape[:2])
+        """Count the readings without a board; say why once they last `guidance_seconds`."""
         if guidance is None:
             self._refused, self._told = 0, {}
+            corners = np.array(grid).reshape(4, 4, 2)[[0, 0, 3, 3], [0, 3, 3, 0]]
+            self._corners = (corners, frame.shape[:2])
             return
         self._refused += 1
         if self._refused * self.period < self.config.guidance_seconds:

@@ -127,7 +127,6 @@ GUIDANCE_SENTENCES = {
     "too_dark": "It is too dark for me to see the sheet. Please turn on a light.",
     "blurred": "The picture is blurred. Please hold the camera still.",
     "hand": "A hand is in the way. Please take it off the sheet.",
-    "faint": "Your lines are very faint. Please draw with a dark pen, or I may miss your move.",
 }
 """What the robot says when its camera cannot show it the board (by the guidance's kind,
 `oxbot.perception.guidance`), only while it waits for the person's drawing: at other times the

@@ -181,27 +181,3 @@ def test_a_board_unreadable_for_a_while_is_told_once_per_reason_with_the_grid_sh
     assert told == ["too_dark", "blurred"]
     refusals = {m.refusal for m in got if isinstance(m, BoardSeen) and m.refusal}
     assert any("too dark" in r for r in refusals) and any("blurred" in r for r in refusals)
-
-
-def test_a_pencil_grid_is_read_and_the_person_is_told_to_draw_darker():
-    """Issue 15: a grid only the faint look finds is read (no refusal) and, once it has been
-    seen for `guidance_seconds`, a BoardProblem "faint" says to draw with a dark pen."""
-    from oxbot.testing.webcam import PaperVideo
-
-    video = PaperVideo(seed=2)
-    video.draw("upperleft", "circle")
-    video.show("sheet", 0.1)
-    sheet = list(video.frames())[-1].astype(np.float32)
-    paper = np.percentile(sheet, 90)
-    pencil = np.clip(paper - (paper - sheet) * 0.15, 0, 255).astype(np.uint8)  # faint ink
-    bus = LocalBus()
-    events = bus.subscribe(BoardSeen, BoardProblem)
-    config = TrackerConfig(period_s=0.05, guidance_seconds=0.2)
-    with GameMoveComponent(bus, robot_starts=False, config=config) as vision:
-        vision.push(pencil)
-        got = collect(events, lambda m: isinstance(m, BoardProblem))
-    assert vision.tracker.board[0] == "circle"  # the person's circle became a move
-    seen = [m for m in got if isinstance(m, BoardSeen)]
-    assert seen and seen[0].labels[0] == "circle" and seen[0].refusal == ""
-    assert [m.kind for m in got if isinstance(m, BoardProblem)] == ["faint"]
-    assert "dark pen" in got[-1].reason
