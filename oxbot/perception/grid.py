@@ -198,41 +198,6 @@ def _ink_mask(image: np.ndarray, kernel: int = 7) -> tuple[np.ndarray, np.ndarra
     return ink, darkness
 
 
-def _line_kernels(length: int, step: int) -> tuple[np.ndarray, ...]:
-    """Zero-mean kernels that average a straight segment `length` pixels long, one every
-    `step` degrees: each answers a line running its way and cancels flat paper."""
-    kernels = []
-    c = length // 2
-    for degrees in range(0, 180, step):
-        t = math.radians(degrees)
-        dx, dy = round(c * math.cos(t)), round(c * math.sin(t))
-        k = np.zeros((length, length), np.float32)
-        cv2.line(k, (c - dx, c - dy), (c + dx, c + dy), 1.0, 1)
-        k /= k.sum()
-        kernels.append(k - 1.0 / length**2)
-    return tuple(kernels)
-
-
-_FAINT_KERNELS = _line_kernels(11, 15)
-_FAINT_ABOVE = 2.0  # a faint line answers this many times more than the texture around it
-_FAINT_MIN = 0.03  # and takes away at least this share of the paper's light along it
-_FAINT_AROUND = 31  # pixels: the texture a faint line is measured against
-_FAINT_PAPER = 80  # faint lines are looked for only where the paper is at least this light
-
-
-def _faint_lines(darkness: np.ndarray) -> np.ndarray:
-    """uint8 mask (0/255) of lines too faint for `_ink_mask` (pencil, a pale pen): where a
-    straight segment is darker than the paper around it, by more than the texture there
-    (grain, a desk's wood) is. Averaging along the segment lifts a faint line out of noise
-    that hides it pixel by pixel."""
-    response = np.zeros_like(darkness)
-    for kernel in _FAINT_KERNELS:
-        response = cv2.max(response, cv2.filter2D(darkness, -1, kernel))
-    texture = cv2.blur(np.maximum(response, 0.0), (_FAINT_AROUND, _FAINT_AROUND))
-    lines = (response > _FAINT_ABOVE * texture) & (response > _FAINT_MIN)
-    return lines.astype(np.uint8) * 255
-
-
 def _shrink_keeping_strokes(image: np.ndarray, k: int) -> np.ndarray:
     """`image` shrunk k times (k > 1 a whole number: OpenCV's fast area averaging) so that a
     pen line one pixel wide stays dark: each pixel first takes the darkest value around it (as
@@ -249,24 +214,9 @@ def find_grid(frame: np.ndarray) -> Grid:
     """
     h, w = frame.shape[:2]
     shrink = math.ceil(max(h, w) / WORK_SIDE)
+    scale = 1 / shrink
     small = frame if shrink == 1 else _shrink_keeping_strokes(frame, shrink)
     ink, darkness = _ink_mask(small)
-    try:
-        return _find_in(ink, darkness, 1 / shrink, w, h)
-    except NoGridFound as pen_look:
-        # Pencil, or a pale pen: too faint for the pen look, but still lines on the paper;
-        # unless the frame is too dark to tell a faint line from the camera's noise.
-        if np.percentile(small[::4, ::4], 90) < _FAINT_PAPER:
-            raise
-        faint = cv2.max(ink, _faint_lines(darkness))
-        try:
-            return _find_in(faint, darkness, 1 / shrink, w, h)
-        except NoGridFound:
-            raise pen_look from None  # the pen look's reason says what the person can do
-
-
-def _find_in(ink: np.ndarray, darkness: np.ndarray, scale: float, w: int, h: int) -> Grid:
-    """`find_grid` on the work image's ink mask and darkness; `scale`: work image / frame."""
     # The paper's closing brightens the frame's edge, where the desk then looks like ink.
     ink[:2, :] = ink[-2:, :] = ink[:, :2] = ink[:, -2:] = 0
     short = min(ink.shape)

@@ -154,8 +154,7 @@ class PaperVideo:
         if view == "dark":
             photo = photo * 0.05 + rng.normal(0, 2.0, photo.shape)
         elif view == "blurred":
-            # Blurred beyond reading: the reader reads a blur of 1.2% of the width (issue 15).
-            photo = cv2.GaussianBlur(photo, (0, 0), 0.025 * self.size[0])
+            photo = cv2.GaussianBlur(photo, (0, 0), 0.012 * self.size[0])
         elif view == "hand":
             photo = _hand_over(photo, self.size)
         return np.clip(photo, 0, 255).astype(np.uint8)

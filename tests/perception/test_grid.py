@@ -263,38 +263,3 @@ def test_a_grid_cut_by_the_frame_edge_says_which_cells_are_out_of_view():
         grid = find_grid(photo)
         assert grid.cells_out_of_view() == [0, 3, 6]
         assert crossing_error(scene, photo) < 0.1
-
-
-def faint_grid_frame(rng: np.random.Generator, contrast: float) -> tuple[np.ndarray, np.ndarray]:
-    """A 640x480 photo of a sheet on a wooden-looking desk with a grid drawn `contrast` grey
-    levels darker than the paper (pencil), and the grid's four crossings (x, y)."""
-    desk = rng.normal(0, 1, (480, 640)).astype(np.float32)
-    desk = cv2.GaussianBlur(desk, (0, 0), sigmaX=6, sigmaY=1)  # grain along the planks
-    frame = np.clip(110 + 600 * desk, 30, 200)
-    frame[30:450, 120:520] = 235 + rng.normal(0, 2, (420, 400))  # the paper, with grain
-    for at in (260, 380):  # two lines down, two across, a little aslant
-        cv2.line(frame, (at, 50), (at + 6, 390), 235 - contrast, 2, cv2.LINE_AA)
-        cv2.line(frame, (150, at - 100), (490, at - 94), 235 - contrast, 2, cv2.LINE_AA)
-    frame = cv2.GaussianBlur(frame, (0, 0), 0.8)
-    crossings = np.array([[262, 162], [382, 165], [384, 285], [264, 282]], np.float64)
-    return np.clip(frame, 0, 255).astype(np.uint8), crossings
-
-
-def test_a_pencil_grid_too_faint_for_the_pen_look_is_found():
-    from oxbot.perception import grid
-
-    frame, crossings = faint_grid_frame(np.random.default_rng(0), contrast=22)
-    ink, _ = grid._ink_mask(grid._shrink_keeping_strokes(frame, 2))
-    assert (ink[150:190, 130:140] > 0).mean() < 0.2  # the pen look sees little of a line
-    lattice = find_grid(frame).lattice
-    found = np.array([lattice[1, 1], lattice[1, 2], lattice[2, 2], lattice[2, 1]])
-    assert np.abs(found - crossings).max() < 0.03 * 120  # cells are 120 pixels
-    with pytest.raises(NoGridFound):  # too dark to tell faint lines from noise
-        find_grid(
-            (frame * 0.05 + np.random.default_rng(1).normal(0, 2, frame.shape))
-            .clip(0, 255)
-            .astype(np.uint8)
-        )
-    blank, _ = faint_grid_frame(np.random.default_rng(2), contrast=0)
-    with pytest.raises(NoGridFound):  # paper grain and a desk are no grid
-        find_grid(blank)
