@@ -101,11 +101,6 @@ class PerceptionConfig:
     """oxbot: (issue 15) a plus sign (strokes along the cell's sides) is a cross. Off, per issue
     15, it is a wrong shape and reads "partial"; on for a hand that draws its crosses that way
     (board kv-A of the real photos does)."""
-    second_view: bool = True
-    """oxbot: (issue 15) each symbol is read again with its ink centred and scaled to the size
-    the cutter aims at (`oxbot.perception.board.centred`); where the two views name different
-    symbols the cell reads "partial" (no move). On the composed dev boards it took the symbols
-    read wrong at the tracker's confidence from 16 to 3, at the cost of 3 of 200 boards."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "image_size", "conv1_filters", "conv2_filters", "kernel_size")

@@ -29,14 +29,12 @@ from oxbot.config import PerceptionConfig
 from oxbot.errors import NoGridFound
 from oxbot.game.board import CELL_NAMES, SIZE
 from oxbot.perception.cells import (
-    CELL_SIZE,
     SHEET_CELL,
-    SYMBOL_SHARE,
     cut_cells_and_painted,
     remove_grid_lines,
     wipe_background,
 )
-from oxbot.perception.classifier import INK_SHARE_LEVEL, CellReading, ink_share, to_input
+from oxbot.perception.classifier import CellReading, ink_share
 from oxbot.perception.grid import Grid, as_image, find_grid
 from oxbot.perception.rectify import rectify
 from oxbot.perception.seeds import write_png
@@ -179,57 +177,7 @@ class BoardReader:
             readings = veto_partial(
                 cells, readings, self.config.max_circle_gap, self.config.plus_is_cross, painted
             )
-        if self.config.second_view and hasattr(self.classifier, "read"):
-            readings = self._second_view(cells, readings)
         return readings
-
-    def _second_view(self, cells: np.ndarray, readings: list[CellReading]) -> list[CellReading]:
-        """Each symbol read again, its ink centred and scaled (`centred`): where the two views
-        name different symbols, the cell is "partial". A symbol cut off-centre, small, or with
-        a bit of line beside it can fool one view of a small network with full confidence,
-        seldom both in opposite ways; a cell read "nothing" is never made a symbol here."""
-        symbols = [i for i, r in enumerate(readings) if r.label in ("circle", "cross")]
-        if not symbols:
-            return readings
-        again = self.classifier.read(centred(cells[symbols]))
-        out = list(readings)
-        for i, second in zip(symbols, again, strict=True):
-            if second.label in ("circle", "cross") and second.label != readings[i].label:
-                out[i] = CellReading("partial", 1.0, readings[i].ink)
-        return out
-
-
-MIN_CENTRED_BOX = CELL_SIZE // 4
-"""oxbot: ink whose box is smaller than this (pixels) is a speck: such a cell is left as it is."""
-
-
-def centred(cells: np.ndarray) -> np.ndarray:
-    """Cells (N, 40, 40) with their ink's box scaled to `SYMBOL_SHARE` of the cell and centred
-    on the cell's own paper: the size and place the cutter aims for, whatever the cut. Ink is
-    as the classifier sees it (`to_input` above `INK_SHARE_LEVEL`)."""
-    out = cells.copy()
-    side = cells.shape[1]
-    target = round(side * SYMBOL_SHARE)
-    at = (side - target) // 2
-    inked = to_input(cells).numpy()[:, 0] > INK_SHARE_LEVEL
-    for i, cell in enumerate(cells):
-        ys, xs = np.nonzero(inked[i])
-        if xs.size == 0:
-            continue
-        x0, x1, y0, y1 = xs.min(), xs.max() + 1, ys.min(), ys.max() + 1
-        box = max(x1 - x0, y1 - y0)
-        if box < MIN_CENTRED_BOX:
-            continue
-        paper = np.uint8(np.percentile(cell, 90))
-        square = np.full((box, box), paper, np.uint8)
-        left, top = (box - (x1 - x0)) // 2, (box - (y1 - y0)) // 2
-        square[top : top + y1 - y0, left : left + x1 - x0] = cell[y0:y1, x0:x1]
-        how = cv2.INTER_AREA if box > target else cv2.INTER_LINEAR
-        out[i] = paper
-        out[i, at : at + target, at : at + target] = cv2.resize(
-            square, (target, target), interpolation=how
-        )
-    return out
 
 
 def ink_elongation(cells: np.ndarray) -> np.ndarray:

@@ -6,7 +6,6 @@ import cv2
 import numpy as np
 import pytest
 
-from oxbot.config import PerceptionConfig
 from oxbot.errors import InvalidInputError, NoGridFound
 from oxbot.game.board import CELL_NAMES
 from oxbot.perception.board import BoardReader, default_reader, ink_elongation, read_board
@@ -262,46 +261,3 @@ def test_see_says_which_cells_are_out_of_view(tmp_path):
     result = oxbot("see", str(path))
     assert result.returncode == 0, result.stderr
     assert "out of view: upperleft, middleleft, lowerleft" in result.stdout
-
-
-def test_centred_scales_a_cells_ink_to_the_cutters_size_in_the_middle():
-    from oxbot.perception.board import centred
-
-    cell = np.full((1, 40, 40), 230, np.uint8)  # paper a little grey
-    cell[0, 3:13, 25:35] = 40  # a small square of ink in a corner
-    out = centred(cell)[0]
-    ys, xs = np.nonzero(out < 135)
-    assert (xs.min(), xs.max(), ys.min(), ys.max()) == (5, 33, 5, 33)  # 29 = 72% of 40
-    assert out[0, 0] == 230  # padded with the cell's own paper, not white
-    speck = np.full((1, 40, 40), 245, np.uint8)
-    speck[0, 20:23, 20:23] = 0
-    assert np.array_equal(centred(speck), speck)  # too small to be a symbol: left alone
-
-
-class _ByPlace:
-    """A classifier that says cross for ink off the cell's middle, circle for ink on it."""
-
-    outputs = ("circle", "cross", "nothing")
-
-    def read(self, cells):
-        from oxbot.perception.classifier import CellReading
-
-        out = []
-        for cell in cells:
-            ys, xs = np.nonzero(cell < 135)
-            if xs.size == 0:
-                out.append(CellReading("nothing", 0.99, 0.0))
-                continue
-            off = abs(xs.mean() - 19.5) + abs(ys.mean() - 19.5)
-            out.append(CellReading("cross" if off > 5 else "circle", 1.0, 0.1))
-        return out
-
-
-def test_a_symbol_the_centred_view_reads_otherwise_is_no_move():
-    cells = np.full((3, 40, 40), 245, np.uint8)
-    cells[0, 3:13, 25:35] = 40  # off the middle: "cross" as cut, "circle" centred
-    cells[1, 12:28, 12:28] = 40  # in the middle: "circle" both ways
-    reader = BoardReader(_ByPlace(), PerceptionConfig(wholeness=False))
-    assert [r.label for r in reader.classify(cells)] == ["partial", "circle", "nothing"]
-    alone = BoardReader(_ByPlace(), PerceptionConfig(wholeness=False, second_view=False))
-    assert [r.label for r in alone.classify(cells)] == ["cross", "circle", "nothing"]

@@ -131,7 +131,7 @@ def readers() -> dict[str, BoardReader]:
     return {
         "default": BoardReader(clf),
         "strict": BoardReader(clf, PerceptionConfig(max_circle_gap=85.0)),
-        "unchecked": BoardReader(clf, PerceptionConfig(wholeness=False, second_view=False)),
+        "unchecked": BoardReader(clf, PerceptionConfig(wholeness=False)),
     }
 
 
