@@ -22,6 +22,10 @@ and anything the robot has to say meanwhile (an impossible drawing) waits for Ar
 The manager is the authority on the game: a move that is not legal on its board (typed moves
 bypass the tracker) is refused in words and never changes the board.
 
+"New game" after the outcome starts another game once this dialogue has said goodbye; said
+mid-game, where the simulated people never say it, it is taken as a stop (the policy lets go,
+"Okay, let's stop here") followed by another game.
+
 On real paper (SheetMode, issue 17) the robot has no arm that reaches the sheet: it says where
 it plays ("I take the upper left.") instead of "I take this one"; the policy still sees the
 template's words, as in training, and the simulated arm still "draws" (the page shows its
@@ -47,6 +51,7 @@ When a part fails (see `oxbot.robot.bus`), the game goes on if it can:
 from __future__ import annotations
 
 import copy
+import dataclasses
 import enum
 import logging
 import time
@@ -62,6 +67,7 @@ from oxbot.dialogue.domain import (
     NEW_GAME,
     PROBLEM,
     SILENCE,
+    STOP,
     SYSTEM_ACTS,
     draw_tag,
     game_move,
@@ -414,6 +420,10 @@ class InteractionManagerComponent(Component):
         # per-word confidences when the recogniser gives them (paper §2.2), else the utterance's
         words = words or tuple((w, confidence) for w in words_of(text))
         reading = self._understand(nbest, self.state.last_act)
+        if reading.act == NEW_GAME and self.state.game_started and self.state.outcome is None:
+            # "New game!" mid-game: this game stops (the policy knows a stop), another follows
+            reading = dataclasses.replace(reading, act=STOP)
+            self._rematch = True
         self.state.person_says(reading.act, text, words, (reading.act, reading.score))
         self._publish_turn("usr", reading.act, text)
         self._spoke_since = True

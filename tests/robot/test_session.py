@@ -350,6 +350,25 @@ def test_stop_mid_game_is_confirmed_or_acknowledged_and_the_robot_lets_go():
     assert ended.outcome == "stopped" and "Request(playGame)" in acts
 
 
+def test_new_game_mid_game_stops_this_game_and_starts_another():
+    with Robot(FAST, seed=12) as robot:
+        every_act = robot.bus.subscribe(DialogueAct)
+        answers = {
+            "Request(playGame)": ["Yes, let's play."],
+            "Request(userGameMove)": ["New game!"],
+        }
+        turns, ended = talk_until_goodbye(robot, answers)
+        acts = [t.act for t in turns if t.speaker == "sys"]
+        assert acts[-2:] == ["Acknowledge(stop)", "Salutation(closing)"]  # let go politely
+        assert ended.outcome == "stopped" and any(a.startswith("GameMove") for a in acts)
+        greetings, deadline = 0, time.monotonic() + 10
+        while greetings < 2 and time.monotonic() < deadline:  # then the next game's greeting
+            message = every_act.get(0.5)
+            greetings += message is not None and message.act == "Salutation(greeting)"
+        assert greetings == 2, "no new game after 'new game' mid-game"
+        assert not robot.finished
+
+
 def test_new_game_after_the_goodbye_starts_another():
     with Robot(FAST, seed=13) as robot:
         talk_until_goodbye(robot, {"Request(playGame)": ["No thanks."] * 3})
