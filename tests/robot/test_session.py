@@ -355,7 +355,7 @@ def test_new_game_mid_game_stops_this_game_and_starts_another():
         every_act = robot.bus.subscribe(DialogueAct)
         answers = {
             "Request(playGame)": ["Yes, let's play."],
-            "Request(userGameMove)": ["New game!"],
+            "Request(userGameMove)": ["New game!"] * 3,
         }
         turns, ended = talk_until_goodbye(robot, answers)
         acts = [t.act for t in turns if t.speaker == "sys"]
