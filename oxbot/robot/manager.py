@@ -420,16 +420,14 @@ class InteractionManagerComponent(Component):
         # per-word confidences when the recogniser gives them (paper §2.2), else the utterance's
         words = words or tuple((w, confidence) for w in words_of(text))
         reading = self._understand(nbest, self.state.last_act)
-        if reading.act == NEW_GAME and self.state.game_started and self.state.outcome is None:
-            # "New game!" mid-game: this game stops (the policy knows a stop), another follows
-            reading = dataclasses.replace(reading, act=STOP)
-            self._rematch = True
+        if reading.act == NEW_GAME and (self.state.game_started or self.state.outcome is not None):
+            self._rematch = True  # after this dialogue's goodbye, another game
+            if self.state.outcome is None:  # mid-game: this one stops first (a stop it knows)
+                reading = dataclasses.replace(reading, act=STOP)
         self.state.person_says(reading.act, text, words, (reading.act, reading.score))
         self._publish_turn("usr", reading.act, text)
         self._spoke_since = True
         self._unanswered_in_a_row = 0
-        if reading.act == NEW_GAME and self.state.outcome is not None:
-            self._rematch = True  # after this dialogue's goodbye, another game
         if self.phase is Phase.LISTENING and not (
             self._expects_move() and is_game_move(reading.act)
         ):
