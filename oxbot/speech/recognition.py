@@ -79,7 +79,7 @@ Synthesised and browser audio holds stretches of exact zeros, which no microphon
 them pocketsphinx's energy features and noise model go astray ("okay" heard as "hi"). With this
 floor, the accept/decline answers in 12 espeak-ng voices, clean and at 20 dB SNR, were heard
 word for word 97% of the time instead of 63% (16-phrase grammar)."""
-PRONUNCIATIONS = {"oxbot": "AA K S B AA T", "noughts": "N AO T S"}
+PRONUNCIATIONS = {"oxbot": "AA K S B AA T", "noughts": "N AO T S", "hiya": "HH AY Y AH"}
 """Words of the domain that the en-us dictionary lacks ("hi oxbot"), in its phone set."""
 SILENT_DBFS = -50.0
 """A recording whose peak lies below this is nothing heard (a muted microphone); a quiet one,
