@@ -128,9 +128,15 @@ class TrackerConfig:
     guidance_seconds: float = 1.5
     """oxbot: how long a camera's board must stay unreadable before the robot says why and what
     to do (issue 17); a hand passing over the sheet is not worth a word."""
+    unclear_seconds: float = 4.0
+    """oxbot: how long new ink in an empty cell may stay still without being a whole symbol
+    (a plus, an arc, a single stroke) before the robot says it cannot tell what it is; long
+    enough for the pause between a cross's two strokes."""
 
     def __post_init__(self) -> None:
-        _require_positive(self, "period_s", "stable_readings", "guidance_seconds")
+        _require_positive(
+            self, "period_s", "stable_readings", "guidance_seconds", "unclear_seconds"
+        )
         _require_range(self, "min_confidence", "[0, 1)")
         _require_range(self, "ink_tolerance", "[0, 1)")
         _require_finite(self)

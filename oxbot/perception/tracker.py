@@ -73,7 +73,13 @@ class AcceptedDrawing:
 
 
 ImpossibleKind = Literal[
-    "two_new_symbols", "occupied_cell", "wrong_symbol", "out_of_turn", "game_over", "not_started"
+    "two_new_symbols",
+    "occupied_cell",
+    "wrong_symbol",
+    "out_of_turn",
+    "game_over",
+    "not_started",
+    "unclear_symbol",
 ]
 
 
@@ -132,6 +138,8 @@ class MoveTracker:
         self._candidate_ink: tuple[float, ...] = ()
         self._count = 0
         self._readings = 0
+        self._unclear: dict[int, tuple[float, int]] = {}  # cell -> (first ink, readings)
+        self._unclear_told: dict[int, int] = {}  # cell -> the turn (symbols drawn) it was told
 
     @property
     def board(self) -> tuple[str, ...]:
@@ -175,9 +183,10 @@ class MoveTracker:
         if cells is not None and len(cells) != N_CELLS:
             raise InvalidInputError(f"a board reading has {N_CELLS} cells; got {len(cells)}")
         changes = self._changes(labels, cells)
+        unclear = self._unclear_ink(cells) if cells is not None else None
         if not changes:
             self._candidate, self._count = (), 0
-            return None
+            return unclear
         ink = tuple(cells[c].ink for c, _ in changes) if cells is not None else ()
         if changes == self._candidate and self._ink_still(ink):
             self._count += 1
@@ -189,10 +198,59 @@ class MoveTracker:
 
     def _ink_still(self, ink: tuple[float, ...]) -> bool:
         """Whether the new drawing's ink is what it was at the run's first reading."""
-        tolerance = self.config.ink_tolerance
         return all(
-            abs(now - first) <= tolerance * max(first, 1e-6)
-            for now, first in zip(ink, self._candidate_ink, strict=True)
+            self._same_ink(now, first) for now, first in zip(ink, self._candidate_ink, strict=True)
+        )
+
+    def _same_ink(self, now: float, first: float) -> bool:
+        return abs(now - first) <= self.config.ink_tolerance * max(first, 1e-6)
+
+    def _unclear_ink(self, cells: Sequence[CellReading]) -> ImpossibleEvent | None:
+        """An `unclear_symbol` event for ink in an empty cell that has stayed still for
+        `unclear_seconds` without being a whole, confident symbol, when it is the person's
+        turn; told once a turn for each cell (a mark on the sheet the reader cannot make out
+        is told too, once a turn: the robot cannot tell it from a drawing)."""
+        needed = max(1, round(self.config.unclear_seconds / self.config.period_s))
+        turn = sum(label != "nothing" for label in self._board)
+        report = None
+        for cell, known in enumerate(self._board):
+            seen = cells[cell].label  # its own: a SPEC §5 reading says "nothing" for partial
+            unsure = (
+                seen in ("circle", "cross") and cells[cell].confidence < self.config.min_confidence
+            )
+            if known != "nothing" or not (seen == "partial" or unsure):
+                self._unclear.pop(cell, None)
+                continue
+            ink = cells[cell].ink
+            first, count = self._unclear.get(cell, (ink, 0))
+            if not self._same_ink(ink, first):
+                first, count = ink, 0
+            self._unclear[cell] = (first, count + 1)
+            if count + 1 < needed or self._unclear_told.get(cell) == turn:
+                continue
+            if report is None and self._persons_turn():
+                self._unclear_told[cell] = turn
+                report = self._impossible(
+                    "unclear_symbol",
+                    (cell,),
+                    (seen,),
+                    f"ink in {CELL_NAMES[cell]} has stayed still for "
+                    f"{self.config.unclear_seconds:g} s without being a whole "
+                    f"{self.user_symbol}",
+                )
+        return report
+
+    def _persons_turn(self) -> bool:
+        if not self.check_turns:
+            return True
+        board = self._game_board()
+        return self.playing and outcome(board) is None and to_move(board, self.robot_starts) == USER
+
+    def _game_board(self) -> tuple[int, ...]:
+        """The accepted board as the game's EMPTY, ROBOT and USER marks."""
+        return tuple(
+            EMPTY if label == "nothing" else ROBOT if i in self._robot_cells else USER
+            for i, label in enumerate(self._board)
         )
 
     def _changes(
@@ -237,10 +295,7 @@ class MoveTracker:
                 f"{len(changes)} new symbols appeared at once ({where}); a turn is one symbol",
             )
         cell, symbol = changes[0]
-        board = tuple(
-            EMPTY if label == "nothing" else ROBOT if i in self._robot_cells else USER
-            for i, label in enumerate(self._board)
-        )
+        board = self._game_board()
         if self.check_turns and not self.playing:
             return self._impossible(
                 "not_started",

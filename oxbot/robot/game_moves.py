@@ -32,7 +32,7 @@ import numpy as np
 from oxbot.config import PerceptionConfig, TrackerConfig
 from oxbot.dialogue.domain import GREETING, starts_game
 from oxbot.errors import FrameSourceError, NoGridFound
-from oxbot.game.board import SIZE
+from oxbot.game.board import CELL_NAMES, SIZE
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
 from oxbot.perception.cells import CELL_SIZE, SHEET_CELL
 from oxbot.perception.classifier import CellReading, ink_share
@@ -230,7 +230,8 @@ class GameMoveComponent(Component):
             self.bus.publish(move_message(event))
         elif isinstance(event, ImpossibleEvent):
             log.info("impossible: %s", event)
-            self.bus.publish(BoardProblem(reason=event.message, kind=event.kind))
+            where = tuple(CELL_NAMES[c] for c in event.cells)
+            self.bus.publish(BoardProblem(reason=event.message, kind=event.kind, cells=where))
 
     def _guide(self, guidance: Guidance | None, frame: np.ndarray, grid: tuple) -> None:
         """Count the readings without a board; say why once they last `guidance_seconds`."""

@@ -123,9 +123,13 @@ PROBLEM_SENTENCES = {
     "out_of_turn": "Please wait, it is my turn.",
     "not_started": "We have not started a game yet.",
     "game_over": "The game is over.",
+    "unclear_symbol": "I cannot tell what is in {cell}. If it is your move, please draw a "
+    "whole {shape}.",
 }
 """What the robot says (as the act PROBLEM, not one the policy chooses) about an impossible
 drawing, by the tracker's or the manager's problem kind."""
+SHAPES = {"cross": "cross, two strokes crossing like an X", "circle": "circle, one closed loop"}
+"""The person's symbol as `unclear_symbol` describes it: a plus or an arc is not one."""
 GUIDANCE_SENTENCES = {
     "no_grid": "I cannot see the grid. Please hold the camera over the whole sheet.",
     "off_edge": "I can see only part of the sheet. Please move the camera so that I see all of it.",
@@ -266,7 +270,7 @@ class InteractionManagerComponent(Component):
         elif isinstance(message, GameMove):
             self._moved(message)
         elif isinstance(message, BoardProblem):
-            self._problem(message.kind)
+            self._problem(message.kind, message.cells)
         elif isinstance(message, ComponentLost):
             self._lost(message)
         elif isinstance(message, ComponentJoined):
@@ -473,7 +477,7 @@ class InteractionManagerComponent(Component):
             return "wrong_symbol"
         return None
 
-    def _problem(self, kind: str) -> None:
+    def _problem(self, kind: str, cells: tuple[str, ...] = ()) -> None:
         if kind in GUIDANCE_SENTENCES:
             if self.phase is Phase.LISTENING and self._expects_move():
                 self._tell(GUIDANCE_SENTENCES[kind])
@@ -483,7 +487,10 @@ class InteractionManagerComponent(Component):
             kind = "not_started"  # "it is my turn" is wrong before anyone agreed to play
         starts = self.state.robot_starts
         sentence = PROBLEM_SENTENCES.get(kind, "Something is wrong on the sheet.").format(
-            person=PLURALS[symbol_of(USER, starts)], robot=PLURALS[symbol_of(ROBOT, starts)]
+            person=PLURALS[symbol_of(USER, starts)],
+            robot=PLURALS[symbol_of(ROBOT, starts)],
+            shape=SHAPES[symbol_of(USER, starts)],
+            cell=cell_in_words(CELL_NAMES.index(cells[0])) if cells else "a cell",
         )
         if self.phase is Phase.LISTENING:
             self._tell(sentence)

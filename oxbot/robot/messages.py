@@ -151,6 +151,8 @@ class BoardProblem(Message):
     reason: str
     kind: str = ""
     """What went wrong, for code: the tracker's `ImpossibleKind` or the manager's own."""
+    cells: tuple[str, ...] = ()
+    """The cells involved, by name (`CELL_NAMES`), when the tracker knows them."""
 
 
 @dataclass(frozen=True)

@@ -313,3 +313,48 @@ def test_tracker_settings_are_checked():
         TrackerConfig(min_confidence=1.5)
     with pytest.raises(ConfigError, match="ink_tolerance"):
         TrackerConfig(ink_tolerance=-0.1)
+
+
+def test_still_ink_that_is_not_a_whole_symbol_is_reported_once_a_turn():
+    # A plus drawn for a cross: the person waits, the robot must say it cannot tell.
+    tracker = MoveTracker(robot_starts=True, config=TrackerConfig(unclear_seconds=4.0))
+    tracker.robot_draws("upperleft")
+    plus = board(middle="partial")
+    events = [tracker.update(plus, cell_readings(plus, ink={4: 0.1})) for _ in range(100)]
+    reported = [e for e in events if e is not None]
+    assert [e.kind for e in reported] == ["unclear_symbol"] and reported[0].cells == (4,)
+    assert events.index(reported[0]) == 39  # 4 s at 10 readings a second
+    # more ink, still no whole symbol: not told again this turn
+    more = [tracker.update(plus, cell_readings(plus, ink={4: 0.2})) for _ in range(100)]
+    assert more == [None] * 100 and tracker.board[4] == "nothing"
+    # the person's cross elsewhere, the robot's circle: the next turn, it is told again
+    cross = board(middle="partial", lowerright="cross")
+    moved = [tracker.update(cross, cell_readings(cross, ink={4: 0.2})) for _ in range(3)]
+    assert isinstance(moved[2], AcceptedDrawing)
+    tracker.robot_draws("lowerleft")
+    later = [tracker.update(cross, cell_readings(cross, ink={4: 0.2})) for _ in range(40)]
+    assert [e.kind for e in later if e is not None] == ["unclear_symbol"]
+
+
+def test_the_pause_between_a_crosss_strokes_is_not_unclear():
+    tracker = MoveTracker(robot_starts=True)  # the robot starts: the person draws crosses
+    tracker.robot_draws("upperleft")
+    one_stroke, cross = board(middle="partial"), board(middle="cross")
+    pause = [tracker.update(one_stroke, cell_readings(one_stroke)) for _ in range(15)]
+    done = [tracker.update(cross, cell_readings(cross, ink={4: 0.2})) for _ in range(3)]
+    assert pause == [None] * 15 and isinstance(done[2], AcceptedDrawing)
+    after = [tracker.update(cross, cell_readings(cross, ink={4: 0.2})) for _ in range(60)]
+    assert after == [None] * 60
+
+
+def test_unclear_ink_is_not_reported_out_of_turn_or_before_the_game():
+    plus = board(middle="partial")
+    robots_turn = MoveTracker(robot_starts=True)
+    assert {robots_turn.update(plus, cell_readings(plus)) for _ in range(60)} == {None}
+    not_started = MoveTracker(robot_starts=False)
+    not_started.playing = False
+    assert {not_started.update(plus, cell_readings(plus)) for _ in range(60)} == {None}
+    game_over = MoveTracker(robot_starts=True)
+    for cell in ("upperleft", "upperright", "uppermiddle"):
+        game_over.robot_draws(cell)
+    assert {game_over.update(plus, cell_readings(plus)) for _ in range(60)} == {None}

@@ -302,3 +302,60 @@ def test_a_circle_is_a_move_only_once_the_pen_lifts(page: Page):
         finally:
             page.close()
             first.bring_to_front()
+
+
+def test_ink_that_is_not_a_whole_symbol_is_named_in_words_and_is_no_move(page: Page):
+    """The person starts (circles) and draws half a circle, then lifts the pen and waits: the
+    robot says it cannot tell what is in that cell and what to draw, and makes no move of it;
+    a whole circle elsewhere then is the move."""
+    from oxbot.config import load_config
+    from tests.web.conftest import running_server
+
+    config = load_config(
+        None,
+        [
+            "robot.speed_factor=8",
+            "robot.answer_timeout=16",
+            "robot.move_timeout=240",
+            "game.robot_starts=false",
+            "tracker.unclear_seconds=2",
+        ],
+    )
+    with running_server(config=config) as url:
+        first, page = page, page.context.new_page()
+        try:
+            page.goto(url + "/")
+            page.get_by_test_id("start").click()
+            wait_for_act(page, "Request(playGame)")
+            page.get_by_test_id("say").fill("yes")
+            page.get_by_test_id("say").press("Enter")
+            wait_for_act(page, "Request(userGameMove)")
+            before = len(log_items(page))
+            path = arc_path(page, "upperleft", 0, 180)
+            page.mouse.move(*path[0])
+            page.mouse.down()
+            for x, y in path[1:]:
+                page.mouse.move(x, y)
+            page.mouse.up()
+            wait_for_act(page, "Inform(problem)", after=before, timeout=15_000)
+            told = [t for s, a, t in log_items(page)[before:] if a == "Inform(problem)"]
+            assert "cannot tell what is in the upper left" in told[0], told
+            assert "whole circle" in told[0], told
+            assert page.evaluate("window.oxbot.stats.moves.length") == 0
+            page.screenshot(path=ARTIFACTS / "07-unclear-ink.png", full_page=True)
+
+            path = arc_path(page, "lowerright", 0, 370)
+            page.mouse.move(*path[0])
+            page.mouse.down()
+            for x, y in path[1:]:
+                page.mouse.move(x, y)
+            page.mouse.up()
+            page.wait_for_function("window.oxbot.stats.moves.length > 0", timeout=10_000)
+            move = page.evaluate("window.oxbot.stats.moves[0]")
+            assert (move["who"], move["where"]) == ("usr", "lowerright")
+        except Exception:
+            page.screenshot(path=ARTIFACTS / "failure-unclear-ink.png", full_page=True)
+            raise
+        finally:
+            page.close()
+            first.bring_to_front()
