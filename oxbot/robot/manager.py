@@ -62,6 +62,7 @@ import numpy as np
 from oxbot.config import OxbotConfig, RobotConfig
 from oxbot.dialogue.agent import DQNPolicy, load_policy, masked_argmax
 from oxbot.dialogue.domain import (
+    ACCEPT,
     CLOSING,
     MOVE_REQUEST,
     NEW_GAME,
@@ -314,6 +315,7 @@ class InteractionManagerComponent(Component):
             "_arm_cell",
             "_rematch",
             "_unanswered_in_a_row",
+            "_early_yes",
         ):
             setattr(self, name, getattr(old, name))
         self._deadline = old._deadline
@@ -327,6 +329,7 @@ class InteractionManagerComponent(Component):
         self._speaking = ""
         self._arm_cell: int | None = None
         self._rematch = False
+        self._early_yes: SpeechHypotheses | None = None  # a yes before "Shall we play?"
         self._deferred: list[str] = []
         self._deadline = 0.0
         self._unanswered_in_a_row = 0
@@ -390,6 +393,10 @@ class InteractionManagerComponent(Component):
         for sentence in self._deferred:
             self._tell(sentence)
         self._deferred.clear()
+        if self._early_yes is not None and self.state.invitations:
+            early, self._early_yes = self._early_yes, None
+            self._heard(early)  # now it answers the question
+            return
         if self._expects_move():
             wait = self.timing.move_timeout
         elif last_act in self._unanswered:
@@ -424,6 +431,13 @@ class InteractionManagerComponent(Component):
         # per-word confidences when the recogniser gives them (paper §2.2), else the utterance's
         words = words or tuple((w, confidence) for w in words_of(text))
         reading = self._understand(nbest, self.state.last_act)
+        if reading.act == ACCEPT and not self.state.invitations and not self.state.game_started:
+            # "yes, let's play" to the greeting: kept until the robot has asked, then taken as
+            # the answer (the policy never met a yes nobody asked for, and asked "Pardon?")
+            self._early_yes = message
+            if self.phase is Phase.LISTENING:
+                self._decide()  # what it would say had the person kept quiet: go on to ask
+            return
         if reading.act == NEW_GAME and (self.state.game_started or self.state.outcome is not None):
             self._rematch = True  # after this dialogue's goodbye, another game
             if self.state.outcome is None:  # mid-game: this one stops first (a stop it knows)

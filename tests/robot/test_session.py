@@ -369,6 +369,23 @@ def test_new_game_mid_game_stops_this_game_and_starts_another():
         assert not robot.finished
 
 
+def test_a_yes_before_the_robot_asks_is_taken_as_the_answer_once_it_has_asked():
+    with Robot(FAST, seed=14) as robot:
+        answers = {
+            "Salutation(greeting)": ["Yes, let's play."],
+            "Request(userGameMove)": ["I want to stop."] * 3,
+        }
+        turns, ended = talk_until_goodbye(robot, answers)
+    acts = [(t.speaker, t.act) for t in turns]
+    asked = acts.index(("sys", "Request(playGame)"))
+    assert ("sys", "Request(repeat)") not in acts[:asked]  # not "Pardon?" to a yes
+    assert acts[asked + 1 : asked + 3] == [
+        ("usr", "Confirm(playGame=yes)"),
+        ("sys", "Reply(playGame=yes)"),
+    ]
+    assert ended.outcome == "stopped"
+
+
 def test_new_game_after_the_goodbye_starts_another():
     with Robot(FAST, seed=13) as robot:
         talk_until_goodbye(robot, {"Request(playGame)": ["No thanks."] * 3})
