@@ -68,6 +68,11 @@ agreed to is worse than asking again. Issue 6's answers to the invitation in the
 voices, clean and at 20 dB (192 recordings, `tests/speech/test_evaluation.py`): 7 no's heard as
 a yes with the floor at 0, 3 at 0.6, 1 at 0.7, none from 0.75; 2 of the 72 yeses then asked
 again. Typed words (confidence 1) are never affected, nor the simulated person (`read`)."""
+MIN_UNSAID_NO_CONFIDENCE = 0.75
+"""A no or a "later" whose words do not say no themselves (`polarity`: a stop or a goodbye in
+answer to the invitation, "enough", "I have to go", "maybe later"), heard with a recogniser
+confidence below this, is Unknown, as a yes is below `MIN_YES_CONFIDENCE`: a misheard yes
+("yes" heard as "enough" at 0.4) must not send the person away. Typed words are unaffected."""
 REGULARISATION = 10.0
 """Inverse strength of the logistic regression's L2 penalty (scikit-learn's C)."""
 
@@ -150,6 +155,7 @@ class UserActClassifier:
         domain: Domain,
         min_probability: float = MIN_PROBABILITY,
         min_yes_confidence: float = MIN_YES_CONFIDENCE,
+        min_unsaid_no_confidence: float = MIN_UNSAID_NO_CONFIDENCE,
     ) -> None:
         from sklearn.feature_extraction.text import TfidfVectorizer
         from sklearn.linear_model import LogisticRegression
@@ -165,6 +171,7 @@ class UserActClassifier:
         self.acts = [act for _, act in pairs]
         self.min_probability = min_probability
         self.min_yes_confidence = min_yes_confidence
+        self.min_unsaid_no_confidence = min_unsaid_no_confidence
         self.vectorizer = FeatureUnion(
             [
                 ("words", TfidfVectorizer(ngram_range=(1, 2), token_pattern=r"[a-z']+")),
@@ -224,11 +231,13 @@ class UserActClassifier:
         near ties between a right phrase and a wrong one; two hypotheses that agree outweigh one
         that does not. The score is the weighted probability of the chosen act, scaled by the
         recogniser's confidence in the best hypothesis; a yes from a best hypothesis below
-        `MIN_YES_CONFIDENCE` is Unknown.
+        `MIN_YES_CONFIDENCE` is Unknown, and so is a no whose words do not say no below
+        `MIN_UNSAID_NO_CONFIDENCE`.
         """
         total = np.zeros(len(self.classes))
         weight = 0.0
         best_text, best_confidence = "", 0.0
+        no_weight = 0.0  # the vote's weight carried by hypotheses that say no in words
         for entry in nbest:
             if isinstance(entry, tuple | list):
                 text, confidence = entry
@@ -242,10 +251,17 @@ class UserActClassifier:
                 best_text, best_confidence = normalised(text), confidence
             total += confidence * self.probabilities(text)
             weight += confidence
+            no_weight += confidence if polarity(text) == "no" else 0.0
         if weight <= 0.0:
             return UserAct(UNKNOWN if best_text else SILENCE, 0.0)
         decided = self._decide(total / weight, best_text, context)
         if decided.act == ACCEPT and best_confidence < self.min_yes_confidence:
+            return UserAct(UNKNOWN, 0.0)
+        if (
+            decided.act in REFUSALS
+            and best_confidence < self.min_unsaid_no_confidence
+            and no_weight <= weight / 2
+        ):
             return UserAct(UNKNOWN, 0.0)
         act = self._with_phrase(decided, best_text)
         return UserAct(act.act, round(act.score * best_confidence, 6), act.phrase)

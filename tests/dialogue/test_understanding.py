@@ -175,6 +175,19 @@ def test_a_yes_the_recogniser_is_unsure_of_is_asked_again_a_no_is_not(classifier
     assert classifier.read("sure why not", INVITATION).act == ACCEPT  # the simulator's path
 
 
+def test_a_no_whose_words_do_not_say_no_is_asked_again_when_the_recogniser_is_unsure(classifier):
+    # Real people's "yes" heard as "enough" or "give up" at 0.4 were read as a no to the
+    # invitation (a stop there is a no), sending away a person who had agreed.
+    floor = classifier.min_unsaid_no_confidence
+    sure, unsure = floor + 0.05, floor - 0.05
+    for text in ("enough", "give up", "i have to go"):
+        assert classifier.intent_of([(text, sure)], INVITATION).act == DECLINE, text
+        assert classifier.intent_of([(text, unsure)], INVITATION) == UserAct(UNKNOWN, 0.0), text
+    assert classifier.intent_of([("enough", unsure), ("nope", 0.0)], INVITATION).act == UNKNOWN
+    assert classifier.intent_of([("no i have to go", unsure)], INVITATION).act == DECLINE
+    assert classifier.read("enough", INVITATION).act == DECLINE  # the simulator's path
+
+
 def test_the_fast_path_gives_scikit_learns_probabilities(classifier):
     texts = [*classifier.texts[:200], "asdf qwerty", "sure why nt", "yes yes no"]
     ours = np.stack([classifier.probabilities(t) for t in texts])
