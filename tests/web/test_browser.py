@@ -10,6 +10,8 @@ from __future__ import annotations
 import shutil
 import subprocess
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -247,115 +249,88 @@ def arc_path(page: Page, where: str, start_deg: float, end_deg: float) -> list[t
     return [(float(x), float(y)) for x, y in points]
 
 
-def test_a_circle_is_a_move_only_once_the_pen_lifts(page: Page):
-    """The person starts (circles). Half a circle, the pen held down, sends nothing and is no
-    move; the circle finished and the pen lifted, it is a move, and the cells show it. (Half a
-    circle left alone is read as a circle by the shipped perceiver: bench/bench_cells.py.)"""
+@contextmanager
+def person_starts_tab(page: Page, *settings: str) -> Iterator[Page]:
+    """A tab beside the first test's, on a server of its own where the person starts (circles),
+    in a game they have agreed to and where it is their turn."""
     from oxbot.config import load_config
     from tests.web.conftest import running_server
 
-    config = load_config(
-        None,
-        [
-            "robot.speed_factor=8",
-            "robot.answer_timeout=16",
-            "robot.move_timeout=240",
-            "game.robot_starts=false",
-        ],
-    )
-    # a tab beside the first test's, on a server of its own where the person starts
+    fast = ["robot.speed_factor=8", "robot.answer_timeout=16", "robot.move_timeout=240"]
+    config = load_config(None, [*fast, "game.robot_starts=false", *settings])
     with running_server(config=config) as url:
-        first, page = page, page.context.new_page()
+        tab = page.context.new_page()
         try:
-            page.goto(url + "/")
-            page.get_by_test_id("start").click()
-            wait_for_act(page, "Request(playGame)")
-            assert page.evaluate("window.oxbot.hello")["user_symbol"] == "circle"
-            page.get_by_test_id("say").fill("yes let's play")
-            page.get_by_test_id("say").press("Enter")
-            wait_for_act(page, "Request(userGameMove)")
+            tab.goto(url + "/")
+            tab.get_by_test_id("start").click()
+            wait_for_act(tab, "Request(playGame)")
+            assert tab.evaluate("window.oxbot.hello")["user_symbol"] == "circle"
+            tab.get_by_test_id("say").fill("yes let's play")
+            tab.get_by_test_id("say").press("Enter")
+            wait_for_act(tab, "Request(userGameMove)")
+            yield tab
+        finally:
+            tab.close()
+            page.bring_to_front()
+
+
+def trace(page: Page, path: list[tuple[float, float]], lift: bool = True) -> None:
+    """Move the mouse along `path` with the button down; lift it at the end if `lift`."""
+    page.mouse.move(*path[0])
+    page.mouse.down()
+    for x, y in path[1:]:
+        page.mouse.move(x, y)
+    if lift:
+        page.mouse.up()
+
+
+def test_a_circle_is_a_move_only_once_the_pen_lifts(page: Page):
+    """The person starts (circles). Half a circle, the pen held down, sends nothing and is no
+    move; the circle finished and the pen lifted, it is a move, and the cells show it."""
+    with person_starts_tab(page) as tab:
+        try:
             cell = "middle"
             label = "document.querySelectorAll('[data-testid=cells] > div')[4].dataset.label"
 
             # half a circle, the pen still down: nothing goes to the robot
-            sent = page.evaluate("window.oxbot.stats.framesSent")
-            path = arc_path(page, cell, 0, 180)
-            page.mouse.move(*path[0])
-            page.mouse.down()
-            for x, y in path[1:]:
-                page.mouse.move(x, y)
-            page.wait_for_timeout(1_200)  # many more ticks than the 3 readings a move needs
-            assert page.evaluate("window.oxbot.stats.framesSent") == sent
-            assert page.evaluate("window.oxbot.stats.moves.length") == 0
+            sent = tab.evaluate("window.oxbot.stats.framesSent")
+            trace(tab, arc_path(tab, cell, 0, 180), lift=False)
+            tab.wait_for_timeout(1_200)  # many more ticks than the 3 readings a move needs
+            assert tab.evaluate("window.oxbot.stats.framesSent") == sent
+            assert tab.evaluate("window.oxbot.stats.moves.length") == 0
 
             # the circle finished in the same stroke and the pen lifted: now it is a move
-            for x, y in arc_path(page, cell, 180, 370)[1:]:
-                page.mouse.move(x, y)
-            page.mouse.up()
-            page.wait_for_function("window.oxbot.stats.moves.length > 0", timeout=10_000)
-            move = page.evaluate("window.oxbot.stats.moves[0]")
+            for x, y in arc_path(tab, cell, 180, 370)[1:]:
+                tab.mouse.move(x, y)
+            tab.mouse.up()
+            tab.wait_for_function("window.oxbot.stats.moves.length > 0", timeout=10_000)
+            move = tab.evaluate("window.oxbot.stats.moves[0]")
             assert (move["who"], move["where"]) == ("usr", cell)
-            assert page.evaluate(label) == "circle"
+            assert tab.evaluate(label) == "circle"
         except Exception:
-            page.screenshot(path=ARTIFACTS / "failure-half-drawn.png", full_page=True)
+            tab.screenshot(path=ARTIFACTS / "failure-half-drawn.png", full_page=True)
             raise
-        finally:
-            page.close()
-            first.bring_to_front()
 
 
 def test_ink_that_is_not_a_whole_symbol_is_named_in_words_and_is_no_move(page: Page):
-    """The person starts (circles) and draws half a circle, then lifts the pen and waits: the
-    robot says it cannot tell what is in that cell and what to draw, and makes no move of it;
-    a whole circle elsewhere then is the move."""
-    from oxbot.config import load_config
-    from tests.web.conftest import running_server
-
-    config = load_config(
-        None,
-        [
-            "robot.speed_factor=8",
-            "robot.answer_timeout=16",
-            "robot.move_timeout=240",
-            "game.robot_starts=false",
-            "tracker.unclear_seconds=2",
-        ],
-    )
-    with running_server(config=config) as url:
-        first, page = page, page.context.new_page()
+    """Half a circle, the pen lifted and the person waiting: the robot says it cannot tell what
+    is in that cell and what to draw, and makes no move of it; a whole circle elsewhere then is
+    the move."""
+    with person_starts_tab(page, "tracker.unclear_seconds=2") as tab:
         try:
-            page.goto(url + "/")
-            page.get_by_test_id("start").click()
-            wait_for_act(page, "Request(playGame)")
-            page.get_by_test_id("say").fill("yes")
-            page.get_by_test_id("say").press("Enter")
-            wait_for_act(page, "Request(userGameMove)")
-            before = len(log_items(page))
-            path = arc_path(page, "upperleft", 0, 180)
-            page.mouse.move(*path[0])
-            page.mouse.down()
-            for x, y in path[1:]:
-                page.mouse.move(x, y)
-            page.mouse.up()
-            wait_for_act(page, "Inform(problem)", after=before, timeout=15_000)
-            told = [t for s, a, t in log_items(page)[before:] if a == "Inform(problem)"]
+            before = len(log_items(tab))
+            trace(tab, arc_path(tab, "upperleft", 0, 180))
+            wait_for_act(tab, "Inform(problem)", after=before, timeout=15_000)
+            told = [t for s, a, t in log_items(tab)[before:] if a == "Inform(problem)"]
             assert "cannot tell what is in the upper left" in told[0], told
             assert "whole circle" in told[0], told
-            assert page.evaluate("window.oxbot.stats.moves.length") == 0
-            page.screenshot(path=ARTIFACTS / "07-unclear-ink.png", full_page=True)
+            assert tab.evaluate("window.oxbot.stats.moves.length") == 0
+            tab.screenshot(path=ARTIFACTS / "07-unclear-ink.png", full_page=True)
 
-            path = arc_path(page, "lowerright", 0, 370)
-            page.mouse.move(*path[0])
-            page.mouse.down()
-            for x, y in path[1:]:
-                page.mouse.move(x, y)
-            page.mouse.up()
-            page.wait_for_function("window.oxbot.stats.moves.length > 0", timeout=10_000)
-            move = page.evaluate("window.oxbot.stats.moves[0]")
+            trace(tab, arc_path(tab, "lowerright", 0, 370))
+            tab.wait_for_function("window.oxbot.stats.moves.length > 0", timeout=10_000)
+            move = tab.evaluate("window.oxbot.stats.moves[0]")
             assert (move["who"], move["where"]) == ("usr", "lowerright")
         except Exception:
-            page.screenshot(path=ARTIFACTS / "failure-unclear-ink.png", full_page=True)
+            tab.screenshot(path=ARTIFACTS / "failure-unclear-ink.png", full_page=True)
             raise
-        finally:
-            page.close()
-            first.bring_to_front()
