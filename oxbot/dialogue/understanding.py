@@ -69,10 +69,11 @@ voices, clean and at 20 dB (192 recordings, `tests/speech/test_evaluation.py`): 
 a yes with the floor at 0, 3 at 0.6, 1 at 0.7, none from 0.75; 2 of the 72 yeses then asked
 again. Typed words (confidence 1) are never affected, nor the simulated person (`read`)."""
 MIN_UNSAID_NO_CONFIDENCE = 0.75
-"""A no or a "later" whose words do not say no themselves (`polarity`: a stop or a goodbye in
-answer to the invitation, "enough", "I have to go", "maybe later"), heard with a recogniser
-confidence below this, is Unknown, as a yes is below `MIN_YES_CONFIDENCE`: a misheard yes
-("yes" heard as "enough" at 0.4) must not send the person away. Typed words are unaffected."""
+"""A no whose words do not say no themselves (`polarity`: a stop or a goodbye in answer to the
+invitation, "enough", "I have to go"), heard with a recogniser confidence below this, is
+Unknown, as a yes is below `MIN_YES_CONFIDENCE`: a misheard yes ("yes" heard as "enough" at
+0.4) must not send the person away. A "later" is left alone: the robot asks once more after it
+anyway. Typed words are unaffected (docs/robot.md, "A no that does not say no")."""
 REGULARISATION = 10.0
 """Inverse strength of the logistic regression's L2 penalty (scikit-learn's C)."""
 
@@ -258,7 +259,7 @@ class UserActClassifier:
         if decided.act == ACCEPT and best_confidence < self.min_yes_confidence:
             return UserAct(UNKNOWN, 0.0)
         if (
-            decided.act in REFUSALS
+            decided.act == DECLINE
             and best_confidence < self.min_unsaid_no_confidence
             and no_weight <= weight / 2
         ):
