@@ -183,10 +183,9 @@ class MoveTracker:
         if cells is not None and len(cells) != N_CELLS:
             raise InvalidInputError(f"a board reading has {N_CELLS} cells; got {len(cells)}")
         changes = self._changes(labels, cells)
-        unclear = self._unclear_ink(cells) if cells is not None else None
         if not changes:
             self._candidate, self._count = (), 0
-            return unclear
+            return self._unclear_ink(cells) if cells is not None else None
         ink = tuple(cells[c].ink for c, _ in changes) if cells is not None else ()
         if changes == self._candidate and self._ink_still(ink):
             self._count += 1
