@@ -212,8 +212,9 @@ def test_the_recognisers_word_confidences_reach_the_managers_state():
     manager = InteractionManagerComponent(LocalBus(), policy=shared_policy())
     manager.handle(NewGame(robot_starts=True))  # it greets, and is speaking: it only listens
     assert manager.phase is Phase.SPEAKING
-    words = (("yes", 0.95), ("let's", 0.4), ("play", 0.7))
-    manager.handle(SpeechHypotheses(nbest=(("yes let's play", 0.8),), words=words))
+    # (a yes before the robot asks waits for the question: a no does not)
+    words = (("no", 0.95), ("not", 0.4), ("now", 0.7))
+    manager.handle(SpeechHypotheses(nbest=(("no not now", 0.8),), words=words))
     layout = manager.model.layout
     features = manager.state.encode()
     # each word's own confidence (paper §2.2), not the utterance's 0.8 for all
