@@ -47,7 +47,7 @@ from oxbot.game.board import (
     to_move,
 )
 from oxbot.perception.sources import FrameSource
-from oxbot.perception.synth import OUTPUTS
+from oxbot.perception.synth import OUTPUTS, PARTIAL
 
 if TYPE_CHECKING:
     from oxbot.perception.classifier import CellReading
@@ -195,6 +195,14 @@ class MoveTracker:
             return None  # not yet seen often enough, or already dealt with
         return self._judge(changes)
 
+    def taken_as(self, reading: CellReading) -> str:
+        """A cell's reading as the tracker takes it: a circle or cross less sure than
+        `min_confidence` is partial ink, no symbol yet (its own label, not SPEC §5's, where
+        partial is "nothing")."""
+        if reading.label in ("circle", "cross") and reading.confidence < self.config.min_confidence:
+            return PARTIAL
+        return reading.label
+
     def _ink_still(self, ink: tuple[float, ...]) -> bool:
         """Whether the new drawing's ink is what it was at the run's first reading."""
         return all(
@@ -213,11 +221,7 @@ class MoveTracker:
         turn = sum(label != "nothing" for label in self._board)
         report = None
         for cell, known in enumerate(self._board):
-            seen = cells[cell].label  # its own: a SPEC §5 reading says "nothing" for partial
-            unsure = (
-                seen in ("circle", "cross") and cells[cell].confidence < self.config.min_confidence
-            )
-            if known != "nothing" or not (seen == "partial" or unsure):
+            if known != "nothing" or self.taken_as(cells[cell]) != PARTIAL:
                 self._unclear.pop(cell, None)
                 continue
             ink = cells[cell].ink
@@ -232,7 +236,7 @@ class MoveTracker:
                 report = self._impossible(
                     "unclear_symbol",
                     (cell,),
-                    (seen,),
+                    (cells[cell].label,),
                     f"ink in {CELL_NAMES[cell]} has stayed still for "
                     f"{self.config.unclear_seconds:g} s without being a whole "
                     f"{self.user_symbol}",

@@ -206,7 +206,9 @@ class GameMoveComponent(Component):
             event = self.tracker.update(reading.labels, still_readings(reading) or None)
         accepted = isinstance(event, AcceptedDrawing)
         labels = reading.labels if reading is not None else ()
-        readings = tuple(self._shown(r) for r in reading.readings) if reading is not None else ()
+        readings = (
+            tuple(self.tracker.taken_as(r) for r in reading.readings) if reading is not None else ()
+        )
         agreeing = self.config.stable_readings if accepted else self.tracker.agreeing
         # the grid to a hundredth of the frame: a hand-held camera's jitter is no news
         seen = (labels, agreeing, readings, refusal, tuple(round(v, 2) for v in grid))
@@ -250,13 +252,6 @@ class GameMoveComponent(Component):
             self._told[guidance.kind] = refused
             log.info("cannot see the board: %s", guidance.text)
             self.bus.publish(BoardProblem(reason=guidance.text, kind=guidance.kind))
-
-    def _shown(self, reading: CellReading) -> str:
-        """A cell's label as the page shows it: a symbol too unsure to become a move
-        (below `min_confidence`) is shown as partial, since that is how the tracker takes it."""
-        if reading.label in ("circle", "cross") and reading.confidence < self.config.min_confidence:
-            return "partial"
-        return reading.label
 
     def restart(self) -> None:
         with self._lock:
