@@ -441,8 +441,9 @@ def _best_grid(
 
 def _order(p: tuple, q: tuple) -> Four:
     """Two pairs of lines as (left, right, top, bottom)."""
-    # The pair whose normals point more along x holds the vertical lines.
-    if abs(math.cos(p[0][1])) < abs(math.cos(q[0][1])):
+    # The pair whose normals point more along x holds the vertical lines. All four lines are
+    # weighed: near 45 degrees in perspective one line of a pair can lean past it alone.
+    if _uprightness(q, p) > _uprightness(p, q):
         p, q = q, p
     mid = _crossing(p[0][:2], q[0][:2]) or (0.0, 0.0)
 
@@ -457,6 +458,14 @@ def _order(p: tuple, q: tuple) -> Four:
     left, right = sorted((p[0][:2], p[1][:2]), key=lambda line: position(line, 0))
     top, bottom = sorted((q[0][:2], q[1][:2]), key=lambda line: position(line, 1))
     return left, right, top, bottom
+
+
+def _uprightness(verticals: tuple, horizontals: tuple) -> float:
+    """How near the frame's axes two pairs of lines lie when the first pair holds the columns:
+    the summed share of each line's normal along its axis (4 for an upright grid)."""
+    return sum(abs(math.cos(line[1])) for line in verticals) + sum(
+        abs(math.sin(line[1])) for line in horizontals
+    )
 
 
 def _lattice(

@@ -1,12 +1,13 @@
 import contextlib
 import dataclasses
+import math
 
 import cv2
 import numpy as np
 import pytest
 
 from oxbot.errors import InvalidInputError, NoGridFound
-from oxbot.perception.grid import as_gray, find_grid
+from oxbot.perception.grid import _order, as_gray, find_grid
 from oxbot.testing.render import (
     TUNING_STYLE,
     TUNING_VARIANTS,
@@ -263,3 +264,19 @@ def test_a_grid_cut_by_the_frame_edge_says_which_cells_are_out_of_view():
         grid = find_grid(photo)
         assert grid.cells_out_of_view() == [0, 3, 6]
         assert crossing_error(scene, photo) < 0.1
+
+
+def test_which_pair_holds_the_columns_does_not_hang_on_one_line():
+    # Near 45 degrees in perspective the two lines of a pair lean differently: left and right
+    # at 47 and 35 degrees from the frame's vertical, top and bottom at 47 and 35 from its
+    # horizontal. On average the first pair is nearer the vertical, whichever of its lines is
+    # listed first (the rule looked at one line of each pair and swapped rows and columns).
+    def line(degrees: float) -> tuple[float, float, float]:
+        return (100.0, math.radians(degrees), 1.0)  # (rho, theta of the normal, votes)
+
+    columns = {line(47)[:2], line(35)[:2]}
+    for p in ((line(47), line(35)), (line(35), line(47))):
+        for q in ((line(137), line(125)), (line(125), line(137))):
+            for pairs in ((p, q), (q, p)):
+                left, right, _, _ = _order(*pairs)
+                assert {left, right} == columns
