@@ -22,8 +22,10 @@ skeleton whose spurs are cut off. Then:
   directions from the ink's middle run within `PLUS_ANGLE` of the cell's sides are a plus sign,
   which is a cross only with `plus_is_cross` (some people draw their crosses that way).
 - Not judged: ends that run out of the cell or under a grid line painted over (`painted`),
-  three ends (a T, a V whose corner thins to a spur, a cross with one short arm), scribbles
-  (holes and many ends).
+  and an open curve whose ellipse runs on there across its gap (a circle drawn over a grid
+  line, its far side in the next cell); three ends (a T, a V whose corner thins to a spur, a
+  cross with one short arm), scribbles (holes and many ends). But a stroke read as a cross
+  with one end in plain view is one stroke, whatever its other end runs into.
 
     from oxbot.perception.wholeness import veto_partial
     readings = veto_partial(cells, clf.read(cells), plus_is_cross=False)
@@ -92,19 +94,26 @@ class Shape:
     arms: int
     """For thick ink, whose skeleton may shrink to a stub: how many arms leave its middle (the
     runs of ink on circles round it); 0 for thin ink."""
+    end_in_view: bool
+    """An end of the skeleton lies in plain view, away from the cell's edge and painted lines."""
+    gap_hidden: bool
+    """For an open curve: the rest of the ellipse fitted to it, across its gap, runs mostly out
+    of the cell or under a painted line (a circle spilling over a grid line)."""
 
     def whole(
         self, label: str, max_gap: float = MAX_CIRCLE_GAP, plus_is_cross: bool = False
     ) -> bool:
         """Whether this ink is a whole `label` ("circle" or "cross"; anything else is)."""
         if label == "circle":
-            if self.hole or self.hidden:
+            if self.hole or self.hidden or self.gap_hidden:
                 return True
             return self.plus_offset >= PLUS_ANGLE and (self.ends != 2 or self.turn_gap <= max_gap)
         if label == "cross":
             if self.plus_offset < PLUS_ANGLE:
                 return plus_is_cross
-            return self.hidden or self.hole or self.ends > 2 or self.arms >= 4
+            # A stroke with an end in plain view is one stroke, whatever its other end meets.
+            hidden = self.hidden and not (self.ends <= 2 and self.end_in_view)
+            return hidden or self.hole or self.ends > 2 or self.arms >= 4
         return True
 
 
@@ -138,7 +147,7 @@ def shape_of(mask: np.ndarray, painted: np.ndarray | None = None) -> Shape:
     line was painted over, hiding what ink was there."""
     ys, xs = np.nonzero(mask)
     if xs.size == 0:
-        return Shape(0, False, 0.0, 90.0, True, 0)
+        return Shape(0, False, 0.0, 90.0, True, 0, False, False)
     width, height = int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1)
     size = max(width, height)
     ink = mask.view(np.uint8)
@@ -149,17 +158,22 @@ def shape_of(mask: np.ndarray, painted: np.ndarray | None = None) -> Shape:
     spur = max(1, round(SPUR * size))
     ends = np.argwhere(_end_points(prune(skeleton, spur)))
     far = mask.shape[0] - 2 - spur
-    hidden = any(min(y, x) <= 1 + spur or max(y, x) >= far for y, x in ends)
-    if painted is not None and painted.any() and len(ends):
+    unseen = np.array([min(y, x) <= 1 + spur or max(y, x) >= far for y, x in ends], bool)
+    near = np.zeros(mask.shape, bool)
+    if painted is not None and painted.any():
         near = cv2.dilate(painted.view(np.uint8), np.ones((2 * spur + 5,) * 2, np.uint8)) > 0
-        hidden = hidden or bool(near[ends[:, 0], ends[:, 1]].any())
+        if len(ends):
+            unseen |= near[ends[:, 0], ends[:, 1]]
+    hidden, end_in_view = bool(unseen.any()), bool((~unseen).any())
     arms = _arms(mask, (ys.mean(), xs.mean()), size) if stroke >= THICK * size else 0
-    turn_gap = _turn_gap(skeleton, ends) if len(ends) == 2 and not hole else 0.0
+    turn_gap, gap_hidden = (
+        _turn_gap(skeleton, ends, near) if len(ends) == 2 and not hole else (0.0, False)
+    )
     plus_offset = 90.0
     if len(ends) >= 4:
         angles = np.degrees(np.arctan2(*(ends - [ys.mean(), xs.mean()]).T)) % 90.0
         plus_offset = float(np.minimum(angles, 90.0 - angles).mean())
-    return Shape(len(ends), hole, turn_gap, plus_offset, hidden, arms)
+    return Shape(len(ends), hole, turn_gap, plus_offset, hidden, arms, end_in_view, gap_hidden)
 
 
 def _arms(mask: np.ndarray, centre: tuple[float, float], size: int) -> int:
@@ -186,28 +200,38 @@ def _largest_hole(ink: np.ndarray) -> float:
     return max(holes, default=0.0)
 
 
-def _turn_gap(skeleton: np.ndarray, ends: np.ndarray) -> float:
+def _turn_gap(skeleton: np.ndarray, ends: np.ndarray, unseen: np.ndarray) -> tuple[float, bool]:
     """How much of a turn (degrees) an open curve with these two ends leaves out, seen from the
     middle of the ellipse fitted to it; 360 when it goes round nothing (a line, a curve too flat:
-    bulging less than FLAT of the way between its ends from the line through them)."""
+    bulging less than FLAT of the way between its ends from the line through them). And whether
+    the ellipse across that gap lies mostly out of the cell or on `unseen` pixels (bool (H, W))."""
     points = np.argwhere(skeleton)[:, ::-1].astype(np.float32)
     if len(points) < 8:
-        return 360.0
+        return 360.0, False
     (y0, x0), (y1, x1) = ends.astype(np.float32)
     chord = math.hypot(x1 - x0, y1 - y0)
     if chord > 0:
         bulge = np.abs((points[:, 0] - x0) * (y1 - y0) - (points[:, 1] - y0) * (x1 - x0)) / chord
         if bulge.max() < FLAT * chord:
-            return 360.0
+            return 360.0, False
     (cx, cy), (w, h), angle = cv2.fitEllipse(points)
     if not (min(w, h) > 1 and max(w, h) < 4 * skeleton.shape[0]):
-        return 360.0
+        return 360.0, False
     t = math.radians(angle)
     dx, dy = points[:, 0] - cx, points[:, 1] - cy
     u = (dx * math.cos(t) + dy * math.sin(t)) / (w / 2)
     v = (dy * math.cos(t) - dx * math.sin(t)) / (h / 2)
     around = np.sort(np.degrees(np.arctan2(v, u)) % 360.0)
-    return float(np.diff(np.concatenate([around, [around[0] + 360.0]])).max())
+    steps = np.diff(np.concatenate([around, [around[0] + 360.0]]))
+    k = int(steps.argmax())
+    phi = np.radians(around[k] + steps[k] * np.linspace(0.1, 0.9, 9))
+    a, b = np.cos(phi) * w / 2, np.sin(phi) * h / 2
+    x = np.rint(cx + a * math.cos(t) - b * math.sin(t)).astype(int)
+    y = np.rint(cy + a * math.sin(t) + b * math.cos(t)).astype(int)
+    side = skeleton.shape[0]
+    # Beyond the frame is not counted: there the ellipse is far bigger than the ink (an arc).
+    inside = (x >= 0) & (x < side) & (y >= 0) & (y < side)
+    return float(steps[k]), bool(unseen[y[inside], x[inside]].sum() >= 0.5 * len(phi))
 
 
 def _neighbours(p: np.ndarray) -> list[np.ndarray]:

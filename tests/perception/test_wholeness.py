@@ -98,6 +98,38 @@ def test_three_quarters_of_a_circle_is_partial_unless_max_circle_gap_allows():
     assert whole(arc(0.85)[None], ["circle"], max_gap=85.0)[0]  # a loop of 0.85 of a turn is one
 
 
+def spilling_over_a_line() -> tuple[np.ndarray, np.ndarray]:
+    """A circle drawn over the grid line below its cell: the cell shows its upper part, the
+    line (rows 35 on, painted over) and the ink beside it wiped with the paper."""
+    circle = arc(1.05, start=0.0)
+    cell = np.roll(circle, 8, axis=0)  # its middle 3 pixels above the wiped ink's edge
+    cell[:8] = 235
+    cell[31:] = 235
+    painted = np.zeros(cell.shape, bool)
+    painted[35:] = True
+    return cell, painted
+
+
+def test_a_circle_spilling_over_a_grid_line_stays_a_circle():
+    # The ink left is a "U" upside down whose ends stop short of the painted line, but the
+    # ellipse it bends along runs on under the line: the rest of the circle is out of sight.
+    cell, painted = spilling_over_a_line()
+    assert whole(cell[None], ["circle"], painted=painted[None])[0]
+    # The same ink in the middle of its cell, with the paper below it in view: partial.
+    assert not whole(np.roll(cell, -8, axis=0)[None], ["circle"], painted=painted[None])[0]
+
+
+def test_a_stroke_running_into_a_grid_line_is_no_cross():
+    # A smudge or a stray stroke whose far end meets a painted line: one end in plain view
+    # says it is one stroke, not a cross half under the line.
+    cell = strokes(((12, 14), (27, 36)))
+    painted = np.zeros(cell.shape, bool)
+    painted[36:] = True
+    assert not whole(cell[None], ["cross"], painted=painted[None])[0]
+    # A cross cut by the line keeps its four ends and stays a cross.
+    assert whole(SLOPPY_CROSS[None], ["cross"], painted=painted[None])[0]
+
+
 def test_veto_keeps_confidence_and_ink_and_leaves_other_labels():
     cells = np.stack([PARTIAL_SHAPES["tick"], WHOLE_CIRCLES["closed circle"], PLUS])
     readings = [
