@@ -48,6 +48,9 @@ from oxbot.perception.synth import PARTIAL
 INK_LEVEL = 0.3
 """oxbot: after a light blur, a pixel at least this share of the way from the cell's paper to
 its darkest ink (`to_input`'s scale) is ink, for the shape checks."""
+CORE_LEVEL = 0.6
+"""oxbot: the darkest ink, at least this share of the way to the darkest pixel: a thick pen's
+small "0" fills its own slit at `INK_LEVEL` but leaves it open here."""
 MIN_PIECE = 6
 """oxbot: pieces of ink smaller than this many pixels are specks, not part of the symbol."""
 REMNANT = 7
@@ -117,15 +120,15 @@ class Shape:
         return True
 
 
-def ink_masks(cells: np.ndarray) -> np.ndarray:
+def ink_masks(cells: np.ndarray, level: float = INK_LEVEL) -> np.ndarray:
     """The ink of uint8 (N, 40, 40) cells as bool (N, 40, 40), without specks and grid-line
-    remnants."""
+    remnants; ink is at least `level` of the way from the paper to the darkest ink."""
     soft = np.stack([cv2.GaussianBlur(c, (3, 3), 0) for c in cells])
     x = to_input(soft).numpy()[:, 0]
     # Relative to the darkest ink inside the cell: a dark grid-line remnant at its border
     # must not make a faint symbol vanish.
     inner = x[:, REMNANT:-REMNANT, REMNANT:-REMNANT].max(axis=(1, 2), keepdims=True)
-    masks = x > np.maximum(INK_LEVEL * inner, 0.12)
+    masks = x > np.maximum(level * inner, 0.12)
     side = masks.shape[1]
     for mask in masks:
         count, labels, stats, _ = cv2.connectedComponentsWithStats(
@@ -142,9 +145,12 @@ def ink_masks(cells: np.ndarray) -> np.ndarray:
     return masks
 
 
-def shape_of(mask: np.ndarray, painted: np.ndarray | None = None) -> Shape:
+def shape_of(
+    mask: np.ndarray, painted: np.ndarray | None = None, core: np.ndarray | None = None
+) -> Shape:
     """Measure the shape of one cell's ink (bool (H, W)); `painted` (bool (H, W)): where a grid
-    line was painted over, hiding what ink was there."""
+    line was painted over, hiding what ink was there; `core`: the ink's darkest part (at
+    `CORE_LEVEL`), where a thick pen's narrow loop still shows its hole."""
     ys, xs = np.nonzero(mask)
     if xs.size == 0:
         return Shape(0, False, 0.0, 90.0, True, 0, False, False)
@@ -153,6 +159,8 @@ def shape_of(mask: np.ndarray, painted: np.ndarray | None = None) -> Shape:
     ink = mask.view(np.uint8)
     closed = cv2.morphologyEx(ink, cv2.MORPH_CLOSE, np.ones((3, 3), np.uint8))
     hole = _largest_hole(closed) >= MIN_HOLE * width * height or _largest_hole(ink) >= 3
+    if core is not None and not hole:
+        hole = _largest_hole(core.view(np.uint8)) >= MIN_HOLE * width * height
     skeleton = thin(closed > 0)
     stroke = mask.sum() / max(skeleton.sum(), 1)  # the strokes' mean width
     spur = max(1, round(SPUR * size))
@@ -316,8 +324,9 @@ def whole(
         cells = np.asarray(cells)[todo]
         lines = np.zeros(cells.shape, bool) if painted is None else np.asarray(painted)[todo]
         cells, lines = zoom(cells, ink_masks(cells), lines)
-        for i, mask, painted_here in zip(todo, ink_masks(cells), lines, strict=True):
-            out[i] = shape_of(mask, painted_here).whole(labels[i], max_gap, plus_is_cross)
+        cores = ink_masks(cells, CORE_LEVEL)
+        for i, mask, core, painted_here in zip(todo, ink_masks(cells), cores, lines, strict=True):
+            out[i] = shape_of(mask, painted_here, core).whole(labels[i], max_gap, plus_is_cross)
     return out
 
 

@@ -130,6 +130,19 @@ def test_a_stroke_running_into_a_grid_line_is_no_cross():
     assert whole(SLOPPY_CROSS[None], ["cross"], painted=painted[None])[0]
 
 
+def test_a_thick_pens_narrow_oval_stays_a_circle():
+    # A small "0" in thick marker: at the ink level of the shape checks its slit fills in and
+    # it thins to a line; its darkest ink still goes round the slit (so the 4 real "O"s of the
+    # composed dev part that read partial).
+    def draw(canvas: np.ndarray) -> None:
+        axes = (4 * UP, 13 * UP)
+        cv2.ellipse(canvas, (20 * UP, 20 * UP), axes, 20, 0, 360, 40, 6 * UP, cv2.LINE_AA)
+
+    narrow = cell_with(draw)
+    assert not shape_of(ink_masks(narrow[None])[0]).hole
+    assert whole(narrow[None], ["circle"])[0]
+
+
 def test_veto_keeps_confidence_and_ink_and_leaves_other_labels():
     cells = np.stack([PARTIAL_SHAPES["tick"], WHOLE_CIRCLES["closed circle"], PLUS])
     readings = [
