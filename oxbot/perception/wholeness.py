@@ -25,7 +25,9 @@ skeleton whose spurs are cut off. Then:
   and an open curve whose ellipse runs on there across its gap (a circle drawn over a grid
   line, its far side in the next cell); three ends (a T, a V whose corner thins to a spur, a
   cross with one short arm), scribbles (holes and many ends). But a stroke read as a cross
-  with one end in plain view is one stroke, whatever its other end runs into.
+  with one end in plain view is one stroke, whatever its other end runs into; and a plus sign
+  or one straight stroke is never a circle, nor a cross (but a plus with `plus_is_cross`),
+  whether or not it runs out of sight.
 
     from oxbot.perception.wholeness import veto_partial
     readings = veto_partial(cells, clf.read(cells), plus_is_cross=False)
@@ -102,18 +104,27 @@ class Shape:
     gap_hidden: bool
     """For an open curve: the rest of the ellipse fitted to it, across its gap, runs mostly out
     of the cell or under a painted line (a circle spilling over a grid line)."""
+    straight: bool = False
+    """Two ends and a skeleton bulging less than FLAT of the way between them: a stroke."""
 
     def whole(
         self, label: str, max_gap: float = MAX_CIRCLE_GAP, plus_is_cross: bool = False
     ) -> bool:
         """Whether this ink is a whole `label` ("circle" or "cross"; anything else is)."""
         if label == "circle":
-            if self.hole or self.hidden or self.gap_hidden:
+            if self.hole:
                 return True
-            return self.plus_offset >= PLUS_ANGLE and (self.ends != 2 or self.turn_gap <= max_gap)
+            # A stroke or a plus is no circle, whatever runs out of sight.
+            if self.straight or self.plus_offset < PLUS_ANGLE:
+                return False
+            if self.hidden or self.gap_hidden:
+                return True
+            return self.ends != 2 or self.turn_gap <= max_gap
         if label == "cross":
             if self.plus_offset < PLUS_ANGLE:
                 return plus_is_cross
+            if self.straight:
+                return False
             # A stroke with an end in plain view is one stroke, whatever its other end meets.
             hidden = self.hidden and not (self.ends <= 2 and self.end_in_view)
             return hidden or self.hole or self.ends > 2 or self.arms >= 4
@@ -181,7 +192,10 @@ def shape_of(
     if len(ends) >= 4:
         angles = np.degrees(np.arctan2(*(ends - [ys.mean(), xs.mean()]).T)) % 90.0
         plus_offset = float(np.minimum(angles, 90.0 - angles).mean())
-    return Shape(len(ends), hole, turn_gap, plus_offset, hidden, arms, end_in_view, gap_hidden)
+    straight = len(ends) == 2 and not hole and _straight(np.argwhere(skeleton), ends)
+    return Shape(
+        len(ends), hole, turn_gap, plus_offset, hidden, arms, end_in_view, gap_hidden, straight
+    )
 
 
 def _arms(mask: np.ndarray, centre: tuple[float, float], size: int) -> int:
@@ -208,20 +222,26 @@ def _largest_hole(ink: np.ndarray) -> float:
     return max(holes, default=0.0)
 
 
+def _straight(points: np.ndarray, ends: np.ndarray) -> bool:
+    """Whether a skeleton's pixels (K, 2) (row, column) bulge less than FLAT of the way between
+    its two ends (row, column) from the line through them."""
+    (y0, x0), (y1, x1) = ends.astype(np.float32)
+    chord = math.hypot(x1 - x0, y1 - y0)
+    if chord == 0:
+        return False
+    ys, xs = points[:, 0].astype(np.float32), points[:, 1].astype(np.float32)
+    bulge = np.abs((xs - x0) * (y1 - y0) - (ys - y0) * (x1 - x0)) / chord
+    return bool(bulge.max() < FLAT * chord)
+
+
 def _turn_gap(skeleton: np.ndarray, ends: np.ndarray, unseen: np.ndarray) -> tuple[float, bool]:
     """How much of a turn (degrees) an open curve with these two ends leaves out, seen from the
     middle of the ellipse fitted to it; 360 when it goes round nothing (a line, a curve too flat:
     bulging less than FLAT of the way between its ends from the line through them). And whether
     the ellipse across that gap lies mostly out of the cell or on `unseen` pixels (bool (H, W))."""
     points = np.argwhere(skeleton)[:, ::-1].astype(np.float32)
-    if len(points) < 8:
+    if len(points) < 8 or _straight(points[:, ::-1], ends):
         return 360.0, False
-    (y0, x0), (y1, x1) = ends.astype(np.float32)
-    chord = math.hypot(x1 - x0, y1 - y0)
-    if chord > 0:
-        bulge = np.abs((points[:, 0] - x0) * (y1 - y0) - (points[:, 1] - y0) * (x1 - x0)) / chord
-        if bulge.max() < FLAT * chord:
-            return 360.0, False
     (cx, cy), (w, h), angle = cv2.fitEllipse(points)
     if not (min(w, h) > 1 and max(w, h) < 4 * skeleton.shape[0]):
         return 360.0, False

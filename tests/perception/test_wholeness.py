@@ -143,6 +143,18 @@ def test_a_thick_pens_narrow_oval_stays_a_circle():
     assert whole(narrow[None], ["circle"])[0]
 
 
+def test_a_plus_or_a_line_running_out_of_the_cell_is_no_symbol():
+    # Ink that runs out of the cell is not judged: what is beyond cannot be seen. But no
+    # circle or cross, however it goes on, shows as a plus sign or one straight line.
+    big_plus = strokes(((0, 20), (39, 21)), ((20, 0), (19, 39)))
+    across = strokes(((0, 30), (39, 8)))
+    for cell in (big_plus, across):
+        assert shape_of(ink_masks(cell[None])[0]).hidden
+        assert not whole(cell[None], ["circle"])[0]
+        assert not whole(cell[None], ["cross"])[0]
+    assert whole(big_plus[None], ["cross"], plus_is_cross=True)[0]
+
+
 def test_veto_keeps_confidence_and_ink_and_leaves_other_labels():
     cells = np.stack([PARTIAL_SHAPES["tick"], WHOLE_CIRCLES["closed circle"], PLUS])
     readings = [
