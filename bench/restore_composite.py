@@ -250,6 +250,16 @@ class GitDir:
             self._trees[commit] = files
         return self._trees[commit]
 
+    def read_at(self, abbrev: str, path: str, problems: Problems, owner: object) -> bytes | None:
+        """The file at the commit `abbrev` names, or None, said to `problems` for `owner` (what
+        was being restored), when the directory lacks the commit, the file or its blob."""
+        commit = self.commit(abbrev)
+        data = self.read(commit, path) if commit else None
+        if data is None:
+            what = f"commit {abbrev}" if commit is None else f"{path} @ {abbrev} (or its blob)"
+            problems(f"{owner}: {self.path} does not hold {what}")
+        return data
+
     def read(self, commit: str, path: str) -> bytes | None:
         """The file's bytes, or None when the commit has no such file or its blob is absent."""
         blob = self.tree(commit).get(path)
@@ -515,11 +525,8 @@ def restore_handwriting(args: argparse.Namespace, problems: Problems) -> None:
         for abbrev, path in sorted(
             {(r["commit"], r["path"]) for r in rows if r["repo"] == EXUPERY}
         ):
-            commit = git.commit(abbrev)
-            data = git.read(commit, path) if commit else None
+            data = git.read_at(abbrev, path, problems, EXUPERY)
             if data is None:
-                what = f"commit {abbrev}" if commit is None else f"{path} @ {abbrev}"
-                problems(f"{EXUPERY}: {args.exupery} does not hold {what}")
                 continue
             quickdraw[EXUPERY, path], _ = quickdraw_records(data.decode("utf-8"))
     if args.air_drawer:
@@ -614,12 +621,8 @@ def restore_papers(args: argparse.Namespace, problems: Problems) -> None:
             else:
                 problems(f"{target}: give --paper-repo {repo}=GITDIR ({path} @ {abbrev})")
             continue
-        git = gits[repo]
-        commit = git.commit(abbrev)
-        data = git.read(commit, path) if commit else None
+        data = gits[repo].read_at(abbrev, path, problems, target)
         if data is None:
-            what = f"commit {abbrev}" if commit is None else f"{path} @ {abbrev} (or its blob)"
-            problems(f"{target}: {git.path} does not hold {what}")
             continue
         got = hashlib.sha1(data).hexdigest()
         if not got.startswith(sha):
