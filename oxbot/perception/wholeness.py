@@ -102,9 +102,10 @@ class Shape:
     end_in_view: bool
     """An end of the skeleton lies in plain view, away from the cell's edge and painted lines."""
     gap_hidden: bool
-    """For an open curve: the rest of the ellipse fitted to it, across its gap, runs mostly out
-    of the cell or under a painted line (a circle spilling over a grid line)."""
-    straight: bool = False
+    """For an open curve: the rest of the ellipse fitted to it, across its gap, lies mostly
+    under a painted-over grid line or beyond the cell's edge, as `zoom` marks them (a circle
+    drawn over a grid line)."""
+    straight: bool
     """Two ends and a skeleton bulging less than FLAT of the way between them: a stroke."""
 
     def whole(
@@ -164,7 +165,7 @@ def shape_of(
     `CORE_LEVEL`), where a thick pen's narrow loop still shows its hole."""
     ys, xs = np.nonzero(mask)
     if xs.size == 0:
-        return Shape(0, False, 0.0, 90.0, True, 0, False, False)
+        return Shape(0, False, 0.0, 90.0, True, 0, False, False, False)
     width, height = int(xs.max() - xs.min() + 1), int(ys.max() - ys.min() + 1)
     size = max(width, height)
     ink = mask.view(np.uint8)
@@ -238,7 +239,7 @@ def _turn_gap(skeleton: np.ndarray, ends: np.ndarray, unseen: np.ndarray) -> tup
     """How much of a turn (degrees) an open curve with these two ends leaves out, seen from the
     middle of the ellipse fitted to it; 360 when it goes round nothing (a line, a curve too flat:
     bulging less than FLAT of the way between its ends from the line through them). And whether
-    the ellipse across that gap lies mostly out of the cell or on `unseen` pixels (bool (H, W))."""
+    the ellipse across that gap lies mostly on `unseen` pixels (bool (H, W))."""
     points = np.argwhere(skeleton)[:, ::-1].astype(np.float32)
     if len(points) < 8 or _straight(points[:, ::-1], ends):
         return 360.0, False
