@@ -132,8 +132,8 @@ def test_a_stroke_running_into_a_grid_line_is_no_cross():
 
 def test_a_thick_pens_narrow_oval_stays_a_circle():
     # A small "0" in thick marker: at the ink level of the shape checks its slit fills in and
-    # it thins to a line; its darkest ink still goes round the slit (so the 4 real "O"s of the
-    # composed dev part that read partial).
+    # it thins to a line; its darkest ink still goes round the slit (as in the 4 real "O"s of
+    # the composed dev part that read partial before).
     def draw(canvas: np.ndarray) -> None:
         axes = (4 * UP, 13 * UP)
         cv2.ellipse(canvas, (20 * UP, 20 * UP), axes, 20, 0, 360, 40, 6 * UP, cv2.LINE_AA)
