@@ -206,14 +206,19 @@ MIN_LINE_STRAIGHTNESS = 0.9  # end to end over along the path, SOURCES.md's rule
 
 
 class Problems:
-    """Everything missing or wrong, said as it is found and counted for the exit status."""
+    """Everything missing or wrong, said once as it is found and counted for the exit status."""
 
     def __init__(self) -> None:
-        self.count = 0
+        self.said: set[str] = set()
+
+    @property
+    def count(self) -> int:
+        return len(self.said)
 
     def __call__(self, message: str) -> None:
-        self.count += 1
-        print(f"  PROBLEM: {message}", file=sys.stderr)
+        if message not in self.said:
+            self.said.add(message)
+            print(f"  PROBLEM: {message}", file=sys.stderr)
 
 
 class GitDir:
