@@ -53,13 +53,13 @@ import hashlib
 import itertools
 import json
 import math
-import os
 import re
 import subprocess
 import sys
-import tempfile
 from collections import Counter, defaultdict
 from pathlib import Path
+
+from oxbot.atomic import atomic_write, write_text_atomic
 
 ROOT = Path(__file__).resolve().parent
 COMPOSITE = ROOT / "data" / "composite_boards"
@@ -272,20 +272,6 @@ class GitDir:
             return None
         done = self._git("cat-file", "blob", blob)
         return done.stdout if done.returncode == 0 else None
-
-
-def write_atomic(path: Path, data: bytes) -> None:
-    """Writes `data` to a temporary file beside `path`, then renames it over `path`."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def repo_arg(text: str) -> tuple[str, Path]:
@@ -600,8 +586,7 @@ def restore_handwriting(args: argparse.Namespace, problems: Problems) -> None:
                 f"drawings found"
             )
             continue
-        text = json.dumps(drawings, separators=(",", ":"))
-        write_atomic(out, text.encode("utf-8"))
+        write_text_atomic(out, json.dumps(drawings, separators=(",", ":")))  # ASCII
         said = ", ".join(f"{n} from {repo}" for repo, n in sorted(sources.items()))
         print(f"  wrote {out}: {len(drawings)} drawings ({said}); {unmet} against the criteria")
 
@@ -635,7 +620,8 @@ def restore_papers(args: argparse.Namespace, problems: Problems) -> None:
                 f"{target}: {repo} {path} has SHA-1 {got[:8]}, SOURCES.md says {sha}; not copied"
             )
             continue
-        write_atomic(target, data)
+        with atomic_write(target) as handle:
+            handle.write(data)
         done += 1
     print(f"  paper: {done} of {len(listed)} photos in {args.papers}, SHA-1 prefixes checked")
 
@@ -657,7 +643,8 @@ def restore_real(args: argparse.Namespace, problems: Problems) -> None:
         if got != sha:
             problems(f"{target}: SHA-1 {got}, SOURCES.md says {sha}; not copied")
             continue
-        write_atomic(target, data)
+        with atomic_write(target) as handle:
+            handle.write(data)
         done += 1
     print(f"  real boards: {done} of {len(REAL)} photos in {REAL_IMAGES}, SHA-1s checked")
 
