@@ -186,14 +186,15 @@ def shape_of(
             unseen |= near[ends[:, 0], ends[:, 1]]
     hidden, end_in_view = bool(unseen.any()), bool((~unseen).any())
     arms = _arms(mask, (ys.mean(), xs.mean()), size) if stroke >= THICK * size else 0
-    turn_gap, gap_hidden = (
-        _turn_gap(skeleton, ends, near) if len(ends) == 2 and not hole else (0.0, False)
-    )
+    open_curve = len(ends) == 2 and not hole
+    straight = open_curve and _straight(np.argwhere(skeleton), ends)
+    turn_gap, gap_hidden = 0.0, False
+    if open_curve:  # a straight stroke goes round nothing: 360
+        turn_gap, gap_hidden = (360.0, False) if straight else _turn_gap(skeleton, ends, near)
     plus_offset = 90.0
     if len(ends) >= 4:
         angles = np.degrees(np.arctan2(*(ends - [ys.mean(), xs.mean()]).T)) % 90.0
         plus_offset = float(np.minimum(angles, 90.0 - angles).mean())
-    straight = len(ends) == 2 and not hole and _straight(np.argwhere(skeleton), ends)
     return Shape(
         len(ends), hole, turn_gap, plus_offset, hidden, arms, end_in_view, gap_hidden, straight
     )
@@ -236,12 +237,12 @@ def _straight(points: np.ndarray, ends: np.ndarray) -> bool:
 
 
 def _turn_gap(skeleton: np.ndarray, ends: np.ndarray, unseen: np.ndarray) -> tuple[float, bool]:
-    """How much of a turn (degrees) an open curve with these two ends leaves out, seen from the
-    middle of the ellipse fitted to it; 360 when it goes round nothing (a line, a curve too flat:
-    bulging less than FLAT of the way between its ends from the line through them). And whether
-    the ellipse across that gap lies mostly on `unseen` pixels (bool (H, W))."""
+    """How much of a turn (degrees) an open curve (not `_straight`) with these two ends leaves
+    out, seen from the middle of the ellipse fitted to it; 360 when it goes round nothing (too
+    few pixels, or no ellipse fits). And whether the ellipse across that gap lies mostly on
+    `unseen` pixels (bool (H, W))."""
     points = np.argwhere(skeleton)[:, ::-1].astype(np.float32)
-    if len(points) < 8 or _straight(points[:, ::-1], ends):
+    if len(points) < 8:
         return 360.0, False
     (cx, cy), (w, h), angle = cv2.fitEllipse(points)
     if not (min(w, h) > 1 and max(w, h) < 4 * skeleton.shape[0]):
