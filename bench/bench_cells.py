@@ -32,7 +32,7 @@ import numpy as np
 from oxbot.config import load_config
 from oxbot.perception.board import BoardReader, deepen_faint_ink
 from oxbot.perception.cells import wipe_background
-from oxbot.perception.classifier import CellReading, load_classifier
+from oxbot.perception.classifier import load_classifier
 from oxbot.perception.evaluation import FONT_STREAM, generated_test_set
 from oxbot.perception.fonts import font_cells
 from oxbot.perception.seeds import load_seeds
@@ -69,9 +69,6 @@ def main() -> None:
     def cut(cells: np.ndarray) -> np.ndarray:
         return deepen_faint_ink(wipe_background(cells)) if args.wiped else cells
 
-    def check(cells: np.ndarray) -> list[CellReading]:
-        return reader.classify(cells)  # the network, then the reader's rules
-
     print(
         f"cells {'wiped and deepened as the board reader cuts them' if args.wiped else 'as drawn'}"
         f"; wholeness check: {'on' if perception.wholeness else 'off'}, max_circle_gap "
@@ -81,7 +78,7 @@ def main() -> None:
         args.cells, np.random.default_rng([args.seed, 1]), PARTIAL_KINDS, partial_cell
     )
     cells = cut(cells)
-    network, checked = clf.read(cells), check(cells)
+    network, checked = clf.read(cells), reader.classify(cells)
     for name, readings in (("network alone", network), ("with the check", checked)):
         symbol = Counter(k for k, r in zip(kinds, readings, strict=True) if r.label in SYMBOLS)
         sure = Counter(
@@ -103,7 +100,7 @@ def main() -> None:
     cells, kinds = odd_cells(
         args.cells, np.random.default_rng([args.seed, 2]), EMPTY_KINDS, empty_cell
     )
-    readings = check(cut(cells))
+    readings = reader.classify(cut(cells))
     right = sum(r.label not in SYMBOLS for r in readings)
     print(
         f"blank cells: {args.cells:,}, read as nothing (or partial, which is no move): {right} = "
@@ -121,7 +118,7 @@ def main() -> None:
     for name, (cells, truth) in whole_sets.items():
         truth = [str(t) for t in truth]
         cells = cut(cells)
-        network, checked = clf.read(cells), check(cells)
+        network, checked = clf.read(cells), reader.classify(cells)
         before = sum(r.spec_label == t for r, t in zip(network, truth, strict=True))
         after = sum(r.spec_label == t for r, t in zip(checked, truth, strict=True))
         lost = Counter(
