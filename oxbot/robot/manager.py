@@ -67,6 +67,7 @@ from oxbot.dialogue.domain import (
     MOVE_REQUEST,
     NEW_GAME,
     PROBLEM,
+    REFUSALS,
     SILENCE,
     STOP,
     SYSTEM_ACTS,
@@ -315,7 +316,7 @@ class InteractionManagerComponent(Component):
             "_arm_cell",
             "_rematch",
             "_unanswered_in_a_row",
-            "_early_yes",
+            "_early_answer",
         ):
             setattr(self, name, getattr(old, name))
         self._deadline = old._deadline
@@ -329,7 +330,7 @@ class InteractionManagerComponent(Component):
         self._speaking = ""
         self._arm_cell: int | None = None
         self._rematch = False
-        self._early_yes: SpeechHypotheses | None = None  # a yes before "Shall we play?"
+        self._early_answer: SpeechHypotheses | None = None  # a yes or no before "Shall we play?"
         self._deferred: list[str] = []
         self._deadline = 0.0
         self._unanswered_in_a_row = 0
@@ -393,8 +394,8 @@ class InteractionManagerComponent(Component):
         for sentence in self._deferred:
             self._tell(sentence)
         self._deferred.clear()
-        if self._early_yes is not None and self.state.invitations:
-            early, self._early_yes = self._early_yes, None
+        if self._early_answer is not None and self.state.invitations:
+            early, self._early_answer = self._early_answer, None
             self._heard(early)  # now it answers the question
             return
         if self._expects_move():
@@ -431,10 +432,15 @@ class InteractionManagerComponent(Component):
         # per-word confidences when the recogniser gives them (paper §2.2), else the utterance's
         words = words or tuple((w, confidence) for w in words_of(text))
         reading = self._understand(nbest, self.state.last_act)
-        if reading.act == ACCEPT and not self.state.invitations and not self.state.game_started:
-            # "yes, let's play" to the greeting: kept until the robot has asked, then taken as
-            # the answer (the policy never met a yes nobody asked for, and asked "Pardon?")
-            self._early_yes = message
+        if (
+            (reading.act == ACCEPT or reading.act in REFUSALS)
+            and not self.state.invitations
+            and not self.state.game_started
+        ):
+            # "yes, let's play" or "no thanks" to the greeting: kept until the robot has asked,
+            # then taken as the answer (the policy never met an answer to a question it had not
+            # asked: a yes was met with "Pardon?", a no ignored and the question asked three times)
+            self._early_answer = message
             if self.phase is Phase.LISTENING:
                 self._decide()  # what it would say had the person kept quiet: go on to ask
             return

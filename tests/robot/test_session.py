@@ -387,6 +387,22 @@ def test_a_yes_before_the_robot_asks_is_taken_as_the_answer_once_it_has_asked():
     assert ended.outcome == "stopped"
 
 
+def test_a_no_before_the_robot_asks_is_taken_as_the_answer_once_it_has_asked():
+    with Robot(FAST, seed=14) as robot:
+        turns, ended = talk_until_goodbye(robot, {"Salutation(greeting)": ["No thanks."]})
+    acts = [(t.speaker, t.act) for t in turns]
+    asked = acts.index(("sys", "Request(playGame)"))
+    # asked once and answered by the early no; before, it was ignored and the question asked
+    # until "Nobody seems to be there"
+    assert acts[asked:] == [
+        ("sys", "Request(playGame)"),
+        ("usr", "Reject(playGame=no)"),
+        ("sys", "Acknowledge(playGame=no)"),
+        ("sys", "Salutation(closing)"),
+    ], acts
+    assert ended.outcome == "declined"
+
+
 def test_new_game_after_the_goodbye_starts_another():
     with Robot(FAST, seed=13) as robot:
         talk_until_goodbye(robot, {"Request(playGame)": ["No thanks."] * 3})
