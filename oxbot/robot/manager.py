@@ -433,13 +433,14 @@ class InteractionManagerComponent(Component):
         words = words or tuple((w, confidence) for w in words_of(text))
         reading = self._understand(nbest, self.state.last_act)
         if (
-            (reading.act == ACCEPT or reading.act in REFUSALS)
+            (reading.act in (ACCEPT, STOP, CLOSING) or reading.act in REFUSALS)
             and not self.state.invitations
             and not self.state.game_started
         ):
-            # "yes, let's play" or "no thanks" to the greeting: kept until the robot has asked,
-            # then taken as the answer (the policy never met an answer to a question it had not
-            # asked: a yes was met with "Pardon?", a no ignored and the question asked three times)
+            # "yes, let's play", "no thanks" or "bye" to the greeting: kept until the robot has
+            # asked, then taken as the answer (the policy never met an answer to a question it
+            # had not asked: a yes was met with "Pardon?", a no or a goodbye ignored and the
+            # question asked three times)
             self._early_answer = message
             if self.phase is Phase.LISTENING:
                 self._decide()  # what it would say had the person kept quiet: go on to ask

@@ -387,9 +387,10 @@ def test_a_yes_before_the_robot_asks_is_taken_as_the_answer_once_it_has_asked():
     assert ended.outcome == "stopped"
 
 
-def test_a_no_before_the_robot_asks_is_taken_as_the_answer_once_it_has_asked():
+@pytest.mark.parametrize("early", ["No thanks.", "Goodbye.", "I have to go."])
+def test_a_no_before_the_robot_asks_is_taken_as_the_answer_once_it_has_asked(early):
     with Robot(FAST, seed=14) as robot:
-        turns, ended = talk_until_goodbye(robot, {"Salutation(greeting)": ["No thanks."]})
+        turns, ended = talk_until_goodbye(robot, {"Salutation(greeting)": [early]})
     acts = [(t.speaker, t.act) for t in turns]
     asked = acts.index(("sys", "Request(playGame)"))
     # asked once and answered by the early no; before, it was ignored and the question asked
