@@ -20,6 +20,7 @@ import argparse
 import itertools
 import zlib
 from collections import defaultdict
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +31,7 @@ from oxbot.speech import keywords as kw
 from oxbot.speech import speech_commands as sc
 from oxbot.speech.audio import pcm16
 from oxbot.speech.evaluation import CONDITIONS, intent_of_act, speech_commands
-from oxbot.speech.recognition import PocketsphinxRecognizer, user_phrases
+from oxbot.speech.recognition import Hypothesis, PocketsphinxRecognizer, user_phrases
 
 DATA = Path(__file__).parent / "data"
 WANT = {"accept": "yes", "decline": "no"}
@@ -47,6 +48,71 @@ def restore(repo_a: Path | None, repo_b: Path) -> None:
             "held out:",
             sc.restore(sc.HELD_OUT_MANIFEST, {"A": a, "B": b}, DATA / "speech_commands"),
         )
+
+
+@dataclass(frozen=True)
+class Heard:
+    """One development recording under one condition, as the recogniser heard it alone."""
+
+    condition: str
+    expected: str
+    """"accept" or "decline"."""
+    speaker: str
+    nbest: list[Hypothesis]
+    window: np.ndarray | None
+    """What the keyword model hears (`keywords.short_window`); None when the sound is long."""
+
+
+def decode_development(seed: int = 0) -> list[Heard]:
+    """Every development recording under every condition of `CONDITIONS`, with bench_speech.py's
+    seeds: the recogniser's N-best (the keyword model left out) and the keyword model's window."""
+    recognizer = PocketsphinxRecognizer(user_phrases(load_domain()), keywords=False)
+    heard = []
+    for rec in speech_commands(DATA / "speech_commands_dev"):
+        clean = pcm16(rec.path)
+        for condition in CONDITIONS:
+            key = zlib.crc32(f"{rec.speaker}|{rec.path.name}|{condition.seed_key}".encode())
+            samples = condition.apply(clean, np.random.default_rng([seed, key]))
+            nbest = recognizer.decode(samples)
+            window = kw.short_window(samples)
+            heard.append(Heard(condition.name, rec.expected, rec.speaker, nbest, window))
+    return heard
+
+
+def keyword_probabilities(spotter: kw.KeywordSpotter, heard: list[Heard]) -> list:
+    """The keyword model's [P(yes), P(no), P(other)] for each of `heard`, None where it is not
+    asked (`KeywordSpotter.probabilities`, in one batch)."""
+    asked = [i for i, h in enumerate(heard) if h.window is not None]
+    out: list = [None] * len(heard)
+    for i, p in zip(asked, spotter.classify([heard[i].window for i in asked]), strict=True):
+        out[i] = p
+    return out
+
+
+def joined_counts(
+    classifier: UserActClassifier,
+    heard: list[Heard],
+    probabilities: list,
+    thresholds: tuple[float, float, float] | None,
+) -> dict[str, list[int]]:
+    """[answers, understood, flips, unsure] per condition, the keyword model joined by
+    `second_opinion` at `thresholds` (sure, agree, doubt), or the recogniser alone (None)."""
+    counts: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0, 0])
+    for h, p in zip(heard, probabilities, strict=True):
+        nbest = kw.second_opinion(h.nbest, p, *thresholds) if thresholds is not None else h.nbest
+        got = intent_of_act(classifier.intent_of(nbest, INVITATION).act)
+        c = counts[h.condition]
+        c[0] += 1
+        c[1] += got == h.expected
+        c[2] += {got, h.expected} == {"accept", "decline"}
+        c[3] += got == "unsure"
+    return counts
+
+
+def totals(counts: dict[str, list[int]]) -> tuple[float, int, int]:
+    """Understood, flips and unsure over every condition."""
+    n, right, flips, unsure = np.sum(list(counts.values()), axis=0)
+    return right / n, int(flips), int(unsure)
 
 
 def main() -> None:
@@ -74,27 +140,18 @@ def main() -> None:
         return
 
     spotter = kw.KeywordSpotter.load(args.model)
-    recognizer = PocketsphinxRecognizer(user_phrases(load_domain()), keywords=False)
     classifier = UserActClassifier(load_domain())
-    heard = []  # (condition, expected intent, recogniser N-best, keyword probabilities)
-    for rec in speech_commands(DATA / "speech_commands_dev"):
-        clean = pcm16(rec.path)
-        for condition in CONDITIONS:
-            key = zlib.crc32(f"{rec.speaker}|{rec.path.name}|{condition.seed_key}".encode())
-            samples = condition.apply(clean, np.random.default_rng([args.seed, key]))
-            heard.append(
-                (
-                    condition.name,
-                    rec.expected,
-                    recognizer.decode(samples),
-                    spotter.probabilities(samples),
-                )
-            )
+    heard = decode_development(args.seed)
+    probabilities = keyword_probabilities(spotter, heard)
 
     print("keyword model alone (argmax): right, flips (yes as no or the reverse)")
     alone = {}
     for condition in CONDITIONS:
-        own = [(want, p) for name, want, _, p in heard if name == condition.name]
+        own = [
+            (h.expected, p)
+            for h, p in zip(heard, probabilities, strict=True)
+            if h.condition == condition.name
+        ]
         said = [kw.LABELS[int(np.argmax(p))] if p is not None else "none" for _, p in own]
         right = np.mean([s == WANT[w] for (w, _), s in zip(own, said, strict=True)])
         flips = sum({s, WANT[w]} == {"yes", "no"} for (w, _), s in zip(own, said, strict=True))
@@ -102,21 +159,7 @@ def main() -> None:
         print(f"  {condition.name:12s} {right:6.1%}  flips {flips}")
 
     def joined(thresholds: tuple[float, float, float] | None) -> dict[str, list[int]]:
-        counts: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0, 0])
-        for name, want, nbest, p in heard:
-            if thresholds is not None:
-                nbest = kw.second_opinion(nbest, p, *thresholds)
-            got = intent_of_act(classifier.intent_of(nbest, INVITATION).act)
-            c = counts[name]
-            c[0] += 1
-            c[1] += got == want
-            c[2] += {got, want} == {"accept", "decline"}
-            c[3] += got == "unsure"
-        return counts
-
-    def totals(counts: dict[str, list[int]]) -> tuple[float, int, int]:
-        n, right, flips, unsure = np.sum(list(counts.values()), axis=0)
-        return right / n, int(flips), int(unsure)
+        return joined_counts(classifier, heard, probabilities, thresholds)
 
     print("\njoined with the recogniser: sure, agree, doubt -> understood, flips, unsure")
     rows = [(totals(joined(t)), t) for t in itertools.product(*GRID)] if args.grid else []
