@@ -324,6 +324,8 @@ def test_ink_that_is_not_a_whole_symbol_is_named_in_words_and_is_no_move(page: P
             told = [t for s, a, t in log_items(tab)[before:] if a == "Inform(problem)"]
             assert "cannot tell what is in the upper left" in told[0], told
             assert "whole circle" in told[0], told
+            # the red box holds the robot's words, not the tracker's technical reason
+            assert tab.locator("#problem").inner_text() == told[-1]
             assert tab.evaluate("window.oxbot.stats.moves.length") == 0
             tab.screenshot(path=ARTIFACTS / "07-unclear-ink.png", full_page=True)
 

@@ -216,6 +216,8 @@ const handlers = {
     } else if (d.speaker === "sys" && d.act !== acts.problem) {
       $("turn").textContent = "";
     }
+    // the box shows what the robot said of the sheet; the tracker's reason stays in the log
+    if (d.speaker === "sys" && d.act === acts.problem) showProblem(d.text);
   },
   SpeakingStarted(d) {
     state.stats.speaking.push(performance.now());
