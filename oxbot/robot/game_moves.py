@@ -24,6 +24,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import logging
+import os
 import threading
 
 import cv2
@@ -118,6 +119,10 @@ def move_message(drawing: AcceptedDrawing) -> GameMove:
     return GameMove(who=drawing.who, what=drawing.what, where=drawing.where, symbol=drawing.symbol)
 
 
+READING_SLOTS = threading.BoundedSemaphore(os.cpu_count() or 1)
+"""Frames read at once in this process, by every robot's eyes together: one per core."""
+
+
 class GameMoveComponent(Component):
     """Reads the sheet every `config.period_s` seconds and publishes the person's moves.
 
@@ -198,7 +203,10 @@ class GameMoveComponent(Component):
         if current is None:
             return
         frame = current[0]
-        reading, cells, guidance, grid = self._read(*current)
+        read = self._read(*current)
+        if read is None:
+            return  # the machine is busy reading other sheets: this frame next tick
+        reading, cells, guidance, grid = read
         refusal = guidance.text if guidance is not None else ""
         if reading is None:
             event = self.tracker.update(None)
@@ -296,14 +304,19 @@ class GameMoveComponent(Component):
         self._off = True
         self.bus.publish(SourceEnded(component=self.name, reason=reason))
 
-    def _read(self, frame: np.ndarray, version: int) -> Read:
+    def _read(self, frame: np.ndarray, version: int) -> Read | None:
         """The frame's reading (None: no board), crops, why no board could be read (None
-        when one was) and where the grid is; a pushed frame is read only once."""
+        when one was) and where the grid is; a pushed frame is read only once. None when
+        every core is already reading a frame (of this robot or another)."""
         cached = self._cached
         if cached is not None and cached[0] == version:
             return cached[1]
         if self.reader is None:
             self.reader = default_reader(self.perception)
+        # twenty robots reading at once on two cores all took seconds per frame, past the
+        # watchdog's deadline; a frame that waits for a free core is read a tick later
+        if not READING_SLOTS.acquire(blocking=False):
+            return None
         read: Read
         try:
             reading = self.reader.read(frame)
@@ -312,6 +325,8 @@ class GameMoveComponent(Component):
             last = self._corners
             corners = last[0] if last is not None and last[1] == frame.shape[:2] else None
             read = (None, (), diagnose(frame, str(exc), corners), ())
+        finally:
+            READING_SLOTS.release()
         if version >= 0:
             self._cached = (version, read)
         return read

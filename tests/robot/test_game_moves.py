@@ -181,3 +181,22 @@ def test_a_board_unreadable_for_a_while_is_told_once_per_reason_with_the_grid_sh
     assert told == ["too_dark", "blurred"]
     refusals = {m.refusal for m in got if isinstance(m, BoardSeen) and m.refusal}
     assert any("too dark" in r for r in refusals) and any("blurred" in r for r in refusals)
+
+
+def test_a_frame_waits_while_every_core_reads_another_robots_sheet(scene):
+    from oxbot.robot import game_moves
+
+    sheet, rng = scene
+    vision = GameMoveComponent(LocalBus(), robot_starts=True)
+    vision.push(sheet.photo(rng))
+    taken = 0
+    while game_moves.READING_SLOTS.acquire(blocking=False):  # other robots hold every core
+        taken += 1
+    try:
+        vision.tick()
+        assert vision._last_seen is None  # not read: no seconds-long wait for a core
+    finally:
+        for _ in range(taken):
+            game_moves.READING_SLOTS.release()
+    vision.tick()
+    assert vision._last_seen is not None and len(vision._last_seen[0]) == 9
