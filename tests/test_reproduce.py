@@ -9,7 +9,7 @@ from oxbot.cli import app
 from oxbot.config import OxbotConfig
 from oxbot.dialogue.domain import load_domain
 from oxbot.errors import ConfigError
-from oxbot.reproduce import MARKER, PAPER_FIGURES, _ratio, reproduce
+from oxbot.reproduce import MARKER, PAPER_FIGURES, Budgets, _ratio, reproduce
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -24,7 +24,10 @@ def table_rows(markdown: str) -> list[list[str]]:
 
 
 @pytest.mark.slow
-def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path: Path):
+def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path: Path, monkeypatch):
+    # the report's every cell and plot, not its figures: budgets smaller still than --quick's
+    budgets = Budgets(1_000, 2_000, 1_000, 20, 50)
+    monkeypatch.setattr("oxbot.reproduce.QUICK", budgets)
     out, work = tmp_path / "reports", tmp_path / "work"
     result = CliRunner().invoke(
         app, ["reproduce", "--quick", "--out", str(out), "--work", str(work), "--quiet"]
@@ -69,9 +72,9 @@ def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path:
     assert figures["data"]["seed_images"] == 108
     assert figures["data"]["seed_images_same_as_shipped"]  # the seeds are redrawn exactly
     assert figures["data"]["seed_dialogues"] == len(load_domain().dialogues)
-    assert figures["perceiver"]["train_images"] == 1_000
+    assert figures["perceiver"]["train_images"] == budgets.perceiver_images
     assert f"{100 * figures['perceiver']['accuracy']:.1f}%" in report
-    assert figures["agent"]["experiences"] == 4_000
+    assert figures["agent"]["experiences"] == budgets.agent_steps
     for peer in ("dqn", "maskable_ppo"):
         p = figures["agent_peers"][peer]
         assert p["budget_s"] == pytest.approx(figures["agent"]["train_s"], abs=0.1)
@@ -79,7 +82,7 @@ def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path:
     assert set(figures["seeds"]) == {"perception", "agent", "evaluation", "peers"}
     env = figures["environment"]
     assert env["packages"]["torch"] and env["packages"]["stable-baselines3"] and env["cpu"]
-    assert figures["configs"]["train"]["agent"]["total_steps"] == 4_000
+    assert figures["configs"]["train"]["agent"]["total_steps"] == budgets.agent_steps
     assert (work / MARKER).exists()
 
 
