@@ -119,8 +119,11 @@ def move_message(drawing: AcceptedDrawing) -> GameMove:
     return GameMove(who=drawing.who, what=drawing.what, where=drawing.where, symbol=drawing.symbol)
 
 
-READING_SLOTS = threading.BoundedSemaphore(os.cpu_count() or 1)
-"""Frames read at once in this process, by every robot's eyes together: one per core."""
+READING_SLOTS = threading.BoundedSemaphore(
+    len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+)
+"""Frames read at once in this process, by every robot's eyes together: one per core it may
+use."""
 
 
 class GameMoveComponent(Component):

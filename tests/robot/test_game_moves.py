@@ -187,16 +187,19 @@ def test_a_frame_waits_while_every_core_reads_another_robots_sheet(scene):
     from oxbot.robot import game_moves
 
     sheet, rng = scene
-    vision = GameMoveComponent(LocalBus(), robot_starts=True)
+    bus = LocalBus()
+    seen = bus.subscribe(BoardSeen)
+    vision = GameMoveComponent(bus, robot_starts=True)
     vision.push(sheet.photo(rng))
     taken = 0
     while game_moves.READING_SLOTS.acquire(blocking=False):  # other robots hold every core
         taken += 1
     try:
         vision.tick()
-        assert vision._last_seen is None  # not read: no seconds-long wait for a core
+        assert seen.get(0.2) is None  # not read, and no seconds-long wait for a core
     finally:
         for _ in range(taken):
             game_moves.READING_SLOTS.release()
     vision.tick()
-    assert vision._last_seen is not None and len(vision._last_seen[0]) == 9
+    message = seen.get(2.0)
+    assert message is not None and len(message.labels) == 9
