@@ -115,6 +115,28 @@ def totals(counts: dict[str, list[int]]) -> tuple[float, int, int]:
     return right / n, int(flips), int(unsure)
 
 
+def keyword_alone(heard: list[Heard], probabilities: list) -> tuple[float, int]:
+    """The keyword model alone, its most probable label: the share right and the flips (a yes
+    taken for a no or the reverse)."""
+    said = [kw.LABELS[int(np.argmax(p))] if p is not None else "none" for p in probabilities]
+    wanted = [WANT[h.expected] for h in heard]
+    right = np.mean([s == w for s, w in zip(said, wanted, strict=True)])
+    flips = sum({s, w} == {"yes", "no"} for s, w in zip(said, wanted, strict=True))
+    return float(right), flips
+
+
+def grid_rows(
+    classifier: UserActClassifier, heard: list[Heard], probabilities: list
+) -> list[tuple[tuple[float, int, int], tuple[float, float, float]]]:
+    """Every (sure, agree, doubt) of `GRID` with its totals, fewest flips then most understood
+    first."""
+    rows = [
+        (totals(joined_counts(classifier, heard, probabilities, t)), t)
+        for t in itertools.product(*GRID)
+    ]
+    return sorted(rows, key=lambda r: (r[0][1], -r[0][0]))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", type=Path, default=kw.shipped_keyword_path())
@@ -148,22 +170,20 @@ def main() -> None:
     alone = {}
     for condition in CONDITIONS:
         own = [
-            (h.expected, p)
+            (h, p)
             for h, p in zip(heard, probabilities, strict=True)
             if h.condition == condition.name
         ]
-        said = [kw.LABELS[int(np.argmax(p))] if p is not None else "none" for _, p in own]
-        right = np.mean([s == WANT[w] for (w, _), s in zip(own, said, strict=True)])
-        flips = sum({s, WANT[w]} == {"yes", "no"} for (w, _), s in zip(own, said, strict=True))
-        alone[condition.name] = round(float(right), 4)
+        right, flips = keyword_alone([h for h, _ in own], [p for _, p in own])
+        alone[condition.name] = round(right, 4)
         print(f"  {condition.name:12s} {right:6.1%}  flips {flips}")
 
     def joined(thresholds: tuple[float, float, float] | None) -> dict[str, list[int]]:
         return joined_counts(classifier, heard, probabilities, thresholds)
 
     print("\njoined with the recogniser: sure, agree, doubt -> understood, flips, unsure")
-    rows = [(totals(joined(t)), t) for t in itertools.product(*GRID)] if args.grid else []
-    for (right, flips, unsure), t in sorted(rows, key=lambda r: (r[0][1], -r[0][0]))[:12]:
+    rows = grid_rows(classifier, heard, probabilities) if args.grid else []
+    for (right, flips, unsure), t in rows[:12]:
         print(f"  {t}: {right:6.1%}  flips {flips}  unsure {unsure}")
     chosen = (kw.SURE, kw.AGREE, kw.DOUBT)
     figures = {}

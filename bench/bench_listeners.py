@@ -22,19 +22,16 @@ Only the development set (bench/data/speech_commands_dev/); never the held-out o
 from __future__ import annotations
 
 import argparse
-import itertools
 from pathlib import Path
 
 import numpy as np
 
 from bench.bench_keywords import (
-    GRID,
-    WANT,
     Heard,
     decode_development,
-    joined_counts,
+    grid_rows,
+    keyword_alone,
     keyword_probabilities,
-    totals,
 )
 from oxbot.dialogue.domain import INVITATION, load_domain
 from oxbot.dialogue.understanding import UserActClassifier, polarity
@@ -118,14 +115,8 @@ def report(
 ) -> list:
     """The keyword model alone and joined at the grid's best thresholds; its probabilities."""
     probabilities = keyword_probabilities(spotter, heard)
-    said = [kw.LABELS[int(np.argmax(p))] if p is not None else "none" for p in probabilities]
-    right = np.mean([s == WANT[h.expected] for h, s in zip(heard, said, strict=True)])
-    flips = sum({s, WANT[h.expected]} == {"yes", "no"} for h, s in zip(heard, said, strict=True))
-    rows = [
-        (totals(joined_counts(classifier, heard, probabilities, t)), t)
-        for t in itertools.product(*GRID)
-    ]
-    (best, best_flips, unsure), t = min(rows, key=lambda r: (r[0][1], -r[0][0]))
+    right, flips = keyword_alone(heard, probabilities)
+    (best, best_flips, unsure), t = grid_rows(classifier, heard, probabilities)[0]
     print(
         f"  {label}: alone {right:6.2%}, flips {flips}; joined at its best {t}: {best:6.2%}, "
         f"flips {best_flips}, unsure {unsure}"
