@@ -133,6 +133,8 @@ def cut_cells(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
 
 INK_LEVEL = 170
 """oxbot: on the evened-out sheet (paper near 245), pixels darker than this are ink."""
+PALE_INK = 190
+"""oxbot: pixels darker than this that touch ink are ink too (`ink_with_pale_stretches`)."""
 SYMBOL_SHARE = 0.72
 """oxbot: a cell cut around its ink is this much wider than the ink (the classifier was trained
 on symbols 35-90% as wide as the cell, placed anywhere in it, but whole)."""
@@ -171,7 +173,7 @@ def cut_cells_and_painted(
     cells = cut_cells(sheet[inside, inside], cell)
     painted_u8 = np.zeros(sheet.shape, np.uint8) if painted is None else painted.astype(np.uint8)
     painted_cells = cut_cells(painted_u8[inside, inside] * 255, cell) > 50
-    ink = (sheet < INK_LEVEL).astype(np.uint8)
+    ink = ink_with_pale_stretches(sheet)
     joined = cv2.dilate(ink, np.ones((3, 3), np.uint8))
     count, labels, stats, centres = cv2.connectedComponentsWithStats(joined, connectivity=8)
     near_lines = np.zeros(sheet.shape, bool)
@@ -235,6 +237,19 @@ def cut_cells_and_painted(
             shrunk = cv2.resize(lines * 255, (CELL_SIZE, CELL_SIZE), interpolation=cv2.INTER_AREA)
             painted_cells[i] = shrunk > 50
     return cells, painted_cells
+
+
+def ink_with_pale_stretches(sheet: np.ndarray) -> np.ndarray:
+    """uint8 0/1 mask of the sheet's ink: pixels darker than INK_LEVEL, and the pale ones
+    (darker than PALE_INK) joined to them, as Canny's hysteresis joins weak edges to strong.
+    A thin pen's stroke fades towards its ends: without its pale stretches a cross is cut
+    short round its dark middle, and a "Y" or a "T" reaches the classifier."""
+    ink = sheet < INK_LEVEL
+    count, pale = cv2.connectedComponents((sheet < PALE_INK).view(np.uint8), connectivity=8)
+    joined = np.zeros(count, bool)  # by label: a lookup, as in cut_cells_and_painted
+    joined[pale[ink]] = True
+    joined[0] = False
+    return joined[pale].view(np.uint8)
 
 
 def _is_line_piece(labels: np.ndarray, k: int, stat: np.ndarray, cell: int) -> bool:

@@ -38,3 +38,26 @@ def test_remove_grid_lines_paints_the_lines_over():
     np.testing.assert_array_equal(
         cleaned[~band & (sheet > 200)] >= sheet[~band & (sheet > 200)], True
     )
+
+
+def test_a_stroke_fading_at_its_ends_is_cut_whole():
+    # A thin pen leaves its strokes dark in the middle and pale towards the ends (dev_0185 of
+    # the composed boards): the cell must be cut round the pale ends too, or the classifier
+    # sees a cross cut short, a "Y" or a "T", and takes it for a circle.
+    import cv2
+
+    from oxbot.perception.cells import cut_cells_and_painted
+
+    border = SHEET_CELL // 2
+    sheet = np.full((3 * SHEET_CELL + 2 * border,) * 2, 245, np.uint8)
+    x0 = y0 = border + 6  # the upper left cell, a cross 32 pixels wide
+    for (ax, ay), (bx, by) in (((x0, y0), (x0 + 32, y0 + 32)), ((x0 + 32, y0), (x0, y0 + 32))):
+        cv2.line(sheet, (ax, ay), (bx, by), 185, 2)  # pale all along
+        a = (round(ax + 0.2 * (bx - ax)), round(ay + 0.2 * (by - ay)))
+        b = (round(ax + 0.8 * (bx - ax)), round(ay + 0.8 * (by - ay)))
+        cv2.line(sheet, a, b, 90, 2)  # dark in the middle 60%
+    cells, _ = cut_cells_and_painted(sheet, None, border=border)
+    ys, xs = np.nonzero(cells[0] < 215)
+    # the whole cross, pale ends included, lies inside the cut with paper all round it
+    assert min(xs.min(), ys.min()) >= 2 and max(xs.max(), ys.max()) <= CELL_SIZE - 3
+    assert min(xs.max() - xs.min(), ys.max() - ys.min()) >= 0.55 * CELL_SIZE
