@@ -10,6 +10,7 @@ which `rectify.py` warps to.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import cv2
@@ -293,6 +294,10 @@ def wipe_background(cells: np.ndarray) -> np.ndarray:
         # circle: all that is not kept goes, down to the paper's grain.
         level = min(FAINT_LEVEL, int(np.median(cell)) - 20)  # below the cell's own paper
         faint = (cell < level).astype(np.uint8)
+        # A printed rule through a symbol joins it into one piece that no longer runs across
+        # the cell alone: its faint pixels go first, wherever it runs straight across.
+        printed_line = lines_across(faint > 0) & (cell >= STRONG_INK)
+        faint[printed_line] = 0
         _, labels, stats, _ = cv2.connectedComponentsWithStats(faint, connectivity=8)
         x, y, w, h, area = stats.T
         wide, high = (x == 0) & (x + w == side), (y == 0) & (y + h == side)
@@ -312,3 +317,44 @@ def wipe_background(cells: np.ndarray) -> np.ndarray:
             keep |= cv2.dilate(strong, near) > 0
         out[i][~keep] = 245
     return out
+
+
+PRINTED_SPAN = 0.85
+"""oxbot: ink along a straight line this share of the cell long, from one side to the other,
+is printed (a rule, a square's side) or left of a grid line: a symbol, cut round its ink, is
+at most SYMBOL_SHARE of the cell wide."""
+PRINTED_SLANT = 3
+"""oxbot: pixels such a line may shift sideways on its way across a 40-pixel cell (about 4
+degrees from the cell's sides; 7 pixels found no more lines on the composed dev boards)."""
+
+
+def lines_across(mask: np.ndarray) -> np.ndarray:
+    """The pixels of `mask` (bool (side, side)) on straight lines that run across the cell
+    within PRINTED_SLANT pixels of its sides and are inked along PRINTED_SPAN of it."""
+    side = mask.shape[0]
+    rows, columns, inside = _straight_paths(side, PRINTED_SLANT)
+    out = np.zeros_like(mask)
+    for seen, found in ((mask, out), (mask.T, out.T)):  # upright lines, then level ones
+        on = seen[rows, columns] & inside
+        full = on.sum(axis=1) >= PRINTED_SPAN * side
+        if full.any():
+            hit = on & full[:, None]
+            found[rows[hit], columns[hit]] = True
+    return out
+
+
+@functools.cache
+def _straight_paths(side: int, slant: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every straight path from the top of a side x side cell to its bottom that shifts at
+    most `slant` pixels: the (paths, side) rows and columns of its pixels (columns clipped to
+    the cell) and whether each lies in it."""
+    down = np.arange(side)
+    paths = [
+        start + np.rint(shift * down / (side - 1)).astype(int)
+        for shift in range(-slant, slant + 1)
+        for start in range(-slant, side + slant)
+    ]
+    columns = np.array(paths)
+    inside = (columns >= 0) & (columns < side)
+    rows = np.broadcast_to(down, columns.shape)
+    return rows, np.clip(columns, 0, side - 1), inside

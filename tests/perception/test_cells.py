@@ -61,3 +61,23 @@ def test_a_stroke_fading_at_its_ends_is_cut_whole():
     # the whole cross, pale ends included, lies inside the cut with paper all round it
     assert min(xs.min(), ys.min()) >= 2 and max(xs.max(), ys.max()) <= CELL_SIZE - 3
     assert min(xs.max() - xs.min(), ys.max() - ys.min()) >= 0.55 * CELL_SIZE
+
+
+def test_a_printed_rule_through_a_symbol_is_wiped_and_the_symbol_kept():
+    # A ruled line crossing a circle joins it into one piece of faint ink that no longer runs
+    # across the cell on its own; left in, it made circles crosses and crosses circles
+    # (composed dev boards on ruled paper).
+    import cv2
+
+    from oxbot.perception.cells import wipe_background
+
+    cell = np.full((CELL_SIZE, CELL_SIZE), 245, np.uint8)
+    cv2.line(cell, (12, 0), (14, CELL_SIZE - 1), 200, 2)  # a printed rule, slightly aslant
+    cv2.circle(cell, (22, 20), 10, 90, 2)  # the pen's circle, touching it
+    wiped = wipe_background(cell[None])[0]
+    rule_alone = np.zeros(cell.shape, bool)
+    rule_alone[:6, 10:17] = rule_alone[-6:, 10:17] = True  # above and below the circle
+    assert (cell[rule_alone] < 215).sum() > 10  # the rule was there
+    assert (wiped[rule_alone] < 215).sum() == 0  # and is gone
+    circle = cell < 150
+    np.testing.assert_array_equal(wiped[circle], cell[circle])  # the pen's ink is untouched
