@@ -397,3 +397,60 @@ def veto_partial(
     return [
         r if ok[i] else CellReading(PARTIAL, r.confidence, r.ink) for i, r in enumerate(readings)
     ]
+
+
+PIECES_SHARE = 0.6
+"""oxbot: on a faint sheet, a circle's or cross's largest piece of ink holds at least this
+share of its ink; grain stretched with pencil's contrast is specks."""
+ALONG_SIDES = 0.8
+"""oxbot: on a faint sheet, ink this much of which runs within PLUS_ANGLE of the cell's sides
+is what is left of grid or printed lines (a lattice, an L, a T), not a circle or a cross."""
+FILLED = 0.35
+"""oxbot: on a faint sheet, a cell this much of which is ink shows the desk, not a symbol."""
+
+
+def veto_faint_texture(
+    cells: np.ndarray, readings: Sequence[CellReading], plus_is_cross: bool = False
+) -> list[CellReading]:
+    """`readings` of the cells of a faint sheet (pencil, its contrast stretched:
+    `cells.stretch_faint_sheet`), each circle or cross that is the paper's grain, the remnants
+    of lines or the desk made "partial" (or "nothing" for the desk), with the same confidence.
+
+    Stretching pencil up to a pen's darkness stretches the paper's grain and the printed lines'
+    remnants with it, which the network, trained on plain paper, reads as symbols: ink in
+    specks (the largest piece under PIECES_SHARE of it), ink running along the cell's sides
+    (ALONG_SIDES of it, but a plus with `plus_is_cross`), a cell filled with ink (FILLED).
+    """
+    out = list(readings)
+    masks = ink_masks(cells)
+    for i, reading in enumerate(readings):
+        if reading.label not in ("circle", "cross"):
+            continue
+        if reading.ink >= FILLED:
+            out[i] = CellReading("nothing", reading.confidence, reading.ink)
+        elif _largest_piece_share(masks[i]) < PIECES_SHARE or (
+            not plus_is_cross and _share_along_sides(cells[i], masks[i]) >= ALONG_SIDES
+        ):
+            out[i] = CellReading(PARTIAL, reading.confidence, reading.ink)
+    return out
+
+
+def _largest_piece_share(mask: np.ndarray) -> float:
+    """The share of the ink (bool (H, W)) in its largest connected piece; 1 without ink."""
+    count, _, stats, _ = cv2.connectedComponentsWithStats(mask.view(np.uint8), connectivity=8)
+    total = int(stats[1:, cv2.CC_STAT_AREA].sum())
+    return float(stats[1:, cv2.CC_STAT_AREA].max()) / total if count > 1 and total else 1.0
+
+
+def _share_along_sides(cell: np.ndarray, mask: np.ndarray) -> float:
+    """The share of the ink pixels (`mask`) of a uint8 cell whose stroke runs within
+    PLUS_ANGLE of the cell's sides (the ink's structure tensor, smoothed at 1.5 pixels)."""
+    if not mask.any():
+        return 0.0
+    dark = 255.0 - cell.astype(np.float32)
+    gx = cv2.Sobel(dark, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(dark, cv2.CV_32F, 0, 1, ksize=3)
+    jxx, jyy, jxy = (cv2.GaussianBlur(g, (0, 0), 1.5) for g in (gx * gx, gy * gy, gx * gy))
+    angle = 0.5 * np.degrees(np.arctan2(2 * jxy, jxx - jyy)) % 90.0
+    off = np.minimum(angle, 90.0 - angle)[mask]
+    return float((off < PLUS_ANGLE).mean())

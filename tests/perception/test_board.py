@@ -261,3 +261,53 @@ def test_see_says_which_cells_are_out_of_view(tmp_path):
     result = oxbot("see", str(path))
     assert result.returncode == 0, result.stderr
     assert "out of view: upperleft, middleleft, lowerleft" in result.stdout
+
+
+def _pencil_board(line: int = 212, ink: int = 200, seed: int = 0) -> np.ndarray:
+    """An 800x600 photo of a grid and two symbols in pencil (grey `line` and `ink` on paper
+    of 232): a circle upper left, a cross in the middle; grain and uneven light."""
+    rng = np.random.default_rng(seed)
+    h, w = 600, 800
+    photo = np.ones((h, w, 3), np.float32) * np.array([232, 229, 222], np.float32)
+    shade = cv2.GaussianBlur(rng.normal(0, 1, (h // 20, w // 20)).astype(np.float32), (0, 0), 3)
+    photo *= 1 + 0.04 * cv2.resize(shade / (np.abs(shade).max() + 1e-6), (w, h))[..., None]
+    drawn = np.full((h, w), 255, np.uint8)
+    x0, y0, s = 250, 150, 100
+    for k in (1, 2):
+        dx, dy = rng.integers(-3, 4, 2), rng.integers(-3, 4, 2)
+        at = x0 + k * s
+        cv2.line(drawn, (at + dx[0], y0 - 10), (at + dx[1], y0 + 3 * s + 10), line, 2, cv2.LINE_AA)
+        at = y0 + k * s
+        cv2.line(drawn, (x0 - 10, at + dy[0]), (x0 + 3 * s + 10, at + dy[1]), line, 2, cv2.LINE_AA)
+    cv2.ellipse(drawn, (x0 + s // 2, y0 + s // 2), (32, 30), 0, 0, 360, ink, 2, cv2.LINE_AA)
+    cx, cy = x0 + 3 * s // 2, y0 + 3 * s // 2
+    cv2.line(drawn, (cx - 28, cy - 28), (cx + 28, cy + 28), ink, 2, cv2.LINE_AA)
+    cv2.line(drawn, (cx + 28, cy - 28), (cx - 28, cy + 28), ink, 2, cv2.LINE_AA)
+    photo *= (drawn.astype(np.float32) / 255)[..., None]
+    photo += rng.normal(0, 2.0, photo.shape)
+    return np.clip(photo, 0, 255).astype(np.uint8)
+
+
+def test_a_pencil_board_is_read_where_a_pen_would_be_looked_for():
+    from oxbot.perception.board import cut_board
+    from oxbot.perception.grid import find_grid
+
+    photo = _pencil_board()
+    with pytest.raises(NoGridFound):
+        find_grid(photo)  # the first look, for a pen's contrast, finds no grid
+    assert cut_board(photo).faint  # the second finds it, and the sheet is stretched
+    expected = ["nothing"] * 9
+    expected[0], expected[4] = "circle", "cross"
+    assert read_board(photo) == expected
+
+
+def test_no_second_look_in_a_dark_frame():
+    # where fainter ink is noise: a dark room read a grid and four symbols surely out of it
+    # (blurred frames: tests/perception/test_guidance.py)
+    from oxbot.perception.board import worth_a_faint_look
+
+    photo = _pencil_board()
+    dark = (photo * 0.15).astype(np.uint8)
+    assert worth_a_faint_look(photo) and not worth_a_faint_look(dark)
+    with pytest.raises(NoGridFound, match="dark pen"):
+        read_board(dark)
