@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple, Protocol
+from typing import Protocol
 
 import cv2
 import numpy as np
@@ -28,19 +28,17 @@ import numpy as np
 from oxbot.config import PerceptionConfig
 from oxbot.errors import NoGridFound
 from oxbot.game.board import CELL_NAMES, SIZE
-from oxbot.perception import guidance
 from oxbot.perception.cells import (
     SHEET_CELL,
     cut_cells_and_painted,
     remove_grid_lines,
-    stretch_faint_sheet,
     wipe_background,
 )
 from oxbot.perception.classifier import CellReading, ink_share
-from oxbot.perception.grid import Grid, as_gray, as_image, find_grid
+from oxbot.perception.grid import Grid, as_image, find_grid
 from oxbot.perception.rectify import rectify
 from oxbot.perception.seeds import write_png
-from oxbot.perception.wholeness import veto_faint_texture, veto_partial
+from oxbot.perception.wholeness import veto_partial
 
 OUT_OF_VIEW = "unseen"
 """oxbot: a cell's reading when its middle is outside the frame (a grid cut by the frame's
@@ -85,46 +83,20 @@ class BoardReading:
     """Each cell's reading among OUTPUTS (partial included) with its confidence and ink."""
 
 
-class CutBoard(NamedTuple):
-    """What `cut_board` makes of a frame."""
-
-    cells: np.ndarray
-    """The 9 cells, uint8 (9, 40, 40), row-major from the upper left."""
-    grid: Grid
-    """Where the grid was found in the frame."""
-    sheet: np.ndarray
-    """The rectified sheet with a ring of half a cell around the grid, uint8 (176, 176)."""
-    cleaned: np.ndarray
-    """The sheet with the grid lines painted over."""
-    painted: np.ndarray
-    """Where in each cell a grid line was painted over, bool (9, 40, 40)."""
-    faint: bool
-    """The grid is drawn in pencil, and the sheet's contrast was stretched to a pen's
-    (`cells.stretch_faint_sheet`)."""
-
-
-def cut_board(frame: np.ndarray) -> CutBoard:
-    """The 9 cells of the sheet in `frame`, with the grid, the sheets and where in each cell a
-    grid line was painted over.
+def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarray, np.ndarray]:
+    """The 9 cells of the sheet in `frame`, uint8 (9, 40, 40), with the grid, the sheets and
+    where in each cell a grid line was painted over (bool (9, 40, 40)).
 
     Raises InvalidInputError for a frame that is not a photo, NoGridFound when no grid is seen.
     """
     image = as_image(frame)
-    try:
-        grid = find_grid(image)
-    except NoGridFound as first:
-        if not worth_a_faint_look(image):
-            raise
-        try:
-            grid = find_grid(image, faint=True)
-        except NoGridFound:
-            raise first from None  # its reason asks for a dark pen
+    grid = find_grid(image)
     border = SHEET_CELL // 2
-    sheet, faint = stretch_faint_sheet(rectify(image, grid, border=border), border=border)
+    sheet = rectify(image, grid, border=border)
     cleaned = remove_grid_lines(sheet, border=border)
     cut, painted = cut_cells_and_painted(cleaned, cleaned != sheet, border=border)
     cells = deepen_faint_ink(wipe_background(cut))
-    return CutBoard(cells, grid, sheet, cleaned, painted, faint)
+    return cells, grid, sheet, cleaned, painted
 
 
 FAINT_INK = 170
@@ -133,16 +105,6 @@ INK_DARKNESS = 60
 """oxbot: how dark faint ink is made, like the pens the classifier was trained on."""
 FAINT_PAPER = 205
 """oxbot: below this (paper near 245) a pixel may be faint ink."""
-
-
-def worth_a_faint_look(image: np.ndarray) -> bool:
-    """Whether a frame in which no grid was found is lit and sharp enough to look again for a
-    pencil grid (`find_grid(faint=True)`): in a dark or blurred frame, fainter ink is noise,
-    and the robot would rather say what is wrong (`guidance.diagnose`)."""
-    gray = guidance.small(as_gray(image))
-    return float(gray.mean()) >= guidance.DARK_LEVEL and guidance.sharpness(gray) >= (
-        guidance.MIN_SHARPNESS
-    )
 
 
 def deepen_faint_ink(cells: np.ndarray) -> np.ndarray:
@@ -187,20 +149,17 @@ class BoardReader:
         person is still drawing (a rule kept from before the network learnt "partial"; its
         confidence is the rule's, 1).
         """
-        cut = cut_board(frame)
-        readings = self.classify(cut.cells, cut.painted, cut.faint)
-        for i in cut.grid.cells_out_of_view():
+        cells, grid, sheet, cleaned, painted = cut_board(frame)
+        readings = self.classify(cells, painted)
+        for i in grid.cells_out_of_view():
             readings[i] = CellReading(OUT_OF_VIEW, 1.0, 0.0)
         labels = tuple("nothing" if r.label == OUT_OF_VIEW else r.spec_label for r in readings)
-        return BoardReading(labels, cut.grid, cut.sheet, cut.cleaned, cut.cells, tuple(readings))
+        return BoardReading(labels, grid, sheet, cleaned, cells, tuple(readings))
 
-    def classify(
-        self, cells: np.ndarray, painted: np.ndarray | None = None, faint: bool = False
-    ) -> list[CellReading]:
+    def classify(self, cells: np.ndarray, painted: np.ndarray | None = None) -> list[CellReading]:
         """The readings of cut cells (N, 40, 40) as `read` gives them (the network, the
-        single-stroke rule, the wholeness check, and on a `faint` sheet the check for its
-        stretched grain and line remnants); `painted`: where a grid line was painted over in
-        each cell (`cut_board`), if known."""
+        single-stroke rule, the wholeness check); `painted`: where a grid line was painted over
+        in each cell (`cut_board`), if known."""
         if hasattr(self.classifier, "read"):
             readings = list(self.classifier.read(cells))
         else:  # a SPEC-only classifier: its labels, fully trusted
@@ -218,8 +177,6 @@ class BoardReader:
             readings = veto_partial(
                 cells, readings, self.config.max_circle_gap, self.config.plus_is_cross, painted
             )
-        if faint:
-            readings = veto_faint_texture(cells, readings, self.config.plus_is_cross)
         return readings
 
 

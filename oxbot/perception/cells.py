@@ -38,39 +38,6 @@ def remove_grid_lines(sheet: np.ndarray, cell: int = SHEET_CELL, border: int = 0
     return out
 
 
-FAINT_LINES = 55
-"""oxbot: grid lines whose darkness on the evened-out sheet (grey levels below its paper's 245,
-the typical darkest across each line) is below this are faint: pencil. On the composed dev
-boards pencil grids measure 30-50, pens 48 and up (ballpoint), markers 75-200."""
-LINE_DARKNESS = 100
-"""oxbot: how dark a faint sheet's grid lines are made (`stretch_faint_sheet`)."""
-MAX_STRETCH = 4.0
-"""oxbot: a faint sheet's contrast is stretched at most this many times (paper grain grows
-with it)."""
-
-
-def stretch_faint_sheet(
-    sheet: np.ndarray, cell: int = SHEET_CELL, border: int = 0
-) -> tuple[np.ndarray, bool]:
-    """A sheet drawn in pencil with its contrast stretched so that its grid lines are as dark
-    as LINE_DARKNESS, and whether it was: line removal, the cut round each symbol's ink and
-    the wipe tell ink from paper at a pen's darkness, which pencil does not reach. A sheet
-    whose lines are drawn in pen, or that shows no lines at all, is given back as it is."""
-    dark = 245 - sheet.astype(np.int16)
-    inner = slice(border, border + SIZE * cell)
-    band = max(3, round(0.18 * cell))  # as remove_grid_lines looks for the line
-    darkness = []
-    for at in _inner_lines(cell, border):
-        across = (dark[inner, at - band : at + band + 1], dark[at - band : at + band + 1, inner].T)
-        darkness += [float(np.median(strip.max(axis=1))) for strip in across]
-    line = float(np.median(darkness))
-    if not 10 <= line < FAINT_LINES:
-        return sheet, False
-    gain = min(LINE_DARKNESS / line, MAX_STRETCH)
-    stretched = 245 - (245 - sheet.astype(np.float32)) * gain
-    return np.clip(stretched, 0, 255).astype(np.uint8), True
-
-
 def _inner_lines(cell: int, border: int) -> range:
     """Where the drawn grid lines run on the sheet, in pixels (the same across and down)."""
     return range(border + cell, border + SIZE * cell, cell)

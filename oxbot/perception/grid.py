@@ -56,9 +56,6 @@ MIN_GRID_SHARE = 0.15
 """The grid's side must be at least this share of the frame's shorter side."""
 
 _INK_CONTRAST = 0.12  # ink is at least this much darker than the paper around it
-_INK_FLOOR = 12  # ... and at least this many grey levels darker (noise in dark frames)
-_FAINT_CONTRAST = 0.08  # `find_grid(faint=True)`'s, for a pencil grid
-_FAINT_FLOOR = 6
 _MAX_LINES = 20  # distinct Hough lines considered
 _MAX_LINES_PER_BAND = 8  # distinct Hough lines kept from one band of directions
 _BAND_HALF = 16  # degrees either side of a band's direction its lines may run
@@ -183,19 +180,16 @@ def darkest_channel(image: np.ndarray, paper_region: np.ndarray | None = None) -
     return cv2.min(cv2.min(r, g), b)
 
 
-def _ink_mask(
-    image: np.ndarray, contrast: float = _INK_CONTRAST, floor: float = _INK_FLOOR, kernel: int = 7
-) -> tuple[np.ndarray, np.ndarray]:
-    """uint8 mask (0/255) of thin dark strokes, pixels at least `contrast` of the paper's
-    light (and `floor` grey levels) below the paper's closing in any colour channel; and
-    float32 darkness, the largest share of the paper's light a pixel takes away in one channel
-    (0 paper, 1 black), whose structure gives strokes' directions. Each channel against its
-    own paper: a tinted sheet on a desk of another colour."""
+def _ink_mask(image: np.ndarray, kernel: int = 7) -> tuple[np.ndarray, np.ndarray]:
+    """uint8 mask (0/255) of thin dark strokes, pixels well below the paper's closing in any
+    colour channel; and float32 darkness, the largest share of the paper's light a pixel
+    takes away in one channel (0 paper, 1 black), whose structure gives strokes' directions.
+    Each channel against its own paper: a tinted sheet on a desk of another colour."""
     smooth = cv2.GaussianBlur(image, (3, 3), 0)
     paper = cv2.morphologyEx(smooth, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
     darker = cv2.subtract(paper, smooth).astype(np.float32)
     lit = paper.astype(np.float32)
-    ink = ((darker > contrast * lit) & (darker > floor)).astype(np.uint8) * 255
+    ink = ((darker > _INK_CONTRAST * lit) & (darker > 12)).astype(np.uint8) * 255
     darkness = darker / np.maximum(lit, 8.0)
     if image.ndim == 3:  # OpenCV's maximum over the channels: numpy's is many times slower
         ink = cv2.max(cv2.max(ink[..., 0], ink[..., 1]), ink[..., 2])
@@ -212,28 +206,17 @@ def _shrink_keeping_strokes(image: np.ndarray, k: int) -> np.ndarray:
     return cv2.resize(darkest, None, fx=1 / k, fy=1 / k, interpolation=cv2.INTER_AREA)
 
 
-def find_grid(frame: np.ndarray, faint: bool = False) -> Grid:
+def find_grid(frame: np.ndarray) -> Grid:
     """The hand-drawn 3x3 grid in a frame (uint8 gray or RGB); NoGridFound when there is none.
 
     The grid may run off the frame: `Grid.in_view` says which cells are seen well enough to
     read. A grid with a cell out of view is still found, so that the reader can say which.
-    `faint` takes fainter ink for ink, a second look for a grid drawn in pencil, whose thin
-    lines shrinking the frame pales further; in a dark or blurred frame it finds noise.
     """
     h, w = frame.shape[:2]
     shrink = math.ceil(max(h, w) / WORK_SIDE)
+    scale = 1 / shrink
     small = frame if shrink == 1 else _shrink_keeping_strokes(frame, shrink)
-    contrast, floor = (_FAINT_CONTRAST, _FAINT_FLOOR) if faint else (_INK_CONTRAST, _INK_FLOOR)
-    return _find_grid(small, 1 / shrink, (w, h), contrast, floor)
-
-
-def _find_grid(
-    small: np.ndarray, scale: float, size: tuple[int, int], contrast: float, floor: float
-) -> Grid:
-    """`find_grid` in `small`, the frame shrunk by `scale` (frame pixels `size`, (w, h)),
-    with ink as `_ink_mask` takes it at `contrast` and `floor`."""
-    w, h = size
-    ink, darkness = _ink_mask(small, contrast, floor)
+    ink, darkness = _ink_mask(small)
     # The paper's closing brightens the frame's edge, where the desk then looks like ink.
     ink[:2, :] = ink[-2:, :] = ink[:, :2] = ink[:, -2:] = 0
     short = min(ink.shape)

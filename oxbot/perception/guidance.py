@@ -66,7 +66,7 @@ def diagnose(frame: np.ndarray, refusal: str = "", last_grid: np.ndarray | None 
     grid's outer corners where it was last seen, (4, 2) as shares of the frame's width and
     height, for telling a hand over it from a desk around it.
     """
-    gray = small(as_gray(frame))
+    gray = _small(as_gray(frame))
     if float(gray.mean()) < DARK_LEVEL:
         return Guidance(
             "too_dark",
@@ -124,8 +124,7 @@ def sharpness(gray: np.ndarray) -> float:
     return float(np.percentile(np.hypot(gx, gy) / 8, 99)) / spread
 
 
-def small(gray: np.ndarray) -> np.ndarray:
-    """`gray` shrunk to at most WORK_SIDE pixels wide, as it is looked at."""
+def _small(gray: np.ndarray) -> np.ndarray:
     h, w = gray.shape
     scale = min(1.0, WORK_SIDE / max(h, w))
     if scale < 1.0:

@@ -1,5 +1,4 @@
 import numpy as np
-import pytest
 
 from oxbot.perception.cells import CELL_SIZE, SHEET_CELL, cut_cells, remove_grid_lines
 from oxbot.perception.grid import as_gray, find_grid
@@ -82,28 +81,3 @@ def test_a_printed_rule_through_a_symbol_is_wiped_and_the_symbol_kept():
     assert (wiped[rule_alone] < 215).sum() == 0  # and is gone
     circle = cell < 150
     np.testing.assert_array_equal(wiped[circle], cell[circle])  # the pen's ink is untouched
-
-
-def test_a_pencil_sheet_is_stretched_to_a_pens_contrast_and_a_pen_sheet_kept():
-    import cv2
-
-    from oxbot.perception.cells import LINE_DARKNESS, stretch_faint_sheet
-
-    border = SHEET_CELL // 2
-    side = 3 * SHEET_CELL + 2 * border
-
-    def sheet(gray: int) -> np.ndarray:
-        out = np.full((side, side), 245, np.uint8)
-        for at in (border + SHEET_CELL, border + 2 * SHEET_CELL):
-            cv2.line(out, (at, 0), (at, side - 1), gray, 2)
-            cv2.line(out, (0, at), (side - 1, at), gray, 2)
-        return out
-
-    pencil, pen = sheet(245 - 35), sheet(245 - 120)
-    stretched, faint = stretch_faint_sheet(pencil, border=border)
-    assert faint and 245 - int(stretched.min()) == pytest.approx(LINE_DARKNESS, abs=3)
-    assert stretched[5, 5] == 245  # paper stays paper
-    kept, faint = stretch_faint_sheet(pen, border=border)
-    assert not faint and kept is pen
-    _, faint = stretch_faint_sheet(np.full((side, side), 245, np.uint8), border=border)
-    assert not faint  # no lines at all: nothing to stretch by

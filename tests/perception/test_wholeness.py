@@ -233,34 +233,3 @@ def test_a_plus_on_the_page_is_no_move(readers):
     assert readers["unchecked"].read(sheet.image).readings[4].label in ("circle", "cross")
     assert readers["default"].read(sheet.image).readings[4].label == "partial"
     assert track(readers["default"], sheet) == []
-
-
-def test_on_a_faint_sheet_grain_line_remnants_and_the_desk_are_no_symbols():
-    from oxbot.perception.wholeness import veto_faint_texture
-
-    def cell() -> np.ndarray:
-        return np.full((40, 40), 245, np.uint8)
-
-    circle, cross = cell(), cell()
-    cv2.circle(circle, (20, 20), 12, 80, 2)
-    cv2.line(cross, (9, 9), (31, 31), 80, 2)
-    cv2.line(cross, (31, 9), (9, 31), 80, 2)
-    specks = cell()  # paper grain, stretched with pencil's contrast
-    for x, y in np.random.default_rng(3).integers(6, 34, (9, 2)):
-        cv2.circle(specks, (int(x), int(y)), 1, 90, -1)
-    lattice = cell()  # what is left of printed squares and a grid line
-    for at in (10, 28):
-        cv2.line(lattice, (at, 6), (at, 34), 90, 2)
-    cv2.line(lattice, (6, 20), (34, 20), 90, 2)
-    desk = np.random.default_rng(4).integers(40, 120, (40, 40)).astype(np.uint8)
-    cells = np.stack([circle, cross, specks, lattice, desk])
-    readings = [
-        CellReading("circle", 0.99, 0.05),
-        CellReading("cross", 0.99, 0.05),
-        CellReading("cross", 0.98, 0.02),
-        CellReading("circle", 1.0, 0.1),
-        CellReading("circle", 0.97, 0.9),
-    ]
-    vetoed = veto_faint_texture(cells, readings)
-    assert [r.label for r in vetoed] == ["circle", "cross", "partial", "partial", "nothing"]
-    assert [r.confidence for r in vetoed] == [r.confidence for r in readings]
