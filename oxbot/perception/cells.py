@@ -284,7 +284,9 @@ def wipe_background(cells: np.ndarray) -> np.ndarray:
     classifier, trained on plain paper, takes for symbols. What stays: pen ink
     (`STRONG_INK`) and what lies within two pixels of it, and the pieces of fainter ink that
     together are as wide and high as a small symbol, where printed lines (running from one side of
-    the cell to the other), meshes (filling it) and dots (a few pixels) never count.
+    the cell to the other), meshes (filling it) and dots (a few pixels) never count. Faint ink
+    along a straight line across the cell goes first (`lines_across`): a printed rule touching
+    the symbol would otherwise join it into one piece, kept whole.
     """
     out = cells.copy()
     near = np.ones((5, 5), np.uint8)

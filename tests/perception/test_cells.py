@@ -1,6 +1,14 @@
+import cv2
 import numpy as np
 
-from oxbot.perception.cells import CELL_SIZE, SHEET_CELL, cut_cells, remove_grid_lines
+from oxbot.perception.cells import (
+    CELL_SIZE,
+    SHEET_CELL,
+    cut_cells,
+    cut_cells_and_painted,
+    remove_grid_lines,
+    wipe_background,
+)
 from oxbot.perception.grid import as_gray, find_grid
 from oxbot.perception.rectify import rectify
 from oxbot.testing.render import TUNING_STYLE, render_photo
@@ -44,10 +52,6 @@ def test_a_stroke_fading_at_its_ends_is_cut_whole():
     # A thin pen leaves its strokes dark in the middle and pale towards the ends (dev_0185 of
     # the composed boards): the cell must be cut round the pale ends too, or the classifier
     # sees a cross cut short, a "Y" or a "T", and takes it for a circle.
-    import cv2
-
-    from oxbot.perception.cells import cut_cells_and_painted
-
     border = SHEET_CELL // 2
     sheet = np.full((3 * SHEET_CELL + 2 * border,) * 2, 245, np.uint8)
     x0 = y0 = border + 6  # the upper left cell, a cross 32 pixels wide
@@ -67,10 +71,6 @@ def test_a_printed_rule_through_a_symbol_is_wiped_and_the_symbol_kept():
     # A ruled line crossing a circle joins it into one piece of faint ink that no longer runs
     # across the cell on its own; left in, it made circles crosses and crosses circles
     # (composed dev boards on ruled paper).
-    import cv2
-
-    from oxbot.perception.cells import wipe_background
-
     cell = np.full((CELL_SIZE, CELL_SIZE), 245, np.uint8)
     cv2.line(cell, (12, 0), (14, CELL_SIZE - 1), 200, 2)  # a printed rule, slightly aslant
     cv2.circle(cell, (22, 20), 10, 90, 2)  # the pen's circle, touching it
