@@ -296,10 +296,10 @@ def wipe_background(cells: np.ndarray) -> np.ndarray:
         # circle: all that is not kept goes, down to the paper's grain.
         level = min(FAINT_LEVEL, int(np.median(cell)) - 20)  # below the cell's own paper
         faint = (cell < level).astype(np.uint8)
+        strong = cell < STRONG_INK
         # A printed rule through a symbol joins it into one piece that no longer runs across
         # the cell alone: its faint pixels go first, wherever it runs straight across.
-        printed_line = lines_across(faint > 0) & (cell >= STRONG_INK)
-        faint[printed_line] = 0
+        faint[lines_across(faint > 0) & ~strong] = 0
         _, labels, stats, _ = cv2.connectedComponentsWithStats(faint, connectivity=8)
         x, y, w, h, area = stats.T
         wide, high = (x == 0) & (x + w == side), (y == 0) & (y + h == side)
@@ -314,9 +314,8 @@ def wipe_background(cells: np.ndarray) -> np.ndarray:
             if min(x1 - x0, y1 - y0) < side / 4:  # together too small for a symbol
                 pieces[:] = False
         keep = pieces[labels]
-        strong = (cell < STRONG_INK).astype(np.uint8)
         if np.count_nonzero(strong) >= 8:  # pen ink stays, even where it crosses a mesh
-            keep |= cv2.dilate(strong, near) > 0
+            keep |= cv2.dilate(strong.view(np.uint8), near) > 0
         out[i][~keep] = 245
     return out
 
