@@ -16,6 +16,9 @@ cannot pass by recognising them. The sources are not in git; see
                                      the blank stretches of paper, whiteboard and desk photos
                                      that a CSV file lists, with the part each belongs to
     compose(rng, hands, papers)      one photo (RGB uint8) and its 9 labels, row by row
+    compose_game(rng, hands, papers, labels, order, frames)
+                                     photos of one sheet from a camera held still as a game's
+                                     symbols are drawn on it one by one (bench_composite_games.py)
     write_set(out, hands, papers, n, seed, split)
                                      n photos of one part's drawings (`papers` already of that
                                      part) and a labels.csv that bench_real_boards.py reads
@@ -250,11 +253,52 @@ def _crop(photo: np.ndarray, rng: np.random.Generator, side: int) -> np.ndarray:
     return cv2.resize(photo[y : y + size, x : x + size], (side, side), interpolation=cv2.INTER_AREA)
 
 
+@dataclass(frozen=True)
+class _Drawing:
+    """A sheet with its grid and symbols drawn but their ink not yet laid: so that the same
+    sheet can be seen with only some of its symbols drawn (a game in progress)."""
+
+    paper: np.ndarray
+    """float32 RGB 0..255, SHEET a side: the crop of a paper photo."""
+    labels: list[str]
+    corners: np.ndarray
+    """The grid's 4 outer corners in sheet pixels."""
+    paper_name: str
+    ink: str
+    grid: np.ndarray
+    """float32 0..1: the grid lines' ink."""
+    symbols: dict[int, np.ndarray]
+    """Each drawn cell's symbol ink (float32 0..1, the whole sheet), by cell."""
+    layers: tuple[tuple[str, float, np.ndarray | None], ...]
+    """For the grid's ink and the symbols' ink: its name, strength, and a pencil's specks
+    (where the paper shows through) or None."""
+
+    def inked(self, cells: list[int] | None = None) -> np.ndarray:
+        """The sheet (float32 RGB) with the grid and the symbols of `cells` (all by default)
+        in ink, laid over the paper subtractively."""
+        drawn = self.symbols if cells is None else {c: self.symbols[c] for c in cells}
+        symbols = np.zeros(self.grid.shape, np.float32)
+        for mask in drawn.values():
+            np.maximum(symbols, mask, out=symbols)
+        sheet = self.paper
+        for mask, (name, strength, specks) in zip((self.grid, symbols), self.layers, strict=True):
+            if specks is not None:  # graphite is grainy: paper shows through in specks
+                mask = mask * specks
+                mask = cv2.GaussianBlur(mask.astype(np.float32), (3, 3), 0.6)
+            through = np.array(INKS[name], np.float32)
+            a = (mask * strength)[:, :, None]
+            sheet = sheet * (1 - a + a * through)
+        return sheet
+
+
 def _sheet(
-    hands: HandwritingSource, papers: PaperSource, rng: np.random.Generator
-) -> tuple[np.ndarray, list[str], np.ndarray, str, str]:
-    """The drawn sheet (RGB float32 0..255, SHEET a side), its 9 labels, the grid's 4 outer
-    corners in sheet pixels, the paper kind and the ink."""
+    hands: HandwritingSource,
+    papers: PaperSource,
+    rng: np.random.Generator,
+    labels: list[str] | None = None,
+) -> _Drawing:
+    """A drawn sheet: the grid and a random position's symbols (`labels`, row by row, if
+    given)."""
     kinds = [k for k in PAPER_KINDS if k in papers.photos]
     kind = kinds[int(rng.integers(len(kinds)))]
     name, photo = papers.photos[kind][int(rng.integers(len(papers.photos[kind])))]
@@ -292,8 +336,8 @@ def _sheet(
     for start, end in lines:
         _draw(grid_mask, [_line_from(people_lines, rng, start, end)], width)
 
-    labels = random_position(rng)
-    symbol_mask = np.zeros((SHEET, SHEET), np.float32)
+    labels = random_position(rng) if labels is None else list(labels)
+    symbols = {}
     for cell, label in enumerate(labels):
         if label == "nothing":
             continue
@@ -308,23 +352,24 @@ def _sheet(
         stretch = np.array([rng.uniform(0.85, 1.15), 1.0])
         shift = np.array([rng.normal(0, 0.07) * w, rng.normal(0, 0.07) * h])
         placed = [(s * stretch) @ turn.T * size + np.array([cx, cy]) + shift for s in strokes]
-        _draw(symbol_mask, placed, symbol_width)
+        symbols[cell] = np.zeros((SHEET, SHEET), np.float32)
+        _draw(symbols[cell], placed, symbol_width)
 
-    for mask, name_ in ((grid_mask, ink), (symbol_mask, symbol_ink)):
+    layers = []
+    for name_ in (ink, symbol_ink):
         strength = rng.uniform(0.75, 1.0) if "pencil" not in name_ else rng.uniform(0.45, 0.75)
-        if name_ == "pencil":  # graphite is grainy: paper shows through in specks
-            mask = mask * (rng.random(mask.shape) < 0.75)
-            mask = cv2.GaussianBlur(mask.astype(np.float32), (3, 3), 0.6)
-        through = np.array(INKS[name_], np.float32)
-        a = (mask * strength)[:, :, None]
-        sheet = sheet * (1 - a + a * through)
+        specks = rng.random((SHEET, SHEET)) < 0.75 if name_ == "pencil" else None
+        layers.append((name_, strength, specks))
     corners = np.array([[xs[0], ys[0]], [xs[3], ys[0]], [xs[3], ys[3]], [xs[0], ys[3]]])
-    return (
-        sheet,
-        labels,
-        corners,
-        f"{kind} ({name})",
-        ink if ink == symbol_ink else (f"{ink} grid; {symbol_ink} symbols"),
+    return _Drawing(
+        paper=sheet,
+        labels=labels,
+        corners=corners,
+        paper_name=f"{kind} ({name})",
+        ink=ink if ink == symbol_ink else (f"{ink} grid; {symbol_ink} symbols"),
+        grid=grid_mask,
+        symbols=symbols,
+        layers=tuple(layers),
     )
 
 
@@ -343,96 +388,157 @@ def _desk(papers: PaperSource, rng: np.random.Generator, shape: tuple[int, int])
 CAMERAS = ((640, 480), (1280, 720), (960, 720), (1024, 768), (800, 600))
 
 
+@dataclass(frozen=True)
+class _Camera:
+    """How one sheet is seen: where it lies in the frame, on what, in what light, through what
+    optics. Held still, it sees the sheet the same way frame after frame but for sensor noise."""
+
+    width: int
+    height: int
+    homography: np.ndarray
+    desk: np.ndarray
+    light: np.ndarray
+    """float32 (height, width, 3): the light's slope, shadow, colour cast and brightness."""
+    blur: tuple[str, float, float]
+    """("defocus", sigma, 0) or ("shake", length, angle in degrees)."""
+    noise: float
+    notes: dict[str, str]
+
+    @classmethod
+    def sample(cls, rng: np.random.Generator, drawing: _Drawing, papers: PaperSource) -> _Camera:
+        corners = drawing.corners
+        width, height = CAMERAS[int(rng.integers(len(CAMERAS)))]
+        # Where the grid lands in the frame: a turn of up to 35 degrees and a perspective tilt
+        # of the camera, then a size at which the box round the grid covers 15-60% of the
+        # frame (and fits in it).
+        angle = np.deg2rad(rng.uniform(-35, 35))
+        centre = corners.mean(axis=0)
+        sheet_corners = np.array([[0, 0], [SHEET, 0], [SHEET, SHEET], [0, SHEET]], np.float64)
+        rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+        away = rng.uniform(0, 0.35)  # one side of the sheet further from the camera
+        direction = rng.uniform(0, 2 * np.pi)
+        unit = np.array([np.cos(direction), np.sin(direction)])
+
+        reach = np.abs(((sheet_corners - centre) @ rot.T) @ unit).max()
+
+        def seen_from_camera(points: np.ndarray) -> np.ndarray:
+            turned = (points - centre) @ rot.T
+            return turned / (1 + away * (turned @ unit) / reach)[:, None]
+
+        placed, grid_in = seen_from_camera(sheet_corners), seen_from_camera(corners)
+        box = np.ptp(grid_in, axis=0)
+        scale = np.sqrt(rng.uniform(0.15, 0.6) * width * height / (box[0] * box[1]))
+        scale = min(scale, 0.95 * width / box[0], 0.95 * height / box[1])
+        placed, grid_in = placed * scale, grid_in * scale
+        # Move so that the grid's box is in view, with an occasional grid cut by the frame.
+        low, high = grid_in.min(axis=0), grid_in.max(axis=0)
+        margin = -0.04 * (high - low) if rng.random() < 0.15 else np.zeros(2)
+        lo = -low + margin
+        hi = np.array([width, height]) - high - margin
+        offset = np.array(
+            [rng.uniform(min(lo[k], hi[k]), max(lo[k], hi[k])) for k in range(2)], np.float64
+        )
+        frame_corners = (placed + offset).astype(np.float32)
+        homography = cv2.getPerspectiveTransform(sheet_corners.astype(np.float32), frame_corners)
+        grid_frame = cv2.perspectiveTransform(
+            corners.reshape(-1, 1, 2).astype(np.float32), homography
+        ).reshape(-1, 2)
+        box = np.ptp(grid_frame, axis=0)
+        grid_frac = float(box[0] * box[1] / (width * height))
+
+        desk = _desk(papers, rng, (height, width))
+        # Light: a slope across the frame, a soft shadow (a hand, the phone), a colour cast.
+        yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
+        slope_dir = rng.uniform(0, 2 * np.pi)
+        ramp = (np.cos(slope_dir) * xx / width + np.sin(slope_dir) * yy / height) * rng.uniform(
+            0, 0.45
+        )
+        light = 1.0 - ramp + ramp.mean()
+        if rng.random() < 0.5:
+            sx, sy = rng.uniform(0, width), rng.uniform(0, height)
+            radius = rng.uniform(0.15, 0.45) * max(width, height)
+            blob = np.exp(-(((xx - sx) ** 2 + (yy - sy) ** 2) / (2 * radius**2)))
+            light = light * (1 - rng.uniform(0.15, 0.45) * blob)
+        cast = rng.uniform(0.88, 1.08, 3).astype(np.float32)
+        light = light[:, :, None] * cast * rng.uniform(0.75, 1.1)
+        # Optics: defocus or shake.
+        if rng.random() < 0.5:
+            blur = ("defocus", float(rng.uniform(0.4, 1.6)), 0.0)
+        else:
+            blur = ("shake", float(rng.integers(2, 7)), float(rng.uniform(0, 180)))
+        notes = {
+            "paper": drawing.paper_name,
+            "ink": drawing.ink,
+            "grid_frac": f"{grid_frac:.2f}",
+            "notes": (
+                f"{width}x{height} JPEG {{quality}}; turned {np.rad2deg(angle):.0f} deg; "
+                f"perspective {away:.2f}"
+            ),
+        }
+        return cls(width, height, homography, desk, light, blur, rng.uniform(1, 6), notes)
+
+    def photograph(
+        self, sheet: np.ndarray, rng: np.random.Generator, quality: int | None = None
+    ) -> tuple[np.ndarray, int]:
+        """The sheet (float32 RGB) seen by this camera: RGB uint8, with fresh sensor noise,
+        saved as JPEG at `quality` (drawn from `rng` if None); and that quality."""
+        size = (self.width, self.height)
+        seen = cv2.warpPerspective(sheet, self.homography, size, flags=cv2.INTER_AREA)
+        cover = cv2.warpPerspective(
+            np.ones((SHEET, SHEET), np.float32), self.homography, size, flags=cv2.INTER_LINEAR
+        )[:, :, None]
+        frame = (self.desk * (1 - cover) + seen * cover) * self.light
+        kind, a, b = self.blur
+        if kind == "defocus":
+            frame = cv2.GaussianBlur(frame, (0, 0), a)
+        else:
+            length = int(a)
+            kernel = np.zeros((length, length), np.float32)
+            kernel[length // 2, :] = 1 / length
+            turn = cv2.getRotationMatrix2D((length / 2 - 0.5, length / 2 - 0.5), b, 1)
+            kernel = cv2.warpAffine(kernel, turn, (length, length))
+            frame = cv2.filter2D(frame, -1, kernel / max(kernel.sum(), 1e-9))
+        frame = frame + rng.normal(0, self.noise, frame.shape).astype(np.float32)
+        frame = np.clip(frame, 0, 255).astype(np.uint8)
+        if quality is None:
+            quality = int(rng.integers(35, 92))
+        ok, data = cv2.imencode(".jpg", frame[:, :, ::-1], [cv2.IMWRITE_JPEG_QUALITY, quality])
+        assert ok
+        return cv2.imdecode(data, cv2.IMREAD_COLOR)[:, :, ::-1], quality
+
+
 def compose(
     rng: np.random.Generator, hands: HandwritingSource, papers: PaperSource
 ) -> tuple[np.ndarray, list[str], dict[str, str]]:
     """One photo of a board: RGB uint8, its 9 labels row by row, and what it shows."""
-    sheet, labels, corners, paper_name, ink = _sheet(hands, papers, rng)
-    width, height = CAMERAS[int(rng.integers(len(CAMERAS)))]
-    # Where the grid lands in the frame: a turn of up to 35 degrees and a perspective tilt of
-    # the camera, then a size at which the box round the grid covers 15-60% of the frame (and
-    # fits in it).
-    angle = np.deg2rad(rng.uniform(-35, 35))
-    centre = corners.mean(axis=0)
-    sheet_corners = np.array([[0, 0], [SHEET, 0], [SHEET, SHEET], [0, SHEET]], np.float64)
-    rot = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
-    away = rng.uniform(0, 0.35)  # one side of the sheet further from the camera than the other
-    direction = rng.uniform(0, 2 * np.pi)
-    unit = np.array([np.cos(direction), np.sin(direction)])
+    drawing = _sheet(hands, papers, rng)
+    camera = _Camera.sample(rng, drawing, papers)
+    photo, quality = camera.photograph(drawing.inked(), rng)
+    notes = dict(camera.notes, notes=camera.notes["notes"].format(quality=quality))
+    return photo, drawing.labels, notes
 
-    reach = np.abs(((sheet_corners - centre) @ rot.T) @ unit).max()
 
-    def seen_from_camera(points: np.ndarray) -> np.ndarray:
-        turned = (points - centre) @ rot.T
-        return turned / (1 + away * (turned @ unit) / reach)[:, None]
-
-    placed, grid_in = seen_from_camera(sheet_corners), seen_from_camera(corners)
-    box = np.ptp(grid_in, axis=0)
-    scale = np.sqrt(rng.uniform(0.15, 0.6) * width * height / (box[0] * box[1]))
-    scale = min(scale, 0.95 * width / box[0], 0.95 * height / box[1])
-    placed, grid_in = placed * scale, grid_in * scale
-    # Move so that the grid's box is in view, with an occasional grid cut by the frame.
-    low, high = grid_in.min(axis=0), grid_in.max(axis=0)
-    margin = -0.04 * (high - low) if rng.random() < 0.15 else np.zeros(2)
-    lo = -low + margin
-    hi = np.array([width, height]) - high - margin
-    offset = np.array(
-        [rng.uniform(min(lo[k], hi[k]), max(lo[k], hi[k])) for k in range(2)], np.float64
-    )
-    frame_corners = (placed + offset).astype(np.float32)
-    homography = cv2.getPerspectiveTransform(sheet_corners.astype(np.float32), frame_corners)
-    grid_frame = cv2.perspectiveTransform(
-        corners.reshape(-1, 1, 2).astype(np.float32), homography
-    ).reshape(-1, 2)
-    box = np.ptp(grid_frame, axis=0)
-    grid_frac = float(box[0] * box[1] / (width * height))
-
-    desk = _desk(papers, rng, (height, width))
-    seen = cv2.warpPerspective(sheet, homography, (width, height), flags=cv2.INTER_AREA)
-    cover = cv2.warpPerspective(
-        np.ones((SHEET, SHEET), np.float32), homography, (width, height), flags=cv2.INTER_LINEAR
-    )[:, :, None]
-    frame = desk * (1 - cover) + seen * cover
-
-    # Light: a slope across the frame, a soft shadow (a hand, the phone), a colour cast.
-    yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
-    slope_dir = rng.uniform(0, 2 * np.pi)
-    ramp = (np.cos(slope_dir) * xx / width + np.sin(slope_dir) * yy / height) * rng.uniform(0, 0.45)
-    light = 1.0 - ramp + ramp.mean()
-    if rng.random() < 0.5:
-        sx, sy = rng.uniform(0, width), rng.uniform(0, height)
-        radius = rng.uniform(0.15, 0.45) * max(width, height)
-        blob = np.exp(-(((xx - sx) ** 2 + (yy - sy) ** 2) / (2 * radius**2)))
-        light = light * (1 - rng.uniform(0.15, 0.45) * blob)
-    cast = rng.uniform(0.88, 1.08, 3).astype(np.float32)
-    frame = frame * light[:, :, None] * cast * rng.uniform(0.75, 1.1)
-
-    # Optics and sensor: defocus or shake, noise, then JPEG.
-    if rng.random() < 0.5:
-        frame = cv2.GaussianBlur(frame, (0, 0), rng.uniform(0.4, 1.6))
-    else:
-        length = int(rng.integers(2, 7))
-        kernel = np.zeros((length, length), np.float32)
-        kernel[length // 2, :] = 1 / length
-        turn = cv2.getRotationMatrix2D((length / 2 - 0.5, length / 2 - 0.5), rng.uniform(0, 180), 1)
-        kernel = cv2.warpAffine(kernel, turn, (length, length))
-        frame = cv2.filter2D(frame, -1, kernel / max(kernel.sum(), 1e-9))
-    frame = frame + rng.normal(0, rng.uniform(1, 6), frame.shape).astype(np.float32)
-    frame = np.clip(frame, 0, 255).astype(np.uint8)
+def compose_game(
+    rng: np.random.Generator,
+    hands: HandwritingSource,
+    papers: PaperSource,
+    labels: list[str],
+    order: list[int],
+    frames: int,
+) -> tuple[list[list[np.ndarray]], dict[str, str]]:
+    """Photos of one sheet as a game is played on it, from a camera held still: the board
+    `labels` (row by row) drawn one symbol at a time in the cells of `order`. For each stage
+    (nothing drawn, then each cell of `order` added in turn), `frames` photos that differ
+    only in sensor noise; and what they show."""
+    drawing = _sheet(hands, papers, rng, labels)
+    camera = _Camera.sample(rng, drawing, papers)
     quality = int(rng.integers(35, 92))
-    ok, data = cv2.imencode(".jpg", frame[:, :, ::-1], [cv2.IMWRITE_JPEG_QUALITY, quality])
-    assert ok
-    photo = cv2.imdecode(data, cv2.IMREAD_COLOR)[:, :, ::-1]
-    notes = {
-        "paper": paper_name,
-        "ink": ink,
-        "grid_frac": f"{grid_frac:.2f}",
-        "notes": (
-            f"{width}x{height} JPEG {quality}; turned {np.rad2deg(angle):.0f} deg; "
-            f"perspective {away:.2f}"
-        ),
-    }
-    return photo, labels, notes
+    stages = []
+    for drawn in range(len(order) + 1):
+        sheet = drawing.inked(order[:drawn])
+        stages.append([camera.photograph(sheet, rng, quality)[0] for _ in range(frames)])
+    notes = dict(camera.notes, notes=camera.notes["notes"].format(quality=quality))
+    return stages, notes
 
 
 def write_set(

@@ -16,6 +16,7 @@ from oxbot.testing.composite import (
     HandwritingSource,
     PaperSource,
     compose,
+    compose_game,
     random_position,
     symbol_cells,
     write_set,
@@ -119,6 +120,26 @@ def test_the_labels_are_what_the_reader_sees_on_easy_photos(sources):
             read += 1
             right += got == labels
     assert read >= 5 and right >= read - 1
+
+
+def test_a_game_is_one_sheet_whose_symbols_come_one_at_a_time(sources):
+    hands, folder, regions = sources
+    papers = PaperSource.load(folder, regions, "dev")
+    x, o, e = "cross", "circle", "nothing"
+    labels = [x, o, e, e, x, e, o, e, x]
+    order = [4, 0, 8, 6, 1]
+    stages, notes = compose_game(np.random.default_rng(5), hands, papers, labels, order, 2)
+    assert len(stages) == len(order) + 1 and all(len(s) == 2 for s in stages)
+    assert set(notes) >= {"paper", "ink", "notes"}
+    first = stages[0][0].astype(np.int16)
+    # A camera held still: two frames of one stage differ by sensor noise only, and each new
+    # symbol adds ink in its own cell, nowhere else.
+    assert np.abs(stages[0][1] - first).mean() < 8
+    changed = [np.abs(stages[k][0].astype(np.int16) - stages[k - 1][0]) for k in (1, 2)]
+    for diff in changed:
+        assert (diff > 60).sum() > 50
+    darker = [np.argwhere(d > 60).mean(axis=0) for d in changed]
+    assert np.linalg.norm(darker[0] - darker[1]) > 20  # the middle, then the upper left
 
 
 def test_symbol_cells_are_what_the_classifier_reads(sources):
