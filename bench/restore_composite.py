@@ -12,6 +12,10 @@
         --paper-repo JohnTigue/whiteboarder=/work/.mirror/JohnTigue+whiteboarder/repo \\
         --paper-repo mypaint/mypaint=/work/.mirror/mypaint+mypaint/repo \\
         --paper-repo RobotLocomotion/models=/work/.mirror/RobotLocomotion+models/repo \\
+        --paper-repo Breta01/handwriting-ocr=/work/.mirror/Breta01+handwriting-ocr/repo \\
+        --paper-repo mzucker/page_dewarp=/work/.mirror/mzucker+page_dewarp/repo \\
+        --paper-repo clovaai/donut=/work/.mirror/clovaai+donut/repo \\
+        --paper-repo sparkfish/augraphy=/work/.mirror/sparkfish+augraphy/repo \\
         --real-boards /work/.mirror/kvuletic2+tic-tac-toe_opencv/repo
     PYTHONPATH=. .venv/bin/python bench/restore_composite.py --check   # only say what is there
 
@@ -33,7 +37,7 @@ Writes, each through a temporary file renamed into place:
   component being a `.PEN_DOWN` or `.PEN_UP` with at least one point; the segment's pen-down
   components are its strokes. A class's file is written only when every one of its items was
   found, so that indices keep matching the manifest's.
-- `bench/data/composite_boards/sources/paper/<file>`: the 19 rows of `paper_regions.csv` (17
+- `bench/data/composite_boards/sources/paper/<file>`: the 31 rows of `paper_regions.csv` (27
   photos) copied unchanged, each checked against the SHA-1 prefix SOURCES.md records.
 - `bench/data/real_boards/images/kvuletic2_image<i>.jpeg` (`--real-boards`), checked against
   the full SHA-1s of `bench/data/real_boards/SOURCES.md`.
@@ -158,6 +162,66 @@ PAPER = {
         "35aa9d33cd3d",
         "backgrounds/mrmamurk/mamurk_f_1.png",
         "0c74a0ea",
+    ),
+    "plain_breta_1.jpg": (
+        "Breta01/handwriting-ocr",
+        "64457fa24e85",
+        "data/pages/page01.jpg",
+        "dde69447",
+    ),
+    "plain_breta_2.jpg": (
+        "Breta01/handwriting-ocr",
+        "64457fa24e85",
+        "data/pages/page02.jpg",
+        "7eba459a",
+    ),
+    "plain_breta_3.jpg": (
+        "Breta01/handwriting-ocr",
+        "64457fa24e85",
+        "data/pages/test1.jpg",
+        "11515a46",
+    ),
+    "plain_breta_4.jpg": (
+        "Breta01/handwriting-ocr",
+        "64457fa24e85",
+        "data/pages/page09.jpg",
+        "b7584a7a",
+    ),
+    "plain_breta_5.jpg": (
+        "Breta01/handwriting-ocr",
+        "64457fa24e85",
+        "data/pages/page10.jpg",
+        "e3ad8d05",
+    ),
+    "plain_pagedewarp_1.jpg": (
+        "mzucker/page_dewarp",
+        "d3257d7b564b",
+        "example_input/linguistics_thesis_b.jpg",
+        "b8f00f6c",
+    ),
+    "plain_pagedewarp_2.jpg": (
+        "mzucker/page_dewarp",
+        "d3257d7b564b",
+        "example_input/linguistics_thesis_a.jpg",
+        "941f8375",
+    ),
+    "plain_donut_5.jpg": (
+        "clovaai/donut",
+        "4cfcf972560e",
+        "synthdog/resources/paper/paper_5.jpg",
+        "60c34ff6",
+    ),
+    "plain_donut_6.jpg": (
+        "clovaai/donut",
+        "4cfcf972560e",
+        "synthdog/resources/paper/paper_6.jpg",
+        "e9619c48",
+    ),
+    "plain_augraphy_1.jpg": (
+        "sparkfish/augraphy",
+        "45c3a7ef767f",
+        "paper_textures/texture-1.jpg",
+        "e4dc259c",
     ),
     "desk_polyhaven-woodtableworn_1.jpg": (
         "RobotLocomotion/models",
