@@ -31,6 +31,7 @@ from oxbot.game.board import CELL_NAMES, SIZE
 from oxbot.perception.cells import (
     SHEET_CELL,
     cut_cells_and_painted,
+    lift_shading,
     remove_grid_lines,
     wipe_background,
 )
@@ -94,7 +95,9 @@ def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarr
     border = SHEET_CELL // 2
     sheet = rectify(image, grid, border=border)
     cleaned = remove_grid_lines(sheet, border=border)
-    cut, painted = cut_cells_and_painted(cleaned, cleaned != sheet, border=border)
+    painted = cleaned != sheet
+    cleaned = lift_shading(cleaned)
+    cut, painted = cut_cells_and_painted(cleaned, painted, border=border)
     cells = deepen_faint_ink(wipe_background(cut))
     return cells, grid, sheet, cleaned, painted
 

@@ -38,6 +38,34 @@ def remove_grid_lines(sheet: np.ndarray, cell: int = SHEET_CELL, border: int = 0
     return out
 
 
+SHADE_KERNEL = SHEET_CELL // 4
+"""Side, in sheet pixels, of the paper around a pixel that `lift_shading` divides it by: wider
+than any pen's stroke on the sheet (a thick marker is 5-6), narrower than a wrinkle's shadow."""
+
+SHADOW_FLOOR = 160
+"""Paper darker than this around a pixel (paper is near 245 once the light is evened out) is no
+shadow on the sheet but a desk, the sheet's edge or a hand: lifted, only its outline would be
+left, as thin as a stroke."""
+
+
+def lift_shading(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
+    """The sheet with shading narrower than a cell lifted out: each pixel divided by the
+    lightest paper around it (a closing a quarter of a cell wide), where that makes it lighter.
+
+    `rectify.even_out_light` divides out light that changes over a cell or more; a wrinkled
+    sheet's shadows and a fold's change within a cell, and were left as soft gray patches that
+    the classifier read as crosses and circles. A pen's stroke is narrower than the closing, so
+    the paper beside it keeps it dark; a patch of shadow wider than it is the paper there.
+    Nothing gets darker, and where the paper around is darker than `SHADOW_FLOOR` nothing
+    changes.
+    """
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (SHADE_KERNEL * cell // SHEET_CELL,) * 2)
+    paper = cv2.morphologyEx(sheet, cv2.MORPH_CLOSE, kernel).astype(np.float32)
+    paper[paper < SHADOW_FLOOR] = 245.0  # no shadow on paper: left as it is
+    lifted = sheet.astype(np.float32) * (245.0 / np.maximum(paper, 8.0))
+    return np.maximum(sheet, np.clip(lifted, 0, 255).astype(np.uint8))
+
+
 def _inner_lines(cell: int, border: int) -> range:
     """Where the drawn grid lines run on the sheet, in pixels (the same across and down)."""
     return range(border + cell, border + SIZE * cell, cell)
