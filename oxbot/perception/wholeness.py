@@ -74,6 +74,10 @@ PLUS_ANGLE = 12.0
 """oxbot: four or more stroke ends whose directions from the ink's middle run on average within
 this many degrees of the cell's sides make a plus sign. The generated test set's crosses,
 turned up to 34 degrees from the diagonals, stay at 10 or more (1 of 333 below 12)."""
+SCATTERED_PIECES = 5
+"""oxbot: ink in at least this many pieces (specks dropped), none of them `SCATTERED_SHARE` of
+it, is scattered: a paper's fibres and flecks, not a symbol drawn in one or two strokes."""
+SCATTERED_SHARE = 0.35
 MAX_CIRCLE_GAP = 95.0
 """oxbot: the default of `PerceptionConfig.max_circle_gap` (degrees; see there)."""
 
@@ -107,11 +111,15 @@ class Shape:
     drawn over a grid line)."""
     straight: bool
     """Two ends and a skeleton bulging less than FLAT of the way between them: a stroke."""
+    scattered: bool = False
+    """The ink lies in many small pieces (`SCATTERED_PIECES`): flecks, no symbol."""
 
     def whole(
         self, label: str, max_gap: float = MAX_CIRCLE_GAP, plus_is_cross: bool = False
     ) -> bool:
         """Whether this ink is a whole `label` ("circle" or "cross"; anything else is)."""
+        if self.scattered and label in ("circle", "cross"):
+            return False
         if label == "circle":
             if self.hole:
                 return True
@@ -195,8 +203,20 @@ def shape_of(
     if len(ends) >= 4:
         angles = np.degrees(np.arctan2(*(ends - [ys.mean(), xs.mean()]).T)) % 90.0
         plus_offset = float(np.minimum(angles, 90.0 - angles).mean())
+    count, _, stats, _ = cv2.connectedComponentsWithStats(ink, connectivity=8)
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    scattered = count - 1 >= SCATTERED_PIECES and areas.max() < SCATTERED_SHARE * areas.sum()
     return Shape(
-        len(ends), hole, turn_gap, plus_offset, hidden, arms, end_in_view, gap_hidden, straight
+        len(ends),
+        hole,
+        turn_gap,
+        plus_offset,
+        hidden,
+        arms,
+        end_in_view,
+        gap_hidden,
+        straight,
+        bool(scattered),
     )
 
 

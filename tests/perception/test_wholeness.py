@@ -89,6 +89,34 @@ def test_a_sloppy_cross_stays_a_cross():
     assert whole(SLOPPY_CROSS[None], ["cross"])[0]
 
 
+def flecks(seed: int) -> np.ndarray:
+    """A paper's dark fibres and flecks: short dashes strewn over the cell."""
+    rng = np.random.default_rng(seed)
+    dashes = []
+    for _ in range(9):
+        x, y = rng.uniform(6, 34, 2)
+        angle = rng.uniform(0, np.pi)
+        dx, dy = 1.5 * np.cos(angle), 1.5 * np.sin(angle)
+        dashes.append(((x - dx, y - dy), (x + dx, y + dy)))
+    return strokes(*dashes)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_flecks_strewn_over_a_cell_are_no_symbol(seed):
+    # A fibrous paper's flecks read as a cross at 0.94 in a still camera's frames, and the
+    # tracker took them for the person's move (composed dev games).
+    cell = flecks(seed)
+    assert shape_of(ink_masks(cell[None])[0]).scattered
+    assert not whole(cell[None], ["cross"])[0]
+    assert not whole(cell[None], ["circle"])[0]
+
+
+def test_a_cross_broken_where_a_grid_line_was_painted_stays_a_cross():
+    broken = strokes(((9, 11), (17, 17)), ((21, 20), (31, 28)), ((28, 8), (13, 32)))
+    assert not shape_of(ink_masks(broken[None])[0]).scattered
+    assert whole(broken[None], ["cross"])[0]
+
+
 def test_three_quarters_of_a_circle_is_partial_unless_max_circle_gap_allows():
     three_quarters = arc(0.75)
     assert not whole(three_quarters[None], ["circle"])[0]
