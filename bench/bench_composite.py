@@ -52,11 +52,7 @@ def main() -> None:
         help="a config setting, e.g. perception.plus_is_cross=true",
     )
     args = parser.parse_args()
-    try:
-        hands = HandwritingSource.load(args.hands, DATA / "handwriting_manifest.csv")
-        papers = PaperSource.load(args.papers, DATA / "paper_regions.csv", args.split)
-    except FileNotFoundError as err:
-        raise SystemExit(f"bench_composite: {err}") from None
+    hands, papers = load_sources(args.hands, args.papers, args.split, "bench_composite")
     if args.cells:
         read_cells(hands.split(args.split), papers, args.seed, load_config(assignments=args.set))
         return
@@ -82,6 +78,20 @@ def main() -> None:
             f"NoGridFound {part.no_grid:>3}, empty as empty {part.empty_right}/{part.empty}, "
             f"symbols right {part.symbols_right}/{part.symbols}, sure wrong {part.sure_wrong}"
         )
+
+
+def load_sources(
+    hands: Path, papers: Path, split: str, program: str
+) -> tuple[HandwritingSource, PaperSource]:
+    """The restored handwriting (both parts) and one part's paper photos; SystemExit saying how
+    to restore them when they are missing."""
+    try:
+        return (
+            HandwritingSource.load(hands, DATA / "handwriting_manifest.csv"),
+            PaperSource.load(papers, DATA / "paper_regions.csv", split),
+        )
+    except FileNotFoundError as err:
+        raise SystemExit(f"{program}: {err}") from None
 
 
 def read_cells(

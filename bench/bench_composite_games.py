@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 from rich.progress import track
 
+from bench.bench_composite import DATA, load_sources
 from oxbot.config import OxbotConfig, load_config
 from oxbot.errors import NoGridFound
 from oxbot.game.board import (
@@ -47,8 +48,6 @@ from oxbot.perception.board import BoardReader, default_reader
 from oxbot.perception.tracker import AcceptedDrawing, ImpossibleEvent, MoveTracker
 from oxbot.robot.game_moves import still_readings
 from oxbot.testing.composite import HandwritingSource, PaperSource, compose_game
-
-DATA = Path(__file__).resolve().parent / "data" / "composite_boards"
 
 
 @dataclass
@@ -157,11 +156,7 @@ def main() -> None:
     parser.add_argument("--papers", type=Path, default=DATA / "sources" / "paper")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.FIELD=VALUE")
     args = parser.parse_args()
-    try:
-        hands = HandwritingSource.load(args.hands, DATA / "handwriting_manifest.csv")
-        papers = PaperSource.load(args.papers, DATA / "paper_regions.csv", args.split)
-    except FileNotFoundError as err:
-        raise SystemExit(f"bench_composite_games: {err}") from None
+    hands, papers = load_sources(args.hands, args.papers, args.split, "bench_composite_games")
     hands = hands.split(args.split)
     config = load_config(assignments=args.set)
     reader = default_reader(config.perception)
