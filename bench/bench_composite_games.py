@@ -108,13 +108,18 @@ def play_game(
             expected = (drawn[1], labels[drawn[1]])
             tally.moves += 1
         accepted = False
+        seen = []  # how each frame read the drawn cell, for a stalled game's report
         for k, photo in enumerate(photos):
             try:
                 reading = reader.read(photo)
             except NoGridFound:
                 event = tracker.update(None)
+                seen.append("no grid")
             else:
                 event = tracker.update(reading.labels, still_readings(reading) or None)
+                if expected is not None:
+                    cell = reading.readings[expected[0]]
+                    seen.append(f"{cell.label} {cell.confidence:.2f}")
             if isinstance(event, ImpossibleEvent):
                 tally.impossible[event.kind] += 1
             if not isinstance(event, AcceptedDrawing):
@@ -132,7 +137,7 @@ def play_game(
             tally.frames_to_accept.append(k + 1)
         if expected is not None and not accepted:
             tally.stalled = 1
-            what = f"stage {stage}: {describe(expected)} never accepted"
+            what = f"stage {stage}: {describe(expected)} never accepted, read {', '.join(seen)}"
             return tally, notes, what, photos[-1]
     tally.whole = 1
     return tally, notes, "", None

@@ -21,6 +21,8 @@ skeleton whose spurs are cut off. Then:
   is one stroke, bent or straight: a single stroke, a tick, an L, a C. Four or more ends whose
   directions from the ink's middle run within `PLUS_ANGLE` of the cell's sides are a plus sign,
   which is a cross only with `plus_is_cross` (some people draw their crosses that way).
+- Flecks are neither: ink in `SCATTERED_PIECES` or more pieces, none a third of it (a fibrous
+  paper's flecks, a texture's specks), whatever the network reads.
 - Not judged: ends that run out of the cell or under a grid line painted over (`painted`),
   and an open curve whose ellipse runs on there across its gap (a circle drawn over a grid
   line, its far side in the next cell); three ends (a T, a V whose corner thins to a spur, a
@@ -78,6 +80,8 @@ SCATTERED_PIECES = 5
 """oxbot: ink in at least this many pieces (specks dropped), none of them `SCATTERED_SHARE` of
 it, is scattered: a paper's fibres and flecks, not a symbol drawn in one or two strokes."""
 SCATTERED_SHARE = 0.35
+"""oxbot: see `SCATTERED_PIECES`. A symbol drawn in one or two strokes keeps a piece this large
+where a grid line painted over breaks it (tests/perception/test_wholeness.py)."""
 MAX_CIRCLE_GAP = 95.0
 """oxbot: the default of `PerceptionConfig.max_circle_gap` (degrees; see there)."""
 
