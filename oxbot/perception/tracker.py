@@ -16,6 +16,8 @@ The tracker keeps the board it has accepted. Each reading is compared with it:
   being drawn keeps changing, so it is accepted once the pen has stopped;
 - a symbol that disappears (a hand over it, a misread frame) is ignored: paper does not
   forget, and the accepted board keeps it;
+- while a new drawing is seen in an empty cell, an occupied cell read as another symbol is
+  ignored: a frame's noise on the robot's thin circle must not hold up the person's move;
 - the robot's own drawings are known in advance (`robot_draws`), so they never become the
   person's moves;
 - a stable change that is not a legal move — two new symbols at once, a symbol drawn over an
@@ -183,6 +185,11 @@ class MoveTracker:
         if cells is not None and len(cells) != N_CELLS:
             raise InvalidInputError(f"a board reading has {N_CELLS} cells; got {len(cells)}")
         changes = self._changes(labels, cells)
+        # A drawing in an empty cell is judged on its own: an occupied cell read as the other
+        # symbol in one frame of three (sensor noise on a thin pen) must not break the run of
+        # readings that shows the person's move. Without one, such a reading is reported.
+        drawn = tuple(change for change in changes if self._board[change[0]] == "nothing")
+        changes = drawn or changes
         if not changes:
             self._candidate, self._count = (), 0
             return self._unclear_ink(cells) if cells is not None else None
