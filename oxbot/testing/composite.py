@@ -477,11 +477,9 @@ class _Camera:
         }
         return cls(width, height, homography, desk, light, blur, rng.uniform(1, 6), notes)
 
-    def photograph(
-        self, sheet: np.ndarray, rng: np.random.Generator, quality: int | None = None
-    ) -> tuple[np.ndarray, int]:
-        """The sheet (float32 RGB) seen by this camera: RGB uint8, with fresh sensor noise,
-        saved as JPEG at `quality` (drawn from `rng` if None); and that quality."""
+    def see(self, sheet: np.ndarray) -> np.ndarray:
+        """The sheet (float32 RGB) as this camera's optics bring it to the sensor: on the desk,
+        in its light, defocused or shaken (float32 RGB, the frame's size)."""
         size = (self.width, self.height)
         seen = cv2.warpPerspective(sheet, self.homography, size, flags=cv2.INTER_AREA)
         cover = cv2.warpPerspective(
@@ -498,7 +496,15 @@ class _Camera:
             turn = cv2.getRotationMatrix2D((length / 2 - 0.5, length / 2 - 0.5), b, 1)
             kernel = cv2.warpAffine(kernel, turn, (length, length))
             frame = cv2.filter2D(frame, -1, kernel / max(kernel.sum(), 1e-9))
-        frame = frame + rng.normal(0, self.noise, frame.shape).astype(np.float32)
+        return frame
+
+    def photograph(
+        self, seen: np.ndarray, rng: np.random.Generator, quality: int | None = None
+    ) -> tuple[np.ndarray, int]:
+        """What the sensor records of `seen` (`see`): RGB uint8 with fresh sensor noise, saved
+        as JPEG at `quality` (drawn from `rng` if None); and that quality. Frames of a still
+        camera differ only here."""
+        frame = seen + rng.normal(0, self.noise, seen.shape).astype(np.float32)
         frame = np.clip(frame, 0, 255).astype(np.uint8)
         if quality is None:
             quality = int(rng.integers(35, 92))
@@ -513,7 +519,7 @@ def compose(
     """One photo of a board: RGB uint8, its 9 labels row by row, and what it shows."""
     drawing = _sheet(hands, papers, rng)
     camera = _Camera.sample(rng, drawing, papers)
-    photo, quality = camera.photograph(drawing.inked(), rng)
+    photo, quality = camera.photograph(camera.see(drawing.inked()), rng)
     notes = dict(camera.notes, notes=camera.notes["notes"].format(quality=quality))
     return photo, drawing.labels, notes
 
@@ -535,8 +541,8 @@ def compose_game(
     quality = int(rng.integers(35, 92))
     stages = []
     for drawn in range(len(order) + 1):
-        sheet = drawing.inked(order[:drawn])
-        stages.append([camera.photograph(sheet, rng, quality)[0] for _ in range(frames)])
+        seen = camera.see(drawing.inked(order[:drawn]))
+        stages.append([camera.photograph(seen, rng, quality)[0] for _ in range(frames)])
     notes = dict(camera.notes, notes=camera.notes["notes"].format(quality=quality))
     return stages, notes
 
