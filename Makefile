@@ -41,9 +41,12 @@ run: setup
 test: setup lint
 	$(BIN)/pytest
 
+# ruff, then the import contracts of pyproject.toml (the layers, no cycles, no test harness in
+# the runtime).
 lint: venv
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(BIN)/lint-imports --no-logo
 
 format: venv
 	$(BIN)/ruff check --fix .

@@ -12,9 +12,9 @@ import contextlib
 import logging
 import shlex
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
@@ -528,15 +528,15 @@ def play(
         from oxbot.robot.terminal import Speakers, TerminalRobot
 
         source = open_source(camera) if camera is not None else None
-        store = None
-        if record:  # issue 18: opt-in, and said so
+        joining = []
+        if record:  # opt-in, and the person is told what is kept
             from oxbot.recording import RecordingStore, notice
+            from oxbot.recording.recorder import joining as recorder
 
             store = RecordingStore(data_dir)
             err_console.print(notice(store, record_audio), highlight=False)
-        robot = Robot(
-            config, sheet_camera=source, recorder=store, record_audio=record_audio, mode="terminal"
-        )
+            joining.append(recorder(store, "terminal", keep_audio=record_audio))
+        robot = Robot(config, sheet_camera=source, joining=joining)
         TerminalRobot(robot, speakers=Speakers(not mute)).run()
         return
     from oxbot.web.server import serve
@@ -654,9 +654,21 @@ def robot_command(
     """A robot as processes: --launch FILE starts them; --terminal / --web drive one."""
     from oxbot.robot.launch import endpoints_of, load_launch_file, run_robot
 
+    config = _config(ctx)
     plan = load_launch_file(launch) if launch is not None else None
-    drive = "terminal" if terminal else "web" if web else None
-    run_robot(_config(ctx), plan, robot, endpoints_of(connect, listen, scouting), drive)
+    drive: Callable[[Any], None] | None = None
+    if terminal:
+        from oxbot.robot.terminal import TerminalRobot
+
+        def drive(remote: Any) -> None:
+            TerminalRobot(remote).run()
+    elif web:
+        from oxbot.web.server import serve
+
+        def drive(remote: Any) -> None:
+            serve(config, announce=print, robot_factory=lambda: remote)
+
+    run_robot(config, plan, robot, endpoints_of(connect, listen, scouting), drive)
 
 
 app.add_typer(train_app, name="train")

@@ -37,7 +37,7 @@ agreed, refused or asked to stop (see docs/deviations.md).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -58,9 +58,6 @@ from oxbot.dialogue.domain import (
     USER_ACTS,
 )
 from oxbot.errors import DataError
-
-if TYPE_CHECKING:
-    from oxbot.dialogue.state import DialogueState
 from oxbot.game.board import (
     CELL_NAMES,
     EMPTY,
@@ -112,6 +109,32 @@ def board_symmetries() -> np.ndarray:
     return np.array(symmetries(), dtype=np.int64)
 
 
+class EncodableState(Protocol):
+    """What `FeatureLayout.encode` reads of a dialogue state (`oxbot.dialogue.state.DialogueState`
+    has it all; the layout sits below the state, so it names only what it reads)."""
+
+    @property
+    def system_words(self) -> Sequence[str]: ...
+    @property
+    def heard(self) -> Sequence[tuple[str, float]]: ...
+    @property
+    def board(self) -> Board: ...
+    @property
+    def robot_starts(self) -> bool: ...
+    @property
+    def understood(self) -> tuple[str, float] | None: ...
+    @property
+    def last_act(self) -> str: ...
+    @property
+    def said(self) -> set[str]: ...
+    @property
+    def invitations(self) -> int: ...
+    @property
+    def refused_unasked(self) -> bool: ...
+    @property
+    def person_acts(self) -> Sequence[str]: ...
+
+
 class FeatureLayout:
     """Names and positions of the state features for a given vocabulary."""
 
@@ -148,7 +171,7 @@ class FeatureLayout:
         self.n_features = len(self.names)
         self.n_words = n
 
-    def encode(self, state: DialogueState) -> np.ndarray:
+    def encode(self, state: EncodableState) -> np.ndarray:
         """The feature vector of a dialogue state (see the module docstring)."""
         vector = np.zeros(self.n_features, dtype=np.float32)
         for word in state.system_words:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import copy
 import functools
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -57,7 +57,6 @@ _STARTING = np.array([starts_game(act) for act in SYSTEM_ACTS])
 """The acts that start a game before it is on: those and "your turn"."""
 
 if TYPE_CHECKING:
-    from oxbot.dialogue.action_model import ActionModel
     from oxbot.dialogue.features import FeatureLayout
 
 Heard = tuple[tuple[str, float], ...]
@@ -65,6 +64,16 @@ Heard = tuple[tuple[str, float], ...]
 Turn = dict[str, str]
 """One transcript entry (SPEC §5): `{"speaker": "sys" | "usr", "act": ..., "text": ...}`."""
 ASKING_TO_PLAY = frozenset({INVITATION, ASK_AGAIN})
+
+
+class OffersActs(Protocol):
+    """What offers acts in a state: Pr(a|s) and the action mask (paper §2.2). The Naive Bayes
+    `oxbot.dialogue.action_model.ActionModel` is one; it learns from replayed states, so it sits
+    above this module and is named here only by what it does."""
+
+    def offered(
+        self, state: np.ndarray, board: Board, robot_to_move: bool
+    ) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 class DialogueState:
@@ -78,7 +87,7 @@ class DialogueState:
         self,
         layout: FeatureLayout,
         robot_starts: bool = True,
-        action_model: ActionModel | None = None,
+        action_model: OffersActs | None = None,
     ) -> None:
         self.layout = layout
         self.action_model = action_model

@@ -1,9 +1,10 @@
 """Learning from real interactions (issue 18): what the robot saw and heard, kept when the
 person agrees (`oxbot play --record`), and the data it learns from (`oxbot learn`).
 
-    from oxbot.recording import RecordingStore, Recorder
-    store = RecordingStore("~/oxbot-data")     # recordings.sqlite3 inside
-    robot = Robot(config, recorder=store)      # a Recorder component joins the robot's bus
+    from oxbot.recording import RecordingStore
+    from oxbot.recording.recorder import joining
+    store = RecordingStore("~/oxbot-data")                # recordings.sqlite3 inside
+    robot = Robot(config, joining=[joining(store)])       # a Recorder joins the robot's bus
 """
 
 from __future__ import annotations

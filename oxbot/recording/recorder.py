@@ -341,3 +341,16 @@ class Recorder(Component):
             )
         log.info("session %d %s (%s)", current.id, status, outcome)
         self.current = None
+
+
+def joining(
+    store: RecordingStore | Callable[[], RecordingStore],
+    mode: str = "",
+    keep_audio: bool = False,
+    enabled: bool = True,
+) -> Callable[[Bus], Recorder]:
+    """A Recorder for `Robot(..., joining=[...])`: it records every game into `store` (with the
+    person's recorded answers if `keep_audio`; `mode` says where it was played); with `enabled`
+    False, only once a RecordingSwitch message switches it on. The robot makes it on its own bus,
+    so the robot needs to know nothing of recording."""
+    return lambda bus: Recorder(bus, store, mode, keep_audio, enabled)

@@ -37,12 +37,15 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from multiprocessing.process import BaseProcess
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from oxbot.config import OxbotConfig
 from oxbot.errors import ConfigError, OxbotError
 from oxbot.robot.bus import Bus, Component, Supervisor
 from oxbot.robot.zenoh_bus import Endpoints, PartsWatcher, ZenohBus
+
+if TYPE_CHECKING:
+    from oxbot.robot.remote import RemoteRobot  # loads the models: imported when driven
 
 log = logging.getLogger(__name__)
 
@@ -416,10 +419,11 @@ def run_robot(
     launch: LaunchFile | None,
     robot: str,
     endpoints: Endpoints,
-    drive: str | None,
+    drive: Callable[[RemoteRobot], None] | None,
 ) -> None:
-    """`oxbot robot`: launch the processes of `launch` (if given) and, if `drive` is
-    "terminal" or "web", drive the robot from here; else wait until Ctrl-C."""
+    """`oxbot robot`: launch the processes of `launch` (if given) and, if `drive` is given, drive
+    the robot from here through it (`TerminalRobot(...).run`, or the web page's `serve`); else
+    wait until Ctrl-C."""
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _interrupt)  # a service manager's stop, like Ctrl-C
     launcher = Launcher(launch, config).start() if launch is not None else None
@@ -434,14 +438,7 @@ def run_robot(
         with ZenohBus(robot, endpoints) as bus:
             from oxbot.robot.remote import RemoteRobot
 
-            if drive == "terminal":
-                from oxbot.robot.terminal import TerminalRobot
-
-                TerminalRobot(RemoteRobot(bus, config)).run()
-            else:
-                from oxbot.web.server import serve
-
-                serve(config, announce=print, robot_factory=lambda: RemoteRobot(bus, config))
+            drive(RemoteRobot(bus, config))
     finally:
         if launcher is not None:
             launcher.stop()

@@ -114,7 +114,7 @@ from oxbot.robot.messages import (
     Utterance,
 )
 from oxbot.speech.keywords import answer_to
-from oxbot.speech.recognition import Hypothesis
+from oxbot.speech.nbest import Hypothesis
 
 log = logging.getLogger(__name__)
 

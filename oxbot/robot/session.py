@@ -30,8 +30,7 @@ from __future__ import annotations
 import functools
 import logging
 import threading
-from collections.abc import Callable
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -75,9 +74,6 @@ from oxbot.speech.audio import read_wav
 from oxbot.speech.recognition import Recognizer, load_recognizer
 from oxbot.speech.synthesis import Voice
 
-if TYPE_CHECKING:
-    from oxbot.recording.store import RecordingStore
-
 log = logging.getLogger(__name__)
 
 
@@ -111,9 +107,8 @@ class Robot:
     `sheet_camera` / `head_camera` are frame sources the robot reads itself; without them it
     sees only what `show` / `look` hand over. `recognizer` and `policy` replace the ones the
     config names (the shipped ones); `seed` fixes the choice among templates and the arm's hand.
-    `recorder`, a `oxbot.recording.RecordingStore`, records every game into it (with the
-    recordings of the person's answers if `record_audio`; `mode` says where it was played);
-    with `record_now` False, only once a RecordingSwitch message switches it on.
+    `joining` makes more components on the robot's bus, each from the bus: a
+    `oxbot.recording.Recorder` that keeps the games, say (`oxbot.recording.recorder.joining`).
     """
 
     def __init__(
@@ -125,10 +120,7 @@ class Robot:
         recognizer: Recognizer | None = None,
         policy: DQNPolicy | None = None,
         seed: int | None = None,
-        recorder: RecordingStore | Callable[[], RecordingStore] | None = None,
-        record_audio: bool = False,
-        mode: str = "",
-        record_now: bool = True,
+        joining: Sequence[Callable[[Bus], Component]] = (),
     ) -> None:
         self.config = config if config is not None else OxbotConfig()
         self.bus: Bus = LocalBus()
@@ -162,10 +154,7 @@ class Robot:
             HeadTrackingComponent(self.bus, HeadTracker(body.head), source=head_camera),
             HeadMovementComponent(self.bus),
         ]
-        if recorder is not None:  # issue 18: opt-in, the person was told (`--record`)
-            from oxbot.recording.recorder import Recorder
-
-            components.append(Recorder(self.bus, recorder, mode, record_audio, record_now))
+        components.extend(make(self.bus) for make in joining)
         self._vision = vision.name
         self.supervisor = Supervisor(components, self.bus, body, on_lost=self._lost)
         self._follow_games()

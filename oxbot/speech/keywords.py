@@ -45,7 +45,7 @@ if TYPE_CHECKING:
     import torch
 
     from oxbot.dialogue.domain import Domain
-    from oxbot.speech.recognition import Hypothesis
+    from oxbot.speech.nbest import Hypothesis
 
 log = logging.getLogger(__name__)
 
@@ -105,7 +105,7 @@ def short_window(samples: np.ndarray) -> np.ndarray | None:
     """The one second the model hears of a recording (int16 at 16 kHz): level normalised,
     silence trimmed, centred on the sound, zero-padded, the recogniser's noise floor added; None
     when the sound lasts longer than `MAX_SPEECH_SECONDS` or there is none."""
-    from oxbot.speech.recognition import with_noise_floor
+    from oxbot.speech.audio import with_noise_floor
 
     trimmed = trim_silence(normalise_level(np.asarray(samples, dtype=np.int16)), MARGIN)
     if trimmed is None or len(trimmed) - 2 * MARGIN * RATE > MAX_SPEECH_SECONDS * RATE:
@@ -312,7 +312,7 @@ def keyword_rescue(
     thanks" at 20 dB was "yes" to it at 0.89, heard by the recogniser as "go on" above "nope
     not me".)"""
     from oxbot.dialogue.understanding import polarity
-    from oxbot.speech.recognition import Hypothesis
+    from oxbot.speech.nbest import Hypothesis
 
     if len(probabilities) == 0 or not hypotheses or polarity(hypotheses[0].text) is not None:
         return hypotheses

@@ -26,7 +26,7 @@ answer to a yes/no question: `hear` hands the keyword model's opinion on, and th
 knows what it asked, decides (`oxbot.speech.keywords.keyword_rescue`).
 
 Before decoding, the recording's level is brought to a fixed peak, its silence trimmed to 0.2 s
-either side of the sound (`oxbot.speech.audio`), and a faint hiss added (`NOISE_FLOOR`), so that
+either side of the sound, and a faint hiss added (`oxbot.speech.audio`: `NOISE_FLOOR`), so that
 a quiet microphone, long pauses or exact zeros do not change what is heard. One recogniser
 serves every caller, one recording at a time (a lock), so a web server can share it.
 
@@ -55,13 +55,21 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from oxbot.config import SpeechConfig
 from oxbot.errors import ConfigError, InvalidInputError, SpeechUnavailable
-from oxbot.speech.audio import RATE, level_dbfs, normalise_level, pcm16, trim_silence
+from oxbot.speech.audio import (
+    RATE,
+    level_dbfs,
+    normalise_level,
+    pcm16,
+    trim_silence,
+    with_noise_floor,
+)
+from oxbot.speech.nbest import Hypothesis, Recognizer, normalise
 
 if TYPE_CHECKING:
     from pocketsphinx import Decoder
@@ -72,13 +80,6 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 FILLERS = {"<s>", "</s>", "<sil>", "[NOISE]", "[SPEECH]", "<unk>"}
-NOISE_FLOOR = 32.0
-"""Standard deviation, in 16-bit steps (-60 dBFS), of the hiss added before decoding.
-
-Synthesised and browser audio holds stretches of exact zeros, which no microphone produces; on
-them pocketsphinx's energy features and noise model go astray ("okay" heard as "hi"). With this
-floor, the accept/decline answers in 12 espeak-ng voices, clean and at 20 dB SNR, were heard
-word for word 97% of the time instead of 63% (16-phrase grammar)."""
 PRONUNCIATIONS = {"oxbot": "AA K S B AA T", "noughts": "N AO T S", "hiya": "HH AY Y AH"}
 """Words of the domain that the en-us dictionary lacks ("hi oxbot"), in its phone set."""
 SILENT_DBFS = -50.0
@@ -110,33 +111,6 @@ CALIBRATION = {
 posterior of the domain's best path, and which search found the hypothesis (coefficients for
 the grammar of complete phrases, `phrases`; the general model, `outside`; a domain path that
 is no complete phrase, `fragment`; none for a complete phrase of the trigram model)."""
-
-
-@dataclass(frozen=True)
-class Hypothesis:
-    """One entry of an N-best list."""
-
-    text: str
-    confidence: float
-    words: tuple[tuple[str, float], ...] = ()
-    """Each word with its confidence in [0, 1]; filled for the best hypothesis."""
-
-
-def normalise(text: str) -> str:
-    """Lower case, letters, digits and apostrophes only: the form the recogniser speaks in."""
-    return " ".join(re.sub(r"[^a-z0-9' ]+", " ", text.lower()).split())
-
-
-class Recognizer(Protocol):
-    """What the robot needs of a speech recogniser: a recording in, an N-best list out.
-
-    Another recogniser plugs in by having this method, passed to the robot as an object or
-    named in the config as `speech.recognizer = "module:factory"`, where `factory(phrases,
-    nbest)` builds it (`load_recognizer`)."""
-
-    def recognize(self, wav: str | os.PathLike[str] | bytes) -> list[Hypothesis]:
-        """N-best hypotheses for a WAV (path or bytes), best first; empty if nothing was heard."""
-        ...
 
 
 @dataclass(frozen=True)
@@ -447,12 +421,6 @@ def pronunciations(dictionary: Path, words: set[str]) -> list[str]:
             for line in handle
             if line.split("(", 1)[0].split(" ", 1)[0] in words
         ]
-
-
-def with_noise_floor(samples: np.ndarray, level: float = NOISE_FLOOR) -> np.ndarray:
-    """`samples` plus faint white noise, the same for the same input (fixed seed)."""
-    hiss = np.random.default_rng(0).normal(0.0, level, len(samples))
-    return np.clip(np.round(samples + hiss), -32768, 32767).astype(np.int16)
 
 
 def user_phrases(domain: Domain) -> list[str]:

@@ -22,7 +22,7 @@ import numpy as np
 from oxbot.config import OxbotConfig, load_config, with_overrides
 from oxbot.dialogue.domain import ASK_AGAIN, INVITATION, MOVE_REQUEST
 from oxbot.game.board import CELL_NAMES, EMPTY, USER, symbol_of
-from oxbot.recording.recorder import Recorder
+from oxbot.recording.recorder import Recorder, joining
 from oxbot.recording.store import RecordingStore
 from oxbot.robot.messages import DialogueAct, DialogueEnded, GameMove
 from oxbot.robot.session import Robot
@@ -68,7 +68,7 @@ def play_recorded_game(
     sheet = Sheet(seed)
     person = symbol_of(USER, robot_starts)
     record = RecordedGame()
-    with Robot(config, seed=seed, recorder=store, mode="scripted") as robot:
+    with Robot(config, seed=seed, joining=[joining(store, "scripted")]) as robot:
         events = robot.bus.subscribe(DialogueAct, GameMove, DialogueEnded)
         pending: tuple[int, float] | None = None  # a drawing not yet accepted, since when
         deadline = time.monotonic() + timeout

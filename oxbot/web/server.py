@@ -81,8 +81,8 @@ from PIL import Image, UnidentifiedImageError
 from oxbot.config import ListeningConfig, OxbotConfig, WebConfig
 from oxbot.errors import ConfigError, InvalidInputError, OxbotError
 from oxbot.image_size import check_pixels
-from oxbot.recording.web import RecordingSetup
-from oxbot.recording.web import add_routes as add_recording_routes
+from oxbot.web.recording import RecordingSetup
+from oxbot.web.recording import add_routes as add_recording_routes
 from oxbot.robot.listening import HandsFreeListener
 from oxbot.robot.messages import Frame, PersonFrame, RecordingSwitch, SpeechAudio, to_json
 from oxbot.speech.audio import Audio, to_wav_bytes
@@ -114,17 +114,14 @@ def default_robot_factory(
     until its tab switches it on, when `recording` is given: issue 18)."""
 
     def make() -> RobotLike:
+        from oxbot.recording.recorder import joining
         from oxbot.robot.session import Robot
 
         if recording is None:
             return Robot(config)
-        return Robot(
-            config,
-            recorder=recording.store,  # opened at the first game kept
-            record_audio=recording.keep_audio,
-            mode="web",
-            record_now=False,
-        )
+        # the database is opened at the first game kept, and nothing is kept until the tab asks
+        recorder = joining(recording.store, "web", keep_audio=recording.keep_audio, enabled=False)
+        return Robot(config, joining=[recorder])
 
     return make
 

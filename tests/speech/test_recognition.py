@@ -9,9 +9,9 @@ from oxbot.dialogue.domain import ACCEPT, DECLINE, INVITATION, POSTPONE, load_do
 from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.errors import InvalidInputError
 from oxbot.speech import RATE, PocketsphinxRecognizer, Voice, pcm16, synthesize
-from oxbot.speech.audio import add_noise
+from oxbot.speech.audio import add_noise, with_noise_floor
 from oxbot.speech.evaluation import CHECK_VOICES, Condition, chatter_sentences
-from oxbot.speech.recognition import default_recognizer, normalise, with_noise_floor
+from oxbot.speech.recognition import default_recognizer, normalise
 
 PHRASES = [
     "yes let's go for it",

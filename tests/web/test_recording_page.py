@@ -14,7 +14,7 @@ import pytest
 from playwright.sync_api import Page, sync_playwright
 
 from oxbot.recording import RecordingStore
-from oxbot.recording.web import RecordingSetup
+from oxbot.web.recording import RecordingSetup
 from oxbot.testing.browser import CHROMIUM, FLAGS, draw
 from tests.web.conftest import FAST, running_server
 
