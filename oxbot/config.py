@@ -83,24 +83,24 @@ class PerceptionConfig:
     threads: int = 1
     """oxbot: torch threads while training; more barely help a net this small, on shared cores."""
     partial_output: bool = False
-    """oxbot: (issue 15, experimental) train a fourth output, "partial", for ink that is not a
+    """oxbot: (experimental) train a fourth output, "partial", for ink that is not a
     whole symbol. Off: the paper's three outputs, as shipped. On, the retrained model read 99.2%
     of generated cells (SPEC §1 asks 99.9%), 98.5% of another hand's (99.5%) and all 9 cells of
     94.0% of held-out boards (98.5% with three outputs)."""
     wholeness: bool = True
-    """oxbot: (issue 15) the board reader reads a circle or cross whose ink is not whole as
+    """oxbot: the board reader reads a circle or cross whose ink is not whole as
     "partial" (no move): an open arc, a semicircle, a stroke, a tick, an L, a plus sign
-    (`oxbot.perception.wholeness`). Off: the network's reading, as before issue 15."""
+    (`oxbot.perception.wholeness`). Off: the network's reading alone."""
     max_circle_gap: float = 95.0
-    """oxbot: (issue 15) the widest gap, in degrees of its turn, that an open loop may leave and
+    """oxbot: the widest gap, in degrees of its turn, that an open loop may leave and
     still be a circle, as measured on its skeleton (a loop of 0.8 of a turn measures about 77,
     0.78 about 84, three quarters 92-100, a semicircle about 170; on photos, blur widens them).
     95 keeps every whole circle measured (generated, font, board photos); 85 catches more three
     quarters of a circle, but makes 3 open circles of 200 `wide-tuning` photos partial."""
     plus_is_cross: bool = False
-    """oxbot: (issue 15) a plus sign (strokes along the cell's sides) is a cross. Off, per issue
-    15, it is a wrong shape and reads "partial"; on for a hand that draws its crosses that way
-    (board kv-A of the real photos does)."""
+    """oxbot: a plus sign (strokes along the cell's sides) is a cross. Off, the default, it is
+    a wrong shape and reads "partial" (whoever drew it may not have meant a move); on for a hand
+    that draws its crosses that way (board kv-A of the real photos does)."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "image_size", "conv1_filters", "conv2_filters", "kernel_size")
@@ -121,13 +121,13 @@ class TrackerConfig:
     """Paper §2.1: a new drawing is accepted once recognised 3 times in a row."""
     min_confidence: float = 0.9
     """oxbot: a new symbol counts only when the classifier's calibrated confidence in it is at
-    least this, in every one of those readings (issue 15)."""
+    least this, in every one of those readings, so a half-drawn symbol is no move."""
     ink_tolerance: float = 0.1
     """oxbot: the readings agree only while the new symbol's ink (share of its cell) changes
-    by at most this fraction of itself: the pen has stopped (issue 15)."""
+    by at most this fraction of itself: the pen has stopped."""
     guidance_seconds: float = 1.5
     """oxbot: how long a camera's board must stay unreadable before the robot says why and what
-    to do (issue 17); a hand passing over the sheet is not worth a word."""
+    to do; a hand passing over the sheet is not worth a word."""
     unclear_seconds: float = 4.0
     """oxbot: how long new ink in an empty cell may stay still without being a whole symbol
     (a plus, an arc, a single stroke) before the robot says it cannot tell what it is; long
@@ -323,7 +323,7 @@ class DialogueConfig:
     nb_binarize: float = 0.5
     """oxbot: a feature above this counts as on for the Naive Bayes action model."""
     phrasing_weights: str = ""
-    """oxbot: JSON {act: {phrasing: weight}} (issue 18): the simulated person says an act's
+    """oxbot: JSON {act: {phrasing: weight}}: the simulated person says an act's
     phrasings in these proportions (others of the act weigh 1); `oxbot learn agent` fits it to
     recorded dialogues. Empty: every phrasing of an act equally often."""
 
@@ -531,7 +531,7 @@ class WebConfig:
     max_json_depth: int = 16
     """oxbot: deepest nesting of a message's JSON, checked before parsing (messages are 1 deep)."""
     https: str = "auto"
-    """oxbot: (issue 17) serve the page over HTTPS with a self-signed certificate made on first
+    """oxbot: serve the page over HTTPS with a self-signed certificate made on first
     start ("on"), or plain HTTP ("off"); "auto" is on when `host` is not a loopback address,
     since browsers give the camera only to secure pages off localhost."""
     allowed_origins: str = ""

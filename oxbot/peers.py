@@ -1,4 +1,4 @@
-"""Peers: off-the-shelf learners measured side by side with oxbot's own (issue 8).
+"""Peers: off-the-shelf learners measured side by side with oxbot's own.
 
 - Learning to perceive: a scikit-learn linear SVM on the raw pixels, trained on the very images
   the CNN+SVM is trained on (`train_pixel_svm`).

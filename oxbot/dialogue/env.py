@@ -59,9 +59,9 @@ who always agrees and plays a whole game (recognition noise still on), for measu
 
 ## Version History
 
-- v0: the first version (oxbot issue 5); issue 14 kept the id and grew the acts (21), the
-  features (150), the people (who decline, stop, chatter, say nothing, walk away when ignored)
-  and the outcomes ("declined", "stopped").
+- v0: the first version; later kept the id and grew the acts (21), the features (150), the
+  people (who decline, stop, chatter, say nothing, walk away when ignored) and the outcomes
+  ("declined", "stopped").
 """
 
 from __future__ import annotations

@@ -270,7 +270,8 @@ def train_agent(
 
     With `resume`, continue from `out_dir/checkpoint.pt` if there is one. Ctrl-C saves that
     checkpoint after the step in hand and raises `TrainingInterrupted`. `init_from`, a policy
-    of the same architecture, starts the networks from its weights (a fine-tune, issue 18).
+    of the same architecture, starts the networks from its weights (a fine-tune, as
+    `oxbot learn agent` does).
     """
     # Long on purpose: the paper's algorithm as one loop read top to bottom, as CleanRL's dqn.py.
     out_dir = Path(out_dir)

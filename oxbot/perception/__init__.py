@@ -7,7 +7,7 @@ clf.predict(cells)               # uint8 (N, 40, 40) dark-on-light -> list of N 
 from oxbot.perception import read_board
 read_board(frame)                # uint8 (H, W, 3) RGB or (H, W) gray photo -> 9 labels
 
-Beside SPEC §5 (issue 15): clf.read(cells) and read_cells(frame) give `CellReading`s, whose
+Beside the contract above: clf.read(cells) and read_cells(frame) give `CellReading`s, whose
 label may also be "partial" (ink that is not a whole symbol: `oxbot.perception.wholeness`), with
 a calibrated confidence.
 """

@@ -166,7 +166,7 @@ def _finish(
     image: np.ndarray, rng: np.random.Generator, label: str, partial: bool = False
 ) -> np.ndarray:
     """What the camera and the sheet add: remnants, clutter, blur, noise, lighting; with
-    `partial` (issue 15's data) also erased marks on blank cells."""
+    `partial` (the four-output data) also erased marks on blank cells."""
     if rng.random() < 0.6:
         image = add_grid_remnants(image, rng, probability=0.35)
     if label == "nothing" and rng.random() < 0.4:
@@ -221,7 +221,7 @@ def generate(
             factor = max(factor, 0.45 / max(float(ink.max()), 1e-3))
         ink = np.clip(ink * factor, 0.0, 1.0)
         sheet = paper((size, size), rng)
-        # Squared, dotted or ruled paper, under any label: issue 15's data only, so that the
+        # Squared, dotted or ruled paper, under any label: the four-output data only, so that the
         # three-output images stay those the shipped model was trained and measured on.
         if partial and rng.random() < 0.3:
             sheet = add_texture(sheet, rng)

@@ -129,7 +129,7 @@ def deepen_faint_ink(cells: np.ndarray) -> np.ndarray:
 class BoardReader:
     """Reads boards with one classifier: `read(frame)` gives a `BoardReading`.
 
-    With `config.wholeness` (issue 15) a circle or cross whose ink is not whole (an open arc,
+    With `config.wholeness` a circle or cross whose ink is not whole (an open arc,
     a stroke, a tick, a plus sign unless `config.plus_is_cross`; `wholeness.py`) reads "partial".
     """
 

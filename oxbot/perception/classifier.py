@@ -5,7 +5,7 @@ max-pool 3x3 stride 3 → SVM output with 3 labels. The paper's toolkit (ConvNet
 uses 5x5 kernels with padding 2 and a multi-class hinge loss for its "svm" layer; here that is
 `nn.MultiMarginLoss`, and the output layer is a linear map to one score per label.
 
-oxbot (issue 15): `read` gives each cell's label with a confidence: the softmax of the hinge
+oxbot: `read` gives each cell's label with a confidence: the softmax of the hinge
 scores divided by a temperature fitted on held-out images (`fit_temperature`), saved in the
 model's metadata. The shipped model has the paper's three outputs. Trained with
 `[perception] partial_output` (experimental), the output layer has a fourth score, "partial",
@@ -297,7 +297,7 @@ class SymbolClassifier:
     @property
     def outputs(self) -> tuple[str, ...]:
         """The network's outputs in score order: SPEC §1's three labels, then "partial" when
-        the model was trained with `partial_output` (issue 15, experimental)."""
+        the model was trained with `partial_output` (experimental)."""
         return OUTPUTS if self.config.partial_output else LABELS
 
     def fit(
@@ -475,7 +475,7 @@ class SymbolClassifier:
                 f"model file {path} has labels {payload.get('labels')}; this oxbot reads "
                 f"{list(LABELS)}; {remedy}"
             )
-        outputs = payload.get("outputs", list(LABELS))  # files before issue 15 have three
+        outputs = payload.get("outputs", list(LABELS))  # older files have three
         if outputs not in (list(LABELS), list(OUTPUTS)):
             raise ModelFileError(
                 f"model file {path} has outputs {outputs}; this oxbot reads {list(LABELS)} "

@@ -21,7 +21,7 @@ The public functions, each taking the random generator it draws from:
         one whole cell: paper, then a symbol at a random place and size or, for "nothing",
         smudges, specks and shadows; grid remnants at the border for every label.
     partial_strokes(rng) -> list[np.ndarray]
-        ink that is not a whole symbol yet (issue 15): an arc, one stroke, a plus, a tick,
+        ink that is not a whole symbol yet: an arc, one stroke, a plus, a tick,
         a scribble, in the unit box like `symbol_strokes`.
     add_texture(image, rng) / add_ghost(image, rng)
         squared, dotted or ruled paper; a faint erased mark. Never a symbol.
@@ -38,7 +38,7 @@ from oxbot.errors import InvalidInputError
 from oxbot.game.board import LABELS
 
 PARTIAL = "partial"
-"""oxbot (issue 15): what the network calls ink that is not a whole symbol; not a SPEC label."""
+"""oxbot: what the network calls ink that is not a whole symbol; not a SPEC label."""
 OUTPUTS: tuple[str, ...] = (*LABELS, PARTIAL)
 """The network's outputs: SPEC §1's labels at 0-2 (kept there), then PARTIAL at 3."""
 

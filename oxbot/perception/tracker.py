@@ -10,7 +10,7 @@ The tracker keeps the board it has accepted. Each reading is compared with it:
 - a symbol in an empty cell is a *new drawing*; the same new drawing(s) must be read
   `stable_readings` times in a row before anything happens, so a half-drawn symbol that the
   classifier reads differently from one frame to the next, or a one-frame flicker, is ignored;
-- given the classifier's `CellReading`s (issue 15), a new drawing counts only as a whole,
+- given the classifier's `CellReading`s, a new drawing counts only as a whole,
   confident symbol (confidence ≥ `min_confidence`; "partial" ink never counts), and the
   readings agree only while its ink stays the same (within `ink_tolerance`): a symbol still
   being drawn keeps changing, so it is accepted once the pen has stopped;

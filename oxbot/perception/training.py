@@ -45,7 +45,7 @@ log = logging.getLogger(__name__)
 CURVE_SIZES = (100, 300, 1_000, 3_000)
 """oxbot: the smaller training sets of the learning curve, below the full one."""
 WHOLE_AS_PARTIAL = 0.003
-"""oxbot (issue 15): after training with `partial_output`, the "partial" output is lowered until
+"""oxbot: after training with `partial_output`, the "partial" output is lowered until
 at most this share of held-out whole symbols read as partial. Without it, open circles on
 rendered boards read as partial often enough to drop whole-board reading from 98.5% to 90%."""
 CHECKPOINT_FORMAT = "oxbot-perceiver-checkpoint/1"

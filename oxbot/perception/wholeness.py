@@ -1,5 +1,4 @@
-"""Whether a cell's ink is a whole symbol: a loop for a circle, crossing strokes for a cross
-(issue 15).
+"""Whether a cell's ink is a whole symbol: a loop for a circle, crossing strokes for a cross.
 
 The paper's three-output network has no word for ink that is not a whole symbol: it reads an
 arc, a semicircle, a tick or a plus as a circle or a cross, often surely, and two four-output

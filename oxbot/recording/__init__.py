@@ -1,4 +1,4 @@
-"""Learning from real interactions (issue 18): what the robot saw and heard, kept when the
+"""Learning from real interactions: what the robot saw and heard, kept when the
 person agrees (`oxbot play --record`), and the data it learns from (`oxbot learn`).
 
     from oxbot.recording import RecordingStore

@@ -64,7 +64,7 @@ ASKED_TWICE = frozenset({INVITATION, MOVE_REQUEST})
 
 @dataclass(frozen=True)
 class LearnAgentConfig:
-    """How the policy is retrained on the fitted person (oxbot, issue 18; no paper default)."""
+    """How the policy is retrained on the fitted person (oxbot; the paper has no such step)."""
 
     seed: int = 0
     """Seed of the fine-tuning and of the evaluation's simulated people."""

@@ -56,7 +56,7 @@ LEARN_STREAM = 18
 
 @dataclass(frozen=True)
 class LearnPerceiverConfig:
-    """How the perceiver is fine-tuned on recorded crops (oxbot, issue 18; no paper default)."""
+    """How the perceiver is fine-tuned on recorded crops (oxbot; the paper has no such step)."""
 
     seed: int = 0
     """Seed of the split, the replayed images and the fine-tuning."""

@@ -26,7 +26,7 @@ bypass the tracker) is refused in words and never changes the board.
 mid-game, where the simulated people never say it, it is taken as a stop (the policy lets go,
 "Okay, let's stop here") followed by another game.
 
-On real paper (SheetMode, issue 17) the robot has no arm that reaches the sheet: it says where
+On real paper (SheetMode) the robot has no arm that reaches the sheet: it says where
 it plays ("I take the upper left.") instead of "I take this one"; the policy still sees the
 template's words, as in training, and the simulated arm still "draws" (the page shows its
 strokes over the video). When the camera cannot show the board while the robot waits for the

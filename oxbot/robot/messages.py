@@ -301,7 +301,7 @@ class ComponentJoined(Message):
 
 @dataclass(frozen=True)
 class RecordingSwitch(Message):
-    """Whether the person lets the robot keep what it sees and hears (issue 18): a Recorder on
+    """Whether the person lets the robot keep what it sees and hears: a Recorder on
     the bus starts or stops keeping the game."""
 
     topic: ClassVar[str] = "recording/switch"

@@ -8,7 +8,7 @@
         robot.show(frame)                    # the sheet, as a camera sees it
         robot.draw("middle")                 # a typed move (no camera)
         robot.paper(True)                    # real paper under a camera: the robot says
-                                             # where it plays (issue 17)
+                                             # where it plays
 
 `Robot(config)` takes its settings from an `OxbotConfig` (`[game]` who starts, `[robot]` the
 waits, speed, arm and head, `[speech]` the recogniser and voice, `[tracker]` the camera's

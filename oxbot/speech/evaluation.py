@@ -178,8 +178,9 @@ class Condition:
 
     @property
     def seed_key(self) -> str:
-        # Plain noise keeps the key the listening test always used, so issue 6's figures do
-        # not move; every other condition is keyed by its name.
+        # Plain noise keeps the key the listening test always used, so the figures measured
+        # with it before the other conditions existed do not move; every other condition is
+        # keyed by its name.
         if self.lead_seconds is None and not self.floor and self.peak_dbfs is None:
             return str(self.snr_db)
         return self.name

@@ -1,4 +1,4 @@
-"""Board photos composed from real handwriting on real paper: issue 15's independent test.
+"""Board photos composed from real handwriting on real paper: the board reader's independent test.
 
 Nobody here drew these symbols and nobody here made these sheets: the circles and crosses (and,
 where the source has them, the grid's lines) are people's own drawings from a public dataset,

@@ -1,5 +1,5 @@
 """A new hand for the project's own tests and benchmarks: a person whose crosses the shipped
-perceiver often misreads (issue 18, learning from recorded games).
+perceiver often misreads (learning from recorded games).
 
 `plus_strokes` draws like `oxbot.testing.sheet.person_strokes`, except that crosses are drawn
 upright, as a plus sign turned by up to `PLUS_TILT` degrees, as some people mark them. The

@@ -1,4 +1,4 @@
-"""A scripted person playing one whole game with a headless robot that records (issue 18).
+"""A scripted person playing one whole game with a headless robot that records.
 
 The person answers the robot's invitation by typing, and when asked for a move draws their
 symbol with a `hand` on the page's sheet (`oxbot.testing.sheet.Sheet`), which a "camera"

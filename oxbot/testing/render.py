@@ -175,7 +175,7 @@ WIDE_TUNING_STYLE = dataclasses.replace(
     edge_chance=0.3,
     clutter=3,
 )
-"""issue 15's wider world for development: turned up to 40 degrees, stronger perspective,
+"""The wider world for development: turned up to 40 degrees, stronger perspective,
 squared, ruled, dotted paper and whiteboards, coloured markers and pencil, grids running up to
 the frame's edge, pens and hands lying around."""
 
@@ -478,7 +478,7 @@ def random_scene(
         cy = rng.uniform(margin - lo[1], max(margin - lo[1], height - margin - hi[1]))
     else:
         cx, cy = center[0] * width, center[1] * height
-    # (Random draws for issue 15's wider world only where a style asks for it, so that the
+    # (Random draws for the wider world only where a style asks for it, so that the
     # older styles render the very photos they always did.)
     if center is None and style.edge_chance > 0 and rng.uniform() < style.edge_chance:
         # The grid's outer edge on one side at the frame's edge or just past it.
@@ -515,7 +515,7 @@ def random_scene(
     else:
         paper_corners = np.zeros((4, 2))
     # In the order the older styles always drew them, so that they render the same photos;
-    # issue 15's wider world draws its own after them.
+    # the wider world draws its own after them.
     grid_color = _pick(rng, style.pen_colors)
     grid_width = float(rng.uniform(*style.pen_width))
     desk = _desk(rng, style)

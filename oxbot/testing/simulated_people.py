@@ -1,4 +1,4 @@
-"""Recorded dialogues of simulated people, for the project's own tests and benchmarks (issue 18).
+"""Recorded dialogues of simulated people, for the project's own tests and benchmarks.
 
 A policy talks with the user simulator of `config` (`InteractiveGameEnv`), and every turn goes
 through a real `Recorder` as the robot's bus would carry it: the robot's acts as DialogueAct,

@@ -81,11 +81,11 @@ from PIL import Image, UnidentifiedImageError
 from oxbot.config import ListeningConfig, OxbotConfig, WebConfig
 from oxbot.errors import ConfigError, InvalidInputError, OxbotError
 from oxbot.image_size import check_pixels
-from oxbot.web.recording import RecordingSetup
-from oxbot.web.recording import add_routes as add_recording_routes
 from oxbot.robot.listening import HandsFreeListener
 from oxbot.robot.messages import Frame, PersonFrame, RecordingSwitch, SpeechAudio, to_json
 from oxbot.speech.audio import Audio, to_wav_bytes
+from oxbot.web.recording import RecordingSetup
+from oxbot.web.recording import add_routes as add_recording_routes
 from oxbot.web.tls import Certificate
 
 log = logging.getLogger(__name__)

@@ -14,8 +14,8 @@ import pytest
 from playwright.sync_api import Page, sync_playwright
 
 from oxbot.recording import RecordingStore
-from oxbot.web.recording import RecordingSetup
 from oxbot.testing.browser import CHROMIUM, FLAGS, draw
+from oxbot.web.recording import RecordingSetup
 from tests.web.conftest import FAST, running_server
 
 MOVE = "GameMove(gridloc="
