@@ -25,6 +25,7 @@ from sklearn.naive_bayes import BernoulliNB
 from oxbot.dialogue.domain import (
     ACTION_INDEX,
     GAME_MOVE_TEMPLATE,
+    MOVE_ACT_TYPE,
     N_ACTIONS,
     SILENCE,
     SYSTEM_ACTS,
@@ -35,7 +36,9 @@ from oxbot.dialogue.features import FeatureLayout
 from oxbot.dialogue.state import DialogueState
 from oxbot.game.board import EMPTY, N_CELLS, Board
 
-GAME_MOVE_CLASS = "GameMove"
+GAME_MOVE_CLASS = MOVE_ACT_TYPE
+"""The action model's one class for the moves: it says whether to draw; every empty cell is then
+offered (paper §2.2)."""
 REPEAT_SUFFIX = "#again"
 
 

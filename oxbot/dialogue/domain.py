@@ -83,7 +83,9 @@ UNKNOWN = "Unknown"
 PROBLEM = "Inform(problem)"
 """The robot's fixed sentences about impossible drawings: said, never chosen by the policy."""
 
-_MOVE_PREFIX = "GameMove(gridloc="
+MOVE_ACT_TYPE = "GameMove"
+"""The type of every move act, whatever its cell."""
+_MOVE_PREFIX = MOVE_ACT_TYPE + "(gridloc="
 GAME_MOVE_TEMPLATE = _MOVE_PREFIX + "$loc)"
 """A GameMove on any cell, as the domain files write it."""
 
@@ -141,6 +143,20 @@ USER_ACTS: tuple[str, ...] = (
 """The person's acts; `GameMove(gridloc=$loc)` stands for a drawing on any cell."""
 REFUSALS = frozenset({DECLINE, POSTPONE})
 """The person's answers that mean no to a game."""
+_ACCEPT_FAMILY = ACCEPT.split("=", 1)[0]
+_REFUSAL_FAMILY = DECLINE.split("=", 1)[0]
+
+
+def accepts_game(act: str) -> bool:
+    """Whether a person's act says yes to a game: `Confirm(playGame=yes)` or any act of its
+    family (`Confirm(playGame…)`) that a domain may name, so that a measure of yes and no
+    survives a domain with more acts."""
+    return act.startswith(_ACCEPT_FAMILY)
+
+
+def refuses_game(act: str) -> bool:
+    """Whether a person's act says no to a game, now or for now: any `Reject(playGame…)`."""
+    return act.startswith(_REFUSAL_FAMILY)
 
 
 def game_move_cell(act: str) -> int | None:

@@ -273,21 +273,18 @@ def train_agent(
     of the same architecture, starts the networks from its weights (a fine-tune, as
     `oxbot learn agent` does).
     """
-    # Long on purpose: the paper's algorithm as one loop read top to bottom, as CleanRL's dqn.py.
+    # The paper's algorithm as one loop read top to bottom, as CleanRL's dqn.py.
     out_dir = Path(out_dir)
     cfg = config.agent
     torch.set_num_threads(1)  # a 60-unit MLP trains fastest on one thread
     # the same seed gives the same weights here; on another CPU, BLAS kernels may still sum in
     # another order (docs/dialogue.md says what differs)
     torch.use_deterministic_algorithms(True)
-    started_at = time.perf_counter()
+    clock = _Clock()
 
     # --- set-up: environment, networks, replay memory, opponents -------------------------------
     env = InteractiveGameEnv(config=config)
-    learner = _new_learner(env, cfg)
-    if init_from is not None:
-        learner.q_network.load_state_dict(init_from.q_network.state_dict())
-        learner.target_network.load_state_dict(init_from.q_network.state_dict())
+    learner = _new_learner(env, cfg, init_from)
     rng = learner.rng
     augment = BatchAugmenter(env, config)
     next_episode = _episode_options(cfg, rng)
@@ -296,50 +293,20 @@ def train_agent(
     if resume and checkpoint_path.exists():
         run = _load_checkpoint(checkpoint_path, config, learner)
         log.info("resumed from %s at step %d", checkpoint_path, run.step)
+    saver = _Saver(checkpoint_path, config, learner, run, clock)
     recent_rewards: deque[float] = deque(maxlen=log_every)
     recent_outcomes: deque[str] = deque(run.outcomes[-500:], maxlen=500)
-
-    def interrupted(step: int) -> TrainingInterrupted:
-        """Save where training stands after `step` experiences; the error to stop with."""
-        nonlocal started_at
-        run.step = step
-        run.elapsed_s += time.perf_counter() - started_at
-        started_at = time.perf_counter()
-        _save_checkpoint(checkpoint_path, config, learner, run)
-        return TrainingInterrupted(
-            f"training interrupted after {step:,} of {cfg.total_steps:,} experiences; "
-            f"saved the checkpoint {checkpoint_path}",
-            checkpoint_path,
-            step,
-        )
-
-    def evaluate_at(step: int) -> None:
-        """The greedy evaluation due after `step` experiences; Ctrl-C stops it at once."""
-        elapsed = run.elapsed_s + time.perf_counter() - started_at
-        try:
-            with stop.immediately():
-                _evaluate_and_keep_best(config, learner.q_network, run, step, elapsed)
-        except KeyboardInterrupt:
-            run.evaluation_pending = True
-            raise interrupted(step) from None
-        run.evaluation_pending = False
 
     obs, info = env.reset(seed=cfg.seed + run.step, options=next_episode())
     progress, task = _progress(show_progress, cfg.total_steps, run.step)
     with progress, deferred_interrupt() as stop:
         log.info("training from experience %d of %d", run.step, cfg.total_steps)
         if run.evaluation_pending:
-            evaluate_at(run.step)
+            saver.evaluate_at(run.step, stop)
         for step in range(run.step, cfg.total_steps):
             # 1. act: epsilon-greedy among the offered acts
             epsilon = epsilon_at(step, config)
-            mask = info["action_mask"]
-            if rng.random() < epsilon:
-                action = int(rng.choice(np.flatnonzero(mask)))
-            else:
-                with torch.inference_mode():
-                    q = learner.q_network(torch.from_numpy(obs[None])).numpy()[0]
-                action = int(masked_argmax(q, mask))
+            action = _epsilon_greedy(learner.q_network, obs, info["action_mask"], epsilon, rng)
 
             # 2. step the dialogue and store the experience
             next_obs, reward, terminated, truncated, info = env.step(action)
@@ -368,23 +335,95 @@ def train_agent(
                 stats = _stats(run, recent_outcomes, recent_rewards, epsilon)
                 progress.update(task, completed=done_steps, stats=stats)
             if cfg.eval_every and done_steps % cfg.eval_every == 0:
-                evaluate_at(done_steps)
+                saver.evaluate_at(done_steps, stop)
             if checkpoint_every and done_steps % checkpoint_every == 0:
-                run.step = done_steps
-                run.elapsed_s += time.perf_counter() - started_at
-                started_at = time.perf_counter()
-                _save_checkpoint(checkpoint_path, config, learner, run)
+                saver.save(done_steps)
             if stop.requested:  # Ctrl-C: this step is whole, save it and stop
-                raise interrupted(done_steps)
+                raise saver.interrupted(done_steps)
         progress.update(task, completed=cfg.total_steps)
 
     # --- the result: the best evaluated network (or the last), its metrics and curves ----------
     run.step = cfg.total_steps
-    run.elapsed_s += time.perf_counter() - started_at
+    run.elapsed_s += clock.lap()
     return _finish(config, env, learner, run, out_dir, checkpoint_path, init_from)
 
 
-def _new_learner(env: InteractiveGameEnv, cfg: AgentConfig) -> _Learner:
+def _epsilon_greedy(
+    q_network: QNetwork,
+    obs: np.ndarray,
+    mask: np.ndarray,
+    epsilon: float,
+    rng: np.random.Generator,
+) -> int:
+    """A random offered act with probability `epsilon`, else the greedy one."""
+    if rng.random() < epsilon:
+        return int(rng.choice(np.flatnonzero(mask)))
+    with torch.inference_mode():
+        q = q_network(torch.from_numpy(obs[None])).numpy()[0]
+    return int(masked_argmax(q, mask))
+
+
+class _Clock:
+    """Wall-clock seconds of this session of training, read in laps."""
+
+    def __init__(self) -> None:
+        self._since = time.perf_counter()
+
+    def peek(self) -> float:
+        """Seconds since the last lap, without starting a new one."""
+        return time.perf_counter() - self._since
+
+    def lap(self) -> float:
+        """Seconds since the last lap; a new lap starts."""
+        now = time.perf_counter()
+        seconds, self._since = now - self._since, now
+        return seconds
+
+
+@dataclass
+class _Saver:
+    """Where a run is saved, and the evaluations that keep its best policy."""
+
+    path: Path
+    config: OxbotConfig
+    learner: _Learner
+    run: TrainingState
+    clock: _Clock
+
+    def save(self, step: int) -> None:
+        """Write the checkpoint as training stands after `step` experiences."""
+        self.run.step = step
+        self.run.elapsed_s += self.clock.lap()
+        _save_checkpoint(self.path, self.config, self.learner, self.run)
+
+    def interrupted(self, step: int) -> TrainingInterrupted:
+        """Save where training stands after `step` experiences; the error to stop with."""
+        self.save(step)
+        return TrainingInterrupted(
+            f"training interrupted after {step:,} of {self.config.agent.total_steps:,} "
+            f"experiences; saved the checkpoint {self.path}",
+            self.path,
+            step,
+        )
+
+    def evaluate_at(self, step: int, stop: Any) -> None:
+        """The greedy evaluation due after `step` experiences; Ctrl-C stops it at once."""
+        elapsed = self.run.elapsed_s + self.clock.peek()
+        try:
+            with stop.immediately():
+                _evaluate_and_keep_best(
+                    self.config, self.learner.q_network, self.run, step, elapsed
+                )
+        except KeyboardInterrupt:
+            self.run.evaluation_pending = True
+            raise self.interrupted(step) from None
+        self.run.evaluation_pending = False
+
+
+def _new_learner(
+    env: InteractiveGameEnv, cfg: AgentConfig, init_from: DQNPolicy | None = None
+) -> _Learner:
+    """A fresh learner for `env` (its networks from `init_from`'s weights, when given)."""
     rng = np.random.default_rng(cfg.seed)
     torch.manual_seed(cfg.seed)
     board = env.layout.board
@@ -393,13 +432,17 @@ def _new_learner(env: InteractiveGameEnv, cfg: AgentConfig) -> _Learner:
         cfg.hidden_sizes,
         board_features=(board.start, board.stop) if cfg.board_head else None,
     )
-    return _Learner(
+    learner = _Learner(
         q_network=q_network,
         target_network=copy.deepcopy(q_network),
         optimizer=torch.optim.Adam(q_network.parameters(), lr=cfg.learning_rate),
         replay=ReplayBuffer(cfg.replay_size, env.layout.n_features),
         rng=rng,
     )
+    if init_from is not None:
+        learner.q_network.load_state_dict(init_from.q_network.state_dict())
+        learner.target_network.load_state_dict(init_from.q_network.state_dict())
+    return learner
 
 
 def _episode_options(cfg: AgentConfig, rng: np.random.Generator):

@@ -314,8 +314,6 @@ def learn_agent(
     """Fit the person to the recorded dialogues, fine-tune the shipped policy in that
     simulator and measure both (see the module docstring). Nothing is written when `out_dir` is
     None."""
-    from oxbot.dialogue.training import train_agent
-
     config = config if config is not None else LearnAgentConfig()
     dialogues = [d for d in store.dialogues(session_ids) if d["turns"]]
     if len(dialogues) < config.min_dialogues:
@@ -326,48 +324,10 @@ def learn_agent(
     sessions = [d["id"] for d in dialogues]
     base = shipped_agent_config()
     person = fit_person(dialogues, base.dialogue)
-    agent = base.agent
-    fitted = with_overrides(
-        base,
-        {
-            "dialogue": person.dialogue_config(base.dialogue),
-            "agent": {
-                "seed": config.seed,
-                "total_steps": config.steps,
-                "learning_starts": min(agent.learning_starts, config.steps // 2),
-                "epsilon_start": config.epsilon_start,
-                "learning_rate": config.learning_rate,
-                "eval_every": 0,  # measured below, before and after alike
-                "anneal_learning_rate": True,
-            },
-        },
-    )
+    fitted = _fitted_config(base, person, config)
     shipped = load_policy()
     before = measure(shipped, fitted, config.eval_games, config.seed, config.opponent)
-
-    def score(policy: DQNPolicy) -> tuple[float, float, float]:
-        m = measure(policy, fitted, config.select_games, config.seed + 1_000, config.opponent)
-        return m["losses"], m["ill_formed"], m["repeated_questions_per_dialogue"]
-
-    policy, best, pieces = shipped, score(shipped), []
-    current, seconds = shipped, 0.0
-    piece = max(1, config.steps // config.chunks)
-    for k in range(config.chunks):
-        starts = min(fitted.agent.learning_starts, piece // 2)
-        chunk = {"seed": config.seed + k, "total_steps": piece, "learning_starts": starts}
-        chunk_config = with_overrides(fitted, {"agent": chunk})
-        with tempfile.TemporaryDirectory() as work:
-            trained = train_agent(
-                chunk_config,
-                Path(work),
-                resume=False,
-                show_progress=show_progress,
-                init_from=current,
-            )
-        current, seconds = trained.policy, seconds + trained.metrics["wall_clock_s"]
-        pieces.append({"steps": piece * (k + 1), "score": score(current)})
-        if pieces[-1]["score"] < best:
-            policy, best = current, pieces[-1]["score"]
+    policy, best, pieces, seconds = _fine_tune(shipped, fitted, config, show_progress)
     after = measure(policy, fitted, config.eval_games, config.seed, config.opponent)
     worse = [k for k in ("ill_formed", "losses") if after[k] > before[k]]
     if policy is shipped:
@@ -411,3 +371,55 @@ def learn_agent(
             result,
         )
     return result
+
+
+def _fitted_config(base: OxbotConfig, person: PersonModel, config: LearnAgentConfig) -> OxbotConfig:
+    """The shipped training config with the fitted person, and the fine-tune's schedule."""
+    return with_overrides(
+        base,
+        {
+            "dialogue": person.dialogue_config(base.dialogue),
+            "agent": {
+                "seed": config.seed,
+                "total_steps": config.steps,
+                "learning_starts": min(base.agent.learning_starts, config.steps // 2),
+                "epsilon_start": config.epsilon_start,
+                "learning_rate": config.learning_rate,
+                "eval_every": 0,  # measured by `learn_agent`, before and after alike
+                "anneal_learning_rate": True,
+            },
+        },
+    )
+
+
+def _fine_tune(
+    shipped: DQNPolicy, fitted: OxbotConfig, config: LearnAgentConfig, show_progress: bool
+) -> tuple[DQNPolicy, tuple[float, float, float], list[dict[str, Any]], float]:
+    """Fine-tune `shipped` in `config.chunks` pieces, each from the last; the best policy met
+    (the shipped one if no piece beat it), its score, each piece's score, and the seconds."""
+    from oxbot.dialogue.training import train_agent
+
+    def score(policy: DQNPolicy) -> tuple[float, float, float]:
+        m = measure(policy, fitted, config.select_games, config.seed + 1_000, config.opponent)
+        return m["losses"], m["ill_formed"], m["repeated_questions_per_dialogue"]
+
+    policy, best, pieces = shipped, score(shipped), []
+    current, seconds = shipped, 0.0
+    piece = max(1, config.steps // config.chunks)
+    for k in range(config.chunks):
+        starts = min(fitted.agent.learning_starts, piece // 2)
+        chunk = {"seed": config.seed + k, "total_steps": piece, "learning_starts": starts}
+        chunk_config = with_overrides(fitted, {"agent": chunk})
+        with tempfile.TemporaryDirectory() as work:
+            trained = train_agent(
+                chunk_config,
+                Path(work),
+                resume=False,
+                show_progress=show_progress,
+                init_from=current,
+            )
+        current, seconds = trained.policy, seconds + trained.metrics["wall_clock_s"]
+        pieces.append({"steps": piece * (k + 1), "score": score(current)})
+        if pieces[-1]["score"] < best:
+            policy, best = current, pieces[-1]["score"]
+    return policy, best, pieces, seconds

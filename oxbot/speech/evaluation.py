@@ -39,7 +39,16 @@ from pathlib import Path
 
 import numpy as np
 
-from oxbot.dialogue.domain import INVITATION, SILENCE, UNKNOWN, Domain, is_game_move
+from oxbot.dialogue.domain import (
+    ACKNOWLEDGE,
+    INVITATION,
+    SILENCE,
+    UNKNOWN,
+    Domain,
+    accepts_game,
+    is_game_move,
+    refuses_game,
+)
 from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.errors import DataError, SpeechUnavailable
 from oxbot.speech.audio import RATE, add_noise, pcm16
@@ -143,9 +152,9 @@ def intent_of_act(act: str) -> str:
     """
     if act in (UNKNOWN, SILENCE):
         return UNSURE
-    if act.startswith("Confirm(playGame"):
+    if accepts_game(act):
         return "accept"
-    if act.startswith("Reject(playGame"):
+    if refuses_game(act):
         return "decline"
     if is_game_move(act):
         return "move"
@@ -155,7 +164,7 @@ def intent_of_act(act: str) -> str:
             return intent
     if words & _STARTING:
         return "i_start" if words & _THE_PERSON else "who_starts"
-    if act == "Acknowledge":
+    if act == ACKNOWLEDGE:
         return "acknowledge"
     return "other"
 

@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Literal
 
+from oxbot.dialogue.domain import ASK_AGAIN, INVITATION, MOVE_REQUEST, is_game_move
 from oxbot.game.board import EMPTY
 from oxbot.robot.arm import ArmComponent
 from oxbot.robot.bus import Component
@@ -172,14 +173,14 @@ def play(
             if not isinstance(message, DialogueAct) or message.speaker != "sys":
                 continue
             robot.bus.publish(HeadDirection(direction=next(heads)))
-            playing |= message.act == "Request(userGameMove)" or message.act.startswith("GameMove")
-            if message.act in ("Request(playGame)", "Request(repeat)") and not playing:
+            playing |= message.act == MOVE_REQUEST or is_game_move(message.act)
+            if message.act in (INVITATION, ASK_AGAIN) and not playing:
                 if voice is not None and not hearing_failed:
                     for _ in range(bursts):
                         robot.hear(voice)
                 else:
                     robot.say("Yes, let's play.")
-            elif message.act == "Request(userGameMove)":
+            elif message.act == MOVE_REQUEST:
                 fault.armed.set()
                 board = robot.board
                 free = [c for c in prefer if board[c] == EMPTY]

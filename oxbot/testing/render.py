@@ -461,38 +461,8 @@ def random_scene(
     side = float(rng.uniform(*(grid_fraction or style.grid_fraction))) * min(width, height)
     if rotation is None:
         rotation = rng.uniform(-style.max_rotation, style.max_rotation)
-    angle = math.radians(rotation)
     src = _GRID_CORNERS.astype(np.float32)
-    rot = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
-    square = (src - SIZE / 2) / SIZE * side
-    corners = square @ rot.T
-    corners += rng.uniform(-1, 1, corners.shape) * style.perspective * side
-    # Keep the whole grid and a margin for symbols that spill over in view (shrinking the grid
-    # if it would not fit).
-    margin = 0.15 * side
-    fit = min(1.0, *((np.array([width, height]) - 2 * margin) / np.ptp(corners, axis=0)))
-    corners *= fit
-    lo, hi = corners.min(axis=0), corners.max(axis=0)
-    if center is None:
-        cx = rng.uniform(margin - lo[0], max(margin - lo[0], width - margin - hi[0]))
-        cy = rng.uniform(margin - lo[1], max(margin - lo[1], height - margin - hi[1]))
-    else:
-        cx, cy = center[0] * width, center[1] * height
-    # (Random draws for the wider world only where a style asks for it, so that the
-    # older styles render the very photos they always did.)
-    if center is None and style.edge_chance > 0 and rng.uniform() < style.edge_chance:
-        # The grid's outer edge on one side at the frame's edge or just past it.
-        over = rng.uniform(0, style.edge_overrun) * side / SIZE
-        side_k = int(rng.integers(4))
-        if side_k == 0:
-            cx = -lo[0] - over
-        elif side_k == 1:
-            cx = width - 1 - hi[0] + over
-        elif side_k == 2:
-            cy = -lo[1] - over
-        else:
-            cy = height - 1 - hi[1] + over
-    corners += np.array([cx, cy])
+    corners = _placed_corners(rng, style, side, rotation, center)
     homography = cv2.getPerspectiveTransform(src, corners.astype(np.float32))
 
     grid_lines: tuple[Stroke, ...] = ()
@@ -501,19 +471,7 @@ def random_scene(
         drawn = [_grid_line(k, vertical, hand, rng) for vertical in (True, False) for k in (1, 2)]
         grid_lines = tuple(stroke for stroke, _ in drawn)
         positions = (drawn[0][1], drawn[1][1], drawn[2][1], drawn[3][1])
-    # The paper: a sheet larger than the grid, sometimes running out of the photo.
-    if with_paper:
-        grow = rng.uniform(0.5, 1.6, 4)
-        paper_corners = np.array(
-            [
-                [-grow[0], -grow[1]],
-                [SIZE + grow[2], -grow[1]],
-                [SIZE + grow[2], SIZE + grow[3]],
-                [-grow[0], SIZE + grow[3]],
-            ]
-        )
-    else:
-        paper_corners = np.zeros((4, 2))
+    paper_corners = _paper_corners(rng) if with_paper else np.zeros((4, 2))
     # In the order the older styles always drew them, so that they render the same photos;
     # the wider world draws its own after them.
     grid_color = _pick(rng, style.pen_colors)
@@ -555,6 +513,64 @@ def random_scene(
         paper_kind=kind,
         pattern=pattern,
         clutter=_clutter(rng, style.clutter) if style.clutter else (),
+    )
+
+
+def _placed_corners(
+    rng: np.random.Generator,
+    style: RenderStyle,
+    side: float,
+    rotation: float,
+    center: tuple[float, float] | None,
+) -> np.ndarray:
+    """Where the grid's four outer corners lie in the photo (pixels): a square of `side`
+    turned by `rotation` degrees, in the style's perspective, at `center` (shares of the
+    photo's width and height) or anywhere the whole grid fits."""
+    width, height = style.size
+    angle = math.radians(rotation)
+    src = _GRID_CORNERS.astype(np.float32)
+    rot = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+    square = (src - SIZE / 2) / SIZE * side
+    corners = square @ rot.T
+    corners += rng.uniform(-1, 1, corners.shape) * style.perspective * side
+    # Keep the whole grid and a margin for symbols that spill over in view (shrinking the grid
+    # if it would not fit).
+    margin = 0.15 * side
+    fit = min(1.0, *((np.array([width, height]) - 2 * margin) / np.ptp(corners, axis=0)))
+    corners *= fit
+    lo, hi = corners.min(axis=0), corners.max(axis=0)
+    if center is None:
+        cx = rng.uniform(margin - lo[0], max(margin - lo[0], width - margin - hi[0]))
+        cy = rng.uniform(margin - lo[1], max(margin - lo[1], height - margin - hi[1]))
+    else:
+        cx, cy = center[0] * width, center[1] * height
+    # (Random draws for the wider world only where a style asks for it, so that the
+    # older styles render the very photos they always did.)
+    if center is None and style.edge_chance > 0 and rng.uniform() < style.edge_chance:
+        # The grid's outer edge on one side at the frame's edge or just past it.
+        over = rng.uniform(0, style.edge_overrun) * side / SIZE
+        side_k = int(rng.integers(4))
+        if side_k == 0:
+            cx = -lo[0] - over
+        elif side_k == 1:
+            cx = width - 1 - hi[0] + over
+        elif side_k == 2:
+            cy = -lo[1] - over
+        else:
+            cy = height - 1 - hi[1] + over
+    return corners + np.array([cx, cy])
+
+
+def _paper_corners(rng: np.random.Generator) -> np.ndarray:
+    """The sheet, in cell units: larger than the grid, sometimes running out of the photo."""
+    grow = rng.uniform(0.5, 1.6, 4)
+    return np.array(
+        [
+            [-grow[0], -grow[1]],
+            [SIZE + grow[2], -grow[1]],
+            [SIZE + grow[2], SIZE + grow[3]],
+            [-grow[0], SIZE + grow[3]],
+        ]
     )
 
 
