@@ -21,7 +21,7 @@ from oxbot.perception.sources import ImageFolderSource, load_image
 from oxbot.robot.frames import frame_pixels
 from oxbot.robot.messages import Frame
 from oxbot.testing.hostile import decompression_bomb
-from oxbot.web.server import decode_image
+from oxbot.web.inbound import decode_image
 
 BOMB = decompression_bomb(20_000)
 """48 KB that would decode to 400 million pixels."""

@@ -1,5 +1,4 @@
-"""The web page's side of recording (issue 18): the record toggle's settings and the
-"what I learned" page.
+"""The web page's side of recording: the record toggle's settings and the "what I learned" page.
 
 Routes (added by `add_routes`, beside the game's):
 - `GET /learned`: the page (static/learned.html), which reads

@@ -347,7 +347,7 @@ def test_quiet_and_old_sessions_are_closed_with_a_reason():
 
 
 def test_a_deep_json_message_is_refused_without_parsing_it():
-    from oxbot.web.server import json_depth
+    from oxbot.web.inbound import json_depth
 
     assert json_depth('{"type": "say", "text": "[[[[[[[[[[[[[[[[[[[[["}', 16) <= 16
     assert json_depth(nested_json(100_000), 16) == 100_000
@@ -355,7 +355,7 @@ def test_a_deep_json_message_is_refused_without_parsing_it():
 
 
 def test_error_replies_quote_an_excerpt_of_the_input():
-    from oxbot.web.server import excerpt
+    from oxbot.web.inbound import excerpt
 
     assert excerpt("dance") == "'dance'"
     assert len(excerpt("x" * 4_000_000)) < 80

@@ -1,6 +1,6 @@
 // oxbot's page: the game sheet, the robot's face, the conversation and what the robot sees.
 // Plain JS, no build step. One WebSocket per tab (/ws); the server runs a robot for it and
-// sends every message of the robot's bus; see oxbot/web/server.py for the protocol.
+// sends every message of the robot's bus; see oxbot/web/session.py for the protocol.
 "use strict";
 
 const $ = (id) => document.getElementById(id);
@@ -157,7 +157,7 @@ function send(message) {
 }
 
 function connect() {
-  const query = window.recordingQuery ? window.recordingQuery() : "";   // record.js (issue 18)
+  const query = window.recordingQuery ? window.recordingQuery() : "";   // record.js's toggle
   const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws${query}`);
   state.ws = ws;
   setStatus("Connecting…");
@@ -655,7 +655,7 @@ function showDecision(d) {
   });
 }
 
-// --- paper mode (issue 17): real paper under the browser's camera ---------------------------
+// --- paper mode: real paper under the browser's camera --------------------------------------
 
 // The page streams its camera's frames of the sheet to the robot, which reads them as it reads
 // the canvas (the same game-move component, 3 agreeing readings at 10 Hz). Frames are shrunk

@@ -1,4 +1,4 @@
-// The "what I learned" page (issue 18): fills learned.html from /recording/learned.
+// The "what I learned" page: fills learned.html from /recording/learned.
 "use strict";
 (async () => {
   const data = await (await fetch("/recording/learned")).json();

@@ -1,4 +1,4 @@
-// The record toggle (issue 18): off by default (on with `oxbot play --record`), with a
+// The record toggle: off by default (on with `oxbot play --record`), with a
 // one-line notice of what is kept. It uses app.js's `state` and `send`.
 "use strict";
 (() => {

@@ -1,0 +1,426 @@
+"""One browser tab's game session over the WebSocket `/ws`, and the protocol it speaks.
+
+Each browser tab opens `/ws` (the route is oxbot.web.server's) and gets its own `Robot`
+(oxbot.robot.session): its own bus, components, tracker and dialogue. Everything the robot
+publishes goes to the tab as the bus's JSON (`oxbot.robot.messages.to_json`), in publish
+order, but for the tab's own frames and recordings (`ECHOES`); what the tab sends is checked
+(oxbot.web.inbound) and handed to the robot:
+
+client → server (JSON text messages)::
+
+    {"type": "frame", "image": "data:image/png;base64,..."}   the sheet (canvas), ~10 Hz, or
+                                                               real paper (camera, JPEG)
+    {"type": "paper", "on": true}                              the sheet is real paper under
+                                                               the camera (false: the canvas)
+    {"type": "look", "image": "data:image/jpeg;base64,..."}   a webcam frame, head tracking
+    {"type": "say", "text": "yes let's play"}                  typed answer
+    {"type": "talk", "rate": 16000, "pcm": "<base64 int16>"}   push-to-talk, 16 kHz mono
+    {"type": "listen", "rate": 16000, "pcm": "<base64 int16>"} hands-free: the stream's next
+                                                               piece (at most 1 s; the page
+                                                               sends 0.1 s)
+    {"type": "listen_off"}                                     hands-free ends or pauses
+    {"type": "new_game", "image": "data:..."}                  a fresh sheet and game
+    {"type": "record", "on": true}                             keep the game, to learn from;
+                                                               /ws?record=1 from the start
+
+Paper mode: the page streams its camera's frames of real paper as `frame`s, and the robot
+reads them as the canvas's. `paper` tells the robot, which then says where it plays (it has no
+arm to draw there) and says what to do when the camera cannot show it the board.
+
+Hands-free: the server cuts the stream of `listen` pieces into utterances with the VAD
+(oxbot.speech.vad, `[speech.listening]`) and hands each to the robot exactly as a push-to-talk
+recording. While the robot speaks (SpeakingStarted until `echo_seconds` after
+SpeakingFinished) the stream is not listened to, and `listen_off` drops an utterance under
+way. `listen` pieces after the robot's goodbye are checked, then dropped without an Error (a
+stream cannot stop at the goodbye's instant).
+
+server → client: {"type": "Hello", "data": {...}} first (the session's symbols, the cell
+names and the system acts), then every bus message, and {"type": "Error", "data": {"message",
+"about", "code"}} for anything the server refused (`code` is "game_over" for a drawing
+after the robot's goodbye, else empty). A bad message never closes the socket and never
+reaches another session. The limits are `[web]` in the config (`oxbot config`).
+
+What closes a socket, with a close code and a reason the tab can show:
+
+- 1013 the server already runs `max_sessions` games: try again later (the slot is taken
+  before the first await, so a burst of connections never gets past the limit);
+- 1008 a page from another origin, or a Host that is not this server's (DNS rebinding):
+  see `Origins` (oxbot.web.admission) and `allowed_origins`; a tab sending more than
+  `max_messages_per_second`; a tab that has not read `max_outbox_bytes` of messages;
+- 1001 a tab quiet for `idle_timeout` seconds, or a session older than `max_session_seconds`.
+
+A message's size and JSON depth are checked before it is parsed, and errors quote at most an
+excerpt of it. Closing a session stops its robot's threads.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import itertools
+import json
+import logging
+import threading
+import time
+from typing import Any, Protocol
+
+import numpy as np
+from fastapi import FastAPI, WebSocket
+
+from oxbot.config import ListeningConfig, WebConfig
+from oxbot.errors import InvalidInputError, OxbotError
+from oxbot.robot.listening import HandsFreeListener
+from oxbot.robot.messages import Frame, PersonFrame, RecordingSwitch, SpeechAudio, to_json
+from oxbot.web.inbound import (
+    STREAM_PIECE_SECONDS,
+    MessageRate,
+    check_raw,
+    decode_image,
+    excerpt,
+    pcm_to_wav,
+    stream_piece,
+)
+
+log = logging.getLogger(__name__)
+
+
+class RobotLike(Protocol):
+    """What the server needs of a robot: oxbot.robot.session.Robot's public surface."""
+
+    bus: Any
+    finished: bool
+
+    def start(self) -> Any: ...
+    def stop(self) -> Any: ...
+    def say(self, text: str) -> Any: ...
+    def hear(self, wav: bytes) -> Any: ...
+    def show(self, frame: np.ndarray) -> Any: ...
+    def look(self, frame: np.ndarray) -> Any: ...
+    def paper(self, on: bool) -> Any: ...
+    def new_game(self) -> Any: ...
+
+
+class Session:
+    """One tab's game: its robot, the bridge from the robot's bus to the socket, and the
+    handling of what the tab sends."""
+
+    ids = itertools.count(1)
+
+    def __init__(
+        self, robot: RobotLike, limits: WebConfig, listening: ListeningConfig | None = None
+    ) -> None:
+        self.id = next(self.ids)
+        self.robot = robot
+        self.limits = limits
+        self.listening = listening if listening is not None else ListeningConfig()
+        self.listener: HandsFreeListener | None = None  # made at the first hands-free piece
+        self.outbox: asyncio.Queue[str | None] = asyncio.Queue()
+        self.outbox_bytes = 0  # what waits in the outbox: bounded by limits.max_outbox_bytes
+        self.ended = asyncio.Event()
+        self.end_reason: tuple[int, str] | None = None
+        self._loop = asyncio.get_running_loop()
+        self._subscription = robot.bus.subscribe()
+        self._closing = threading.Event()
+        self._bridge = threading.Thread(
+            target=self._forward, name=f"oxbot-web-session-{self.id}", daemon=True
+        )
+        self.errors = 0
+
+    def start(self) -> None:
+        self._bridge.start()
+        self.robot.start()
+
+    def close(self) -> None:
+        """Stop the robot and the bridge (blocking: run it in a worker thread)."""
+        self._closing.set()
+        try:
+            self.robot.stop()
+        finally:
+            self._subscription.close()
+            if self.listener is not None:
+                self.listener.close()
+            self._bridge.join(2.0)
+
+    def end(self, code: int, reason: str) -> None:
+        """Ask for the session to end, closing the socket with `code` and `reason` (the first
+        reason given wins). Call it on the event loop."""
+        if self.end_reason is None:
+            self.end_reason = (code, reason)
+            self.ended.set()
+
+    def _forward(self) -> None:
+        """Bus → socket, in publish order (runs in its own thread)."""
+        while not self._closing.is_set():
+            message = self._subscription.get(timeout=0.1)
+            if message is None or isinstance(message, ECHOES):
+                continue
+            try:
+                text = to_json(message)
+            except (TypeError, ValueError) as exc:  # a message the page cannot take
+                log.warning("session %d: cannot send a %s: %s", self.id, type(message), exc)
+                continue
+            with contextlib.suppress(RuntimeError):  # the loop closed: the server is stopping
+                self._loop.call_soon_threadsafe(self.deliver, text)
+
+    def deliver(self, text: str) -> None:
+        """Queue `text` for the tab; a tab that has not read `max_outbox_bytes` of them ends
+        its session, so that they never pile up in memory. Call it on the event loop."""
+        if self.end_reason is not None:
+            return
+        # one message alone always fits: the limit is on what piles up behind it
+        if self.outbox_bytes and self.outbox_bytes + len(text) > self.limits.max_outbox_bytes:
+            self.end(
+                1008,
+                f"closed: the tab read none of the last {self.outbox.qsize()} messages "
+                "(web.max_outbox_bytes)",
+            )
+            return
+        self.outbox_bytes += len(text)
+        self.outbox.put_nowait(text)
+
+    def error(self, message: str, about: str = "", code: str = "") -> None:
+        self.errors += 1
+        if len(message) > MAX_ERROR_CHARS:  # a backstop: messages quote excerpts only
+            message = message[:MAX_ERROR_CHARS] + "…"
+        self.deliver(error_text(message, about, code))
+
+    def handle(self, text: str) -> None:
+        """Act on one message from the tab; an InvalidInputError says what was wrong."""
+        self.dispatch(self.parse(text))
+
+    def parse(self, text: str) -> dict:
+        """The message in `text`, checked for size and depth before it is parsed."""
+        check_raw(text, self.limits)
+        try:
+            message = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise InvalidInputError(f"message is not JSON ({exc})") from None
+        if not isinstance(message, dict) or not isinstance(message.get("type"), str):
+            raise InvalidInputError('a message is a JSON object with a "type" string')
+        return message
+
+    def dispatch(self, message: dict) -> None:
+        """Hand a parsed message to its handler."""
+        kind = message["type"]
+        handler = getattr(self, f"_on_{kind}", None) if kind in CLIENT_TYPES else None
+        if handler is None:
+            raise InvalidInputError(
+                f"unknown message type {excerpt(kind)}; known: {', '.join(CLIENT_TYPES)}"
+            )
+        if kind in GAME_TYPES and self.robot.finished:
+            raise GameOver(
+                f"the game is over (the robot said goodbye), so {kind!r} is refused; "
+                'send {"type": "new_game"} to play again'
+            )
+        handler(message)
+
+    def _on_frame(self, message: dict) -> None:
+        self.robot.show(decode_image(message.get("image"), self.limits))
+
+    def _on_look(self, message: dict) -> None:
+        self.robot.look(decode_image(message.get("image"), self.limits))
+
+    def _on_say(self, message: dict) -> None:
+        text = message.get("text")
+        if not isinstance(text, str) or not text.strip():
+            raise InvalidInputError("'text' must be a non-empty string")
+        if len(text) > self.limits.max_text_chars:
+            raise InvalidInputError(
+                f"'text' has {len(text)} characters; at most {self.limits.max_text_chars}"
+            )
+        self.robot.say(text.strip())
+
+    def _on_talk(self, message: dict) -> None:
+        self.robot.hear(pcm_to_wav(message.get("pcm"), message.get("rate"), self.limits))
+
+    def _on_listen(self, message: dict) -> None:
+        samples = stream_piece(message.get("pcm"), message.get("rate"), self.limits)
+        if self.listener is None:
+            self.listener = HandsFreeListener(self.robot, self.listening)  # loads the VAD
+        if self.robot.finished:  # the goodbye: nothing more to hear until a new game
+            self.listener.stop_listening()
+            return
+        self.listener.feed(samples)
+
+    def _on_paper(self, message: dict) -> None:
+        on = message.get("on")
+        if not isinstance(on, bool):
+            raise InvalidInputError("'on' must be true (real paper) or false (the canvas)")
+        self.robot.paper(on)
+
+    def _on_listen_off(self, message: dict) -> None:
+        if self.listener is not None:
+            self.listener.stop_listening()
+
+    def _on_record(self, message: dict) -> None:
+        """The page's record toggle: keep this game from now on, to learn from, or stop."""
+        on = message.get("on")
+        if not isinstance(on, bool):
+            raise InvalidInputError("'on' must be true or false")
+        self.robot.bus.publish(RecordingSwitch(on=on))
+
+    def _on_new_game(self, message: dict) -> None:
+        image = message.get("image")
+        frame = decode_image(image, self.limits) if image is not None else None
+        self.robot.new_game()  # forgets the old sheet
+        if frame is not None:
+            # the fresh sheet; should the robot forget it too (it handles NewGame in its own
+            # thread), the page sends it again when the NewGame message comes back
+            self.robot.show(frame)
+
+
+class GameOver(InvalidInputError):
+    """A game message after the robot's goodbye."""
+
+    code = "game_over"
+
+
+CLIENT_TYPES = (
+    "frame",
+    "look",
+    "say",
+    "talk",
+    "listen",
+    "listen_off",
+    "new_game",
+    "paper",
+    "record",
+)
+"""The message types a tab may send."""
+GAME_TYPES = ("frame",)
+"""The ones refused once the robot has said goodbye (until a new game). Words still reach the
+robot, which listens for "new game", "again!" after its goodbye."""
+OFF_LOOP_TYPES = ("listen", "listen_off")
+"""The ones handled off the event loop: the VAD (loaded at the first piece) runs on each."""
+ECHOES = (Frame, PersonFrame, SpeechAudio)
+"""What the tab itself sent, as the robot's bus carries it: not sent back (a sheet frame is
+megabytes of raw pixels as JSON)."""
+MAX_ERROR_CHARS = 400
+"""The longest Error message sent to a tab."""
+
+
+def hello(session: Session, app: FastAPI) -> dict:
+    """The Hello message's data for `session`: its symbols, the cell names, the system acts, and
+    the settings the page needs (from `app.state`, set by oxbot.web.server.create_app)."""
+    from oxbot.dialogue.domain import GAME_MOVES, MOVE_REQUEST, PROBLEM, SYSTEM_ACTS
+    from oxbot.game.board import CELL_NAMES, ROBOT, SIZE, USER, symbol_of
+
+    starts = app.state.robot_starts
+    return {
+        "session": session.id,
+        "robot_starts": starts,
+        "user_symbol": symbol_of(USER, starts),
+        "robot_symbol": symbol_of(ROBOT, starts),
+        "size": SIZE,
+        "cells": list(CELL_NAMES),
+        "acts": list(SYSTEM_ACTS),
+        "game_moves": list(GAME_MOVES),
+        "act_names": {"move_request": MOVE_REQUEST, "problem": PROBLEM},
+        "stable_readings": app.state.stable_readings,
+        "speed_factor": app.state.speed_factor,
+        "audio_rate": session.limits.audio_rate,
+        "pre_roll_seconds": session.listening.pre_roll_seconds,
+        "stream_piece_seconds": STREAM_PIECE_SECONDS,
+        "tls_fingerprint": app.state.fingerprint,
+    }
+
+
+def error_text(message: str, about: str = "", code: str = "") -> str:
+    """An Error message as the tab receives it (JSON text)."""
+    return json.dumps({"type": "Error", "data": {"message": message, "about": about, "code": code}})
+
+
+async def _send_all(websocket: WebSocket, session: Session) -> None:
+    """Outbox → socket, until the session ends."""
+    try:
+        while True:
+            text = await session.outbox.get()
+            if text is None:
+                return
+            session.outbox_bytes -= len(text)
+            await websocket.send_text(text)
+    except Exception as exc:  # the tab went away; the receiver sees it and ends the session
+        log.debug("session %d: sending stopped: %r", session.id, exc)
+
+
+async def _receive_all(websocket: WebSocket, session: Session) -> None:
+    """Socket → robot, until the tab closes, goes quiet or floods. Bad messages get an Error
+    on this socket."""
+    limits = session.limits
+    rate = MessageRate(limits.max_messages_per_second)
+    while True:
+        try:
+            event = await asyncio.wait_for(websocket.receive(), limits.idle_timeout)
+        except TimeoutError:
+            session.end(
+                1001,
+                f"closed after {limits.idle_timeout:g} s without a message (web.idle_timeout)",
+            )
+            return
+        if event["type"] == "websocket.disconnect":
+            return
+        if not rate.allow():
+            session.end(
+                1008,
+                f"closed: more than {limits.max_messages_per_second:g} messages a second "
+                "(web.max_messages_per_second)",
+            )
+            return
+        text = event.get("text")
+        if text is None:
+            session.error(
+                "binary messages are not part of the protocol; send JSON text "
+                '(images as base64 data URLs, audio as {"type": "talk", ...})',
+                about="binary",
+            )
+            continue
+        started = time.perf_counter()
+        kind = ""
+        try:
+            if len(text) > HEAVY_CHARS:  # parsing and decoding an image: off the event loop
+                message = await asyncio.to_thread(session.parse, text)
+            else:
+                message = session.parse(text)
+            kind = message["type"] if message["type"] in CLIENT_TYPES else ""
+            if len(text) > HEAVY_CHARS or kind in OFF_LOOP_TYPES:
+                await asyncio.to_thread(session.dispatch, message)
+            else:
+                session.dispatch(message)
+        except OxbotError as exc:
+            session.error(str(exc), about=kind, code=getattr(exc, "code", ""))
+        except Exception as exc:  # a robot bug must not end the tab's game or another's
+            log.exception("session %d: message failed", session.id)
+            session.error(f"the server failed on this message: {type(exc).__name__}: {exc}")
+        log.debug(
+            "session %d handled in %.1f ms", session.id, 1e3 * (time.perf_counter() - started)
+        )
+
+
+HEAVY_CHARS = 20_000
+"""Messages longer than this (a sheet image) are parsed and handled off the event loop."""
+
+
+async def run_session(websocket: WebSocket, session: Session) -> tuple[int, str]:
+    """Receive from and send to the tab until either side ends the session; the close code
+    and reason the server ends it with, or (0, "") if the tab went away."""
+    limits = session.limits
+    tasks = {
+        asyncio.create_task(_send_all(websocket, session)),
+        asyncio.create_task(_receive_all(websocket, session)),
+        asyncio.create_task(session.ended.wait()),
+    }
+    try:
+        done, _ = await asyncio.wait(
+            tasks, timeout=limits.max_session_seconds, return_when=asyncio.FIRST_COMPLETED
+        )
+    finally:
+        for task in tasks:
+            task.cancel()
+        await asyncio.gather(*tasks, return_exceptions=True)
+    if not done:
+        session.end(
+            1001,
+            f"closed after {limits.max_session_seconds:g} s (web.max_session_seconds); "
+            "reload the page to play again",
+        )
+    return session.end_reason or (0, "")
