@@ -9,7 +9,8 @@ from oxbot.cli import app
 from oxbot.config import OxbotConfig
 from oxbot.dialogue.domain import load_domain
 from oxbot.errors import ConfigError
-from oxbot.reproduce import MARKER, PAPER_FIGURES, Budgets, _ratio, reproduce
+from oxbot.reproduce import MARKER, PAPER_FIGURES, Budgets, reproduce
+from oxbot.reproduce.cells import _ratio
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -27,7 +28,7 @@ def table_rows(markdown: str) -> list[list[str]]:
 def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path: Path, monkeypatch):
     # the report's every cell and plot, not its figures: budgets smaller still than --quick's
     budgets = Budgets(1_000, 2_000, 1_000, 20, 50)
-    monkeypatch.setattr("oxbot.reproduce.QUICK", budgets)
+    monkeypatch.setattr("oxbot.reproduce.budgets.QUICK", budgets)
     out, work = tmp_path / "reports", tmp_path / "work"
     result = CliRunner().invoke(
         app, ["reproduce", "--quick", "--out", str(out), "--work", str(work), "--quiet"]
