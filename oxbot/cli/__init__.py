@@ -675,7 +675,7 @@ app.add_typer(train_app, name="train")
 app.add_typer(evaluate_app, name="evaluate")
 
 # --- learning from recorded games (issue 18) ---
-from oxbot.recording.cli import data_app, learn_app  # noqa: E402
+from oxbot.cli.data import data_app, learn_app  # noqa: E402
 
 app.add_typer(data_app, name="data")
 app.add_typer(learn_app, name="learn")
