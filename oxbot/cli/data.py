@@ -1,4 +1,5 @@
-"""`oxbot data list|show|export|forget` and `oxbot learn perceiver|agent` (issue 18)."""
+"""`oxbot data list|show|export|forget` and `oxbot learn perceiver|agent`: the commands over the
+recorded games (oxbot.recording) and what is learned from them."""
 
 from __future__ import annotations
 

@@ -1,0 +1,121 @@
+"""The commands that play noughts and crosses: against the game strategy alone in the terminal
+(`oxbot game`), and with the whole robot on the web page or in the terminal (`oxbot play`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from oxbot.cli.context import config_of, err_console
+from oxbot.config import with_overrides
+
+
+def game(
+    ctx: typer.Context,
+    opponent: Annotated[
+        str | None,
+        typer.Option(help="The robot's strategy: random, blocker or minimax (default: config)."),
+    ] = None,
+    robot_starts: Annotated[
+        bool | None,
+        typer.Option("--robot-starts/--person-starts", help="Who draws first, with circles."),
+    ] = None,
+    seed: Annotated[int | None, typer.Option(help="Seed for the robot's tie-breaking.")] = None,
+) -> None:
+    """Play noughts and crosses in the terminal against the robot's game strategy."""
+    import numpy as np
+
+    from oxbot.game.opponents import as_robot, make_opponent
+    from oxbot.game.terminal import TerminalGame
+
+    cfg = config_of(ctx).game
+    rng = np.random.default_rng(seed)
+    robot = as_robot(make_opponent(opponent or cfg.opponent, rng))
+    starts = cfg.robot_starts if robot_starts is None else robot_starts
+    TerminalGame(robot, robot_starts=starts).play_session()
+
+
+def play(
+    ctx: typer.Context,
+    terminal: Annotated[
+        bool, typer.Option("--terminal", help="Play in this terminal instead of the web page.")
+    ] = False,
+    camera: Annotated[
+        str | None,
+        typer.Option(help="Watch real paper: a camera index (0), a video or an image folder."),
+    ] = None,
+    robot_starts: Annotated[
+        bool | None,
+        typer.Option("--robot-starts/--person-starts", help="Who draws first (default: config)."),
+    ] = None,
+    mute: Annotated[bool, typer.Option("--mute", help="Print the robot's words only.")] = False,
+    host: Annotated[
+        str | None, typer.Option(help="Web page: the address to listen on (default: config).")
+    ] = None,
+    port: Annotated[
+        int | None, typer.Option(help="Web page: the port to listen on (default: config).")
+    ] = None,
+    speed: Annotated[
+        float | None,
+        typer.Option(help="Run speech, the arm and the waits this much faster (default: 1)."),
+    ] = None,
+    https: Annotated[
+        bool | None,
+        typer.Option(
+            "--https/--http",
+            help="Web page: HTTPS with a self-signed certificate, so that a phone's browser "
+            "lends the page its camera (default: HTTPS when --host is not a loopback address).",
+        ),
+    ] = None,
+    record: Annotated[
+        bool, typer.Option("--record", help="Keep what the robot saw and heard (oxbot data).")
+    ] = False,
+    record_audio: Annotated[
+        bool, typer.Option("--record-audio", help="With --record: keep the recordings too.")
+    ] = False,
+    data_dir: Annotated[
+        Path | None, typer.Option(help="Folder of the recordings (default: user data folder).")
+    ] = None,
+) -> None:
+    """Play with the whole robot: the web page at http(s)://HOST:PORT, or --terminal."""
+    changes = {
+        "game": {"robot_starts": robot_starts},
+        "robot": {"speed_factor": speed},
+        "web": {"host": host, "port": port, "https": {True: "on", False: "off"}.get(https)},
+    }
+    config = with_overrides(
+        config_of(ctx),
+        {
+            section: {k: v for k, v in values.items() if v is not None}
+            for section, values in changes.items()
+        },
+    )
+    if terminal:
+        from oxbot.perception.sources import open_source
+        from oxbot.robot.session import Robot
+        from oxbot.robot.terminal import Speakers, TerminalRobot
+
+        source = open_source(camera) if camera is not None else None
+        joining = []
+        if record:  # opt-in, and the person is told what is kept
+            from oxbot.recording import RecordingStore, notice
+            from oxbot.recording.recorder import joining as recorder
+
+            store = RecordingStore(data_dir)
+            err_console.print(notice(store, record_audio), highlight=False)
+            joining.append(recorder(store, "terminal", keep_audio=record_audio))
+        robot = Robot(config, sheet_camera=source, joining=joining)
+        TerminalRobot(robot, speakers=Speakers(not mute)).run()
+        return
+    from oxbot.web.server import serve
+
+    serve(
+        config,
+        announce=typer.echo,
+        record=record,
+        data_dir=data_dir,
+        record_audio=record_audio,
+    )
