@@ -32,7 +32,8 @@ from oxbot.game.board import N_CELLS
 from oxbot.perception.board import BoardReader, cut_board
 from oxbot.perception.cells import CELL_SIZE
 from oxbot.perception.classifier import load_classifier
-from oxbot.perception.grid import as_image, find_grid
+from oxbot.perception.frame import as_image
+from oxbot.perception.grid import find_grid
 from oxbot.testing.render import STYLES, TUNING_VARIANTS, render_photo
 
 

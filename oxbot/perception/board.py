@@ -36,7 +36,8 @@ from oxbot.perception.cells import (
     wipe_background,
 )
 from oxbot.perception.classifier import CellReading, ink_share
-from oxbot.perception.grid import Grid, as_image, find_grid
+from oxbot.perception.frame import as_image
+from oxbot.perception.grid import Grid, find_grid
 from oxbot.perception.rectify import rectify
 from oxbot.perception.seeds import write_png
 from oxbot.perception.wholeness import veto_partial

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from oxbot.perception.grid import as_gray
+from oxbot.perception.frame import as_gray
 
 GuidanceKind = str
 """One of KINDS."""

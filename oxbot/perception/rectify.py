@@ -15,7 +15,8 @@ import numpy as np
 
 from oxbot.game.board import SIZE
 from oxbot.perception.cells import SHEET_CELL
-from oxbot.perception.grid import Grid, darkest_channel
+from oxbot.perception.frame import darkest_channel
+from oxbot.perception.grid import Grid
 
 
 def rectify(image: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int = 0) -> np.ndarray:

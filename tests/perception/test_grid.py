@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from oxbot.errors import InvalidInputError, NoGridFound
-from oxbot.perception.grid import _order, as_gray, find_grid
+from oxbot.perception.grid import as_gray, find_grid
+from oxbot.perception.lines import _order
 from oxbot.testing.render import (
     TUNING_STYLE,
     TUNING_VARIANTS,
