@@ -47,6 +47,10 @@ OUT_OF_VIEW = "unseen"
 edge): nothing can be said of it. `BoardReading.labels` has "nothing" there, as for a cell
 under a hand: the move tracker ignores a symbol that is not seen."""
 
+SHEET_RING = SHEET_CELL // 2
+"""oxbot: width, in sheet pixels, of the ring around the grid that the sheet is rectified with,
+so that a symbol sticking out of an outer cell is cut whole."""
+
 SINGLE_STROKE = 15.0
 """oxbot: ink whose spread along its main axis is this many times its spread across it is one
 stroke — half a cross, a stray line — not yet a symbol. In 150 tuning renders of each, whole
@@ -93,7 +97,7 @@ def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarr
     """
     image = as_image(frame)
     grid = find_grid(image)
-    border = SHEET_CELL // 2
+    border = SHEET_RING
     sheet = rectify(image, grid, border=border)
     cleaned = remove_grid_lines(sheet, border=border)
     painted = cleaned != sheet

@@ -62,7 +62,7 @@ def rectify(image: np.ndarray, grid: Grid, cell: int = SHEET_CELL, border: int =
                 flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                 borderMode=cv2.BORDER_REPLICATE,
             )
-    return even_out_light(sheet)
+    return even_out_light(sheet, cell)
 
 
 def ink_gray(image: np.ndarray, grid: Grid) -> np.ndarray:
@@ -103,9 +103,10 @@ def _ring(q: np.ndarray, share: float) -> np.ndarray:
     return out
 
 
-def even_out_light(sheet: np.ndarray) -> np.ndarray:
-    """Divide out the paper's uneven light: paper near 245, ink keeps its contrast."""
-    kernel = max(5, (sheet.shape[0] // 12) | 1)
+def even_out_light(sheet: np.ndarray, cell: int = SHEET_CELL) -> np.ndarray:
+    """Divide out the paper's uneven light (changing over a third of a cell of `cell` pixels or
+    more): paper near 245, ink keeps its contrast."""
+    kernel = max(5, (cell // 3) | 1)
     paper = cv2.morphologyEx(sheet, cv2.MORPH_CLOSE, np.ones((kernel, kernel), np.uint8))
     for _ in range(3):  # three box blurs: a Gaussian of sigma kernel/2, at a twentieth the time
         paper = cv2.blur(paper, (kernel, kernel))
