@@ -22,8 +22,8 @@ from collections import Counter, defaultdict
 from pathlib import Path
 
 import numpy as np
+from board_tally import Tally, measure, report
 
-from bench.bench_real_boards import Tally, measure, report
 from oxbot.config import OxbotConfig, load_config
 from oxbot.perception.board import BoardReader, deepen_faint_ink
 from oxbot.perception.cells import wipe_background
