@@ -19,31 +19,26 @@ from __future__ import annotations
 import argparse
 import csv
 from collections import Counter, defaultdict
-from pathlib import Path
 
 import numpy as np
 from board_tally import Tally, measure, report
+from composite_sources import DATA, add_source_options, load_sources, paper_kind
 
 from oxbot.config import OxbotConfig, load_config
 from oxbot.perception.board import BoardReader, deepen_faint_ink
 from oxbot.perception.cells import wipe_background
 from oxbot.testing.composite import HandwritingSource, PaperSource, symbol_cells, write_set
 
-DATA = Path(__file__).resolve().parent / "data" / "composite_boards"
-
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--split", choices=("dev", "test"), default="test")
+    add_source_options(parser)
     parser.add_argument("--photos", type=int, default=200, help="photos to make and read")
-    parser.add_argument("--seed", type=int, default=15)
     parser.add_argument(
         "--cells",
         action="store_true",
         help="read every circle and cross of the part alone in a cell instead of boards",
     )
-    parser.add_argument("--hands", type=Path, default=DATA / "sources" / "handwriting")
-    parser.add_argument("--papers", type=Path, default=DATA / "sources" / "paper")
     parser.add_argument(
         "--set",
         action="append",
@@ -66,9 +61,8 @@ def main() -> None:
     for row in rows:
         one = Tally()  # each photo read once, counted in all and in its kind
         measure(row, out / "images", one, config)
-        kind = row["paper"].split(" ", 1)[0] + (", pencil" if "pencil" in row["ink"] else "")
         tally.add(one)
-        by_kind[kind].add(one)
+        by_kind[paper_kind(row)].add(one)
     print(f"{len(rows)} composed photos, seed {args.seed}, in {out}")
     report(args.split, tally)
     print("\nby paper (and pencil apart):")
@@ -78,20 +72,6 @@ def main() -> None:
             f"NoGridFound {part.no_grid:>3}, empty as empty {part.empty_right}/{part.empty}, "
             f"symbols right {part.symbols_right}/{part.symbols}, sure wrong {part.sure_wrong}"
         )
-
-
-def load_sources(
-    hands: Path, papers: Path, split: str, program: str
-) -> tuple[HandwritingSource, PaperSource]:
-    """The restored handwriting (both parts) and one part's paper photos; SystemExit saying how
-    to restore them when they are missing."""
-    try:
-        return (
-            HandwritingSource.load(hands, DATA / "handwriting_manifest.csv"),
-            PaperSource.load(papers, DATA / "paper_regions.csv", split),
-        )
-    except FileNotFoundError as err:
-        raise SystemExit(f"{program}: {err}") from None
 
 
 def read_cells(

@@ -28,9 +28,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from composite_sources import add_source_options, load_sources, paper_kind
 from rich.progress import track
 
-from bench.bench_composite import DATA, load_sources
 from oxbot.config import OxbotConfig, load_config
 from oxbot.errors import NoGridFound
 from oxbot.game.board import (
@@ -149,16 +149,13 @@ def describe(move: tuple[int, str]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--split", choices=("dev", "test"), default="test")
+    add_source_options(parser)
     parser.add_argument("--games", type=int, default=100)
     parser.add_argument("--frames", type=int, default=5, help="photos per stage of a game")
-    parser.add_argument("--seed", type=int, default=15)
     parser.add_argument(
         "--first", type=int, default=0, help="start at this game (each has its own seed)"
     )
     parser.add_argument("--save", type=Path, help="write the frame each failed game failed on")
-    parser.add_argument("--hands", type=Path, default=DATA / "sources" / "handwriting")
-    parser.add_argument("--papers", type=Path, default=DATA / "sources" / "paper")
     parser.add_argument("--set", action="append", default=[], metavar="SECTION.FIELD=VALUE")
     args = parser.parse_args()
     hands, papers = load_sources(args.hands, args.papers, args.split, "bench_composite_games")
@@ -174,9 +171,8 @@ def main() -> None:
     for game in track(games, description=f"games on the {args.split} part"):
         rng = np.random.default_rng([args.seed, 3 if args.split == "dev" else 4, game])
         one, notes, what, frame = play_game(rng, hands, papers, args.frames, reader, config)
-        kind = notes["paper"].split(" ", 1)[0] + (", pencil" if "pencil" in notes["ink"] else "")
         total.add(one)
-        by_kind[kind].add(one)
+        by_kind[paper_kind(notes)].add(one)
         if what:
             status = "BROKEN " if one.broken else "stalled"
             failures.append(
