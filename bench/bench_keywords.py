@@ -17,25 +17,24 @@ Not a test.
 from __future__ import annotations
 
 import argparse
-import itertools
-import zlib
-from collections import defaultdict
-from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
+from development_answers import (
+    decode_development,
+    grid_rows,
+    joined_counts,
+    keyword_alone,
+    keyword_probabilities,
+    totals,
+)
 
-from oxbot.dialogue.domain import INVITATION, load_domain
+from oxbot.dialogue.domain import load_domain
 from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.speech import keywords as kw
 from oxbot.speech import speech_commands as sc
-from oxbot.speech.audio import pcm16
-from oxbot.speech.evaluation import CONDITIONS, intent_of_act, speech_commands
-from oxbot.speech.recognition import Hypothesis, PocketsphinxRecognizer, user_phrases
+from oxbot.speech.evaluation import CONDITIONS
 
 DATA = Path(__file__).parent / "data"
-WANT = {"accept": "yes", "decline": "no"}
-GRID = ((0.7, 0.8, 0.9, 0.95), (0.3, 0.5, 0.7, 0.9), (0.05, 0.1, 0.2, 0.3))
 
 
 def restore(repo_a: Path | None, repo_b: Path) -> None:
@@ -48,93 +47,6 @@ def restore(repo_a: Path | None, repo_b: Path) -> None:
             "held out:",
             sc.restore(sc.HELD_OUT_MANIFEST, {"A": a, "B": b}, DATA / "speech_commands"),
         )
-
-
-@dataclass(frozen=True)
-class Heard:
-    """One development recording under one condition, as the recogniser heard it alone."""
-
-    condition: str
-    expected: str
-    """"accept" or "decline"."""
-    speaker: str
-    nbest: list[Hypothesis]
-    window: np.ndarray | None
-    """What the keyword model hears (`keywords.short_window`); None when the sound is long."""
-
-
-def decode_development(seed: int = 0) -> list[Heard]:
-    """Every development recording under every condition of `CONDITIONS`, with bench_speech.py's
-    seeds: the recogniser's N-best (the keyword model left out) and the keyword model's window."""
-    recognizer = PocketsphinxRecognizer(user_phrases(load_domain()), keywords=False)
-    heard = []
-    for rec in speech_commands(DATA / "speech_commands_dev"):
-        clean = pcm16(rec.path)
-        for condition in CONDITIONS:
-            key = zlib.crc32(f"{rec.speaker}|{rec.path.name}|{condition.seed_key}".encode())
-            samples = condition.apply(clean, np.random.default_rng([seed, key]))
-            nbest = recognizer.decode(samples)
-            window = kw.short_window(samples)
-            heard.append(Heard(condition.name, rec.expected, rec.speaker, nbest, window))
-    return heard
-
-
-def keyword_probabilities(spotter: kw.KeywordSpotter, heard: list[Heard]) -> list:
-    """The keyword model's [P(yes), P(no), P(other)] for each of `heard`, None where it is not
-    asked (`KeywordSpotter.probabilities`, in one batch)."""
-    asked = [i for i, h in enumerate(heard) if h.window is not None]
-    out: list = [None] * len(heard)
-    for i, p in zip(asked, spotter.classify([heard[i].window for i in asked]), strict=True):
-        out[i] = p
-    return out
-
-
-def joined_counts(
-    classifier: UserActClassifier,
-    heard: list[Heard],
-    probabilities: list,
-    thresholds: tuple[float, float, float] | None,
-) -> dict[str, list[int]]:
-    """[answers, understood, flips, unsure] per condition, the keyword model joined by
-    `second_opinion` at `thresholds` (sure, agree, doubt), or the recogniser alone (None)."""
-    counts: dict[str, list[int]] = defaultdict(lambda: [0, 0, 0, 0])
-    for h, p in zip(heard, probabilities, strict=True):
-        nbest = kw.second_opinion(h.nbest, p, *thresholds) if thresholds is not None else h.nbest
-        got = intent_of_act(classifier.intent_of(nbest, INVITATION).act)
-        c = counts[h.condition]
-        c[0] += 1
-        c[1] += got == h.expected
-        c[2] += {got, h.expected} == {"accept", "decline"}
-        c[3] += got == "unsure"
-    return counts
-
-
-def totals(counts: dict[str, list[int]]) -> tuple[float, int, int]:
-    """Understood, flips and unsure over every condition."""
-    n, right, flips, unsure = np.sum(list(counts.values()), axis=0)
-    return right / n, int(flips), int(unsure)
-
-
-def keyword_alone(heard: list[Heard], probabilities: list) -> tuple[float, int]:
-    """The keyword model alone, its most probable label: the share right and the flips (a yes
-    taken for a no or the reverse)."""
-    said = [kw.LABELS[int(np.argmax(p))] if p is not None else "none" for p in probabilities]
-    wanted = [WANT[h.expected] for h in heard]
-    right = np.mean([s == w for s, w in zip(said, wanted, strict=True)])
-    flips = sum({s, w} == {"yes", "no"} for s, w in zip(said, wanted, strict=True))
-    return float(right), flips
-
-
-def grid_rows(
-    classifier: UserActClassifier, heard: list[Heard], probabilities: list
-) -> list[tuple[tuple[float, int, int], tuple[float, float, float]]]:
-    """Every (sure, agree, doubt) of `GRID` with its totals, fewest flips then most understood
-    first."""
-    rows = [
-        (totals(joined_counts(classifier, heard, probabilities, t)), t)
-        for t in itertools.product(*GRID)
-    ]
-    return sorted(rows, key=lambda r: (r[0][1], -r[0][0]))
 
 
 def main() -> None:

@@ -25,14 +25,14 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-
-from bench.bench_keywords import (
+from development_answers import (
     Heard,
     decode_development,
     grid_rows,
     keyword_alone,
     keyword_probabilities,
 )
+
 from oxbot.dialogue.domain import INVITATION, load_domain
 from oxbot.dialogue.understanding import UserActClassifier, polarity
 from oxbot.speech import keywords as kw
