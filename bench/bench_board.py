@@ -17,14 +17,12 @@ all 9 cells right in ≥ 98% of frames. Not a test.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
-import statistics
-import time
 
 import cv2
 import numpy as np
 import torch
+from timing import per_call_ms
 
 from oxbot.config import load_config
 from oxbot.errors import NoGridFound
@@ -35,20 +33,6 @@ from oxbot.perception.classifier import load_classifier
 from oxbot.perception.frame import as_image
 from oxbot.perception.grid import find_grid
 from oxbot.testing.render import STYLES, TUNING_VARIANTS, render_photo
-
-
-def per_frame_ms(function, frames: list[np.ndarray], repeats: int) -> tuple[float, float]:
-    """Median over `repeats` passes of the time per frame of `function(frame)`, in ms: wall
-    time, and the process's CPU time (which other jobs on a shared machine inflate less)."""
-    wall, cpu = [], []
-    for _ in range(repeats):
-        started, started_cpu = time.perf_counter(), time.process_time()
-        for frame in frames:
-            with contextlib.suppress(NoGridFound):
-                function(frame)
-        wall.append((time.perf_counter() - started) / len(frames) * 1000)
-        cpu.append((time.process_time() - started_cpu) / len(frames) * 1000)
-    return statistics.median(wall), statistics.median(cpu)
 
 
 def main() -> None:
@@ -98,9 +82,9 @@ def main() -> None:
     print(f"no grid found:     {no_grid}")
     print(f"load average:      {' '.join(f'{x:.1f}' for x in os.getloadavg())} (other jobs)")
     for name, function in stages.items():
-        wall, cpu = per_frame_ms(function, frames, args.repeats)
+        wall, cpu = per_call_ms(function, frames, args.repeats, ignore=(NoGridFound,))
         print(f"{name + ':':19s}{wall:6.2f} ms wall, {cpu:6.2f} ms CPU")
-    wall, cpu = per_frame_ms(reader.read, frames, args.repeats)
+    wall, cpu = per_call_ms(reader.read, frames, args.repeats, ignore=(NoGridFound,))
     print(
         f"read_board total:  {wall:6.2f} ms wall, {cpu:6.2f} ms CPU per frame, median of "
         f"{args.repeats} (goal <= 15 ms)"

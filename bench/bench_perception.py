@@ -20,6 +20,7 @@ import time
 
 import numpy as np
 import torch
+from timing import per_call_ms
 
 from oxbot.config import PerceptionConfig
 from oxbot.perception.augment import generate
@@ -65,14 +66,9 @@ def main() -> None:
     rng = np.random.default_rng(0)
     cells = np.stack([draw_cell(LABELS[i % 3], rng) for i in range(9)])
     clf.predict(cells)  # warm up
-    passes = []
-    for _ in range(7):
-        started = time.perf_counter()
-        for _ in range(args.calls):
-            clf.predict(cells)
-        passes.append((time.perf_counter() - started) / args.calls * 1000)
+    per_call, _ = per_call_ms(clf.predict, [cells] * args.calls, 7)
     print(
-        f"classify one frame's 9 cells: {statistics.median(passes):.3f} ms per predict call "
+        f"classify one frame's 9 cells: {per_call:.3f} ms per predict call "
         f"(median of 7 passes of {args.calls}, {args.threads} torch thread(s); goal <= 2 ms)"
     )
 
