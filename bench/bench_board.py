@@ -22,6 +22,7 @@ import os
 import cv2
 import numpy as np
 import torch
+from config_option import add_set_option
 from timing import per_call_ms
 
 from oxbot.config import load_config
@@ -43,13 +44,7 @@ def main() -> None:
     parser.add_argument("--style", choices=sorted(styles), default="held-out")
     parser.add_argument("--seed", type=int, default=2024, help="seed of the rendered photos")
     parser.add_argument("--model", default=None, help="classifier file (default: shipped)")
-    parser.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="SECTION.FIELD=VALUE",
-        help="a config setting, e.g. perception.wholeness=false (issue 15)",
-    )
+    add_set_option(parser, "perception.wholeness=false")
     args = parser.parse_args()
 
     torch.set_num_threads(1)

@@ -28,6 +28,7 @@ import argparse
 from collections import Counter
 
 import numpy as np
+from config_option import add_set_option
 
 from oxbot.config import load_config
 from oxbot.perception.board import BoardReader, deepen_faint_ink
@@ -47,13 +48,7 @@ def main() -> None:
     parser.add_argument("--cells", type=int, default=1400, help="cells of each set")
     parser.add_argument("--seed", type=int, default=15, help="seed of the two generators")
     parser.add_argument("--model", default=None, help="classifier file (default: shipped)")
-    parser.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="SECTION.FIELD=VALUE",
-        help="a config setting, e.g. perception.max_circle_gap=80",
-    )
+    add_set_option(parser, "perception.max_circle_gap=80")
     parser.add_argument(
         "--wiped",
         action="store_true",

@@ -23,6 +23,7 @@ from collections import Counter, defaultdict
 import numpy as np
 from board_tally import Tally, measure, report
 from composite_sources import DATA, add_source_options, load_sources, paper_kind
+from config_option import add_set_option
 
 from oxbot.config import OxbotConfig, load_config
 from oxbot.perception.board import BoardReader, deepen_faint_ink
@@ -39,13 +40,7 @@ def main() -> None:
         action="store_true",
         help="read every circle and cross of the part alone in a cell instead of boards",
     )
-    parser.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="SECTION.FIELD=VALUE",
-        help="a config setting, e.g. perception.plus_is_cross=true",
-    )
+    add_set_option(parser, "perception.plus_is_cross=true")
     args = parser.parse_args()
     hands, papers = load_sources(args.hands, args.papers, args.split, "bench_composite")
     if args.cells:

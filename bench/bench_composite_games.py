@@ -29,6 +29,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 from composite_sources import add_source_options, load_sources, paper_kind
+from config_option import add_set_option
 from rich.progress import track
 
 from oxbot.config import OxbotConfig, load_config
@@ -156,7 +157,7 @@ def main() -> None:
         "--first", type=int, default=0, help="start at this game (each has its own seed)"
     )
     parser.add_argument("--save", type=Path, help="write the frame each failed game failed on")
-    parser.add_argument("--set", action="append", default=[], metavar="SECTION.FIELD=VALUE")
+    add_set_option(parser, "perception.plus_is_cross=true")
     args = parser.parse_args()
     hands, papers = load_sources(args.hands, args.papers, args.split, "bench_composite_games")
     hands = hands.split(args.split)

@@ -27,6 +27,7 @@ from collections import defaultdict
 from pathlib import Path
 
 from board_tally import Tally, measure, report
+from config_option import add_set_option
 
 from oxbot.config import load_config
 
@@ -38,13 +39,7 @@ def main() -> None:
     parser.add_argument("--labels", type=Path, default=DATA / "labels.csv")
     parser.add_argument("--images", type=Path, default=DATA / "images")
     parser.add_argument("--split", choices=("dev", "test"), default=None, help="one split only")
-    parser.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="SECTION.FIELD=VALUE",
-        help="a config setting, e.g. perception.plus_is_cross=true (issue 15)",
-    )
+    add_set_option(parser, "perception.plus_is_cross=true")
     args = parser.parse_args()
     with args.labels.open(newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
