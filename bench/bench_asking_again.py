@@ -1,7 +1,7 @@
 """What asking again would cost: the shipped policy's answers about playing, right and misheard,
 by score, and what its repeated questions are now.
 
-    PYTHONPATH=. .venv/bin/python bench/bench_asking_again.py                 # issue 18's people
+    PYTHONPATH=. .venv/bin/python bench/bench_asking_again.py                 # the population
     PYTHONPATH=. .venv/bin/python bench/bench_asking_again.py --people default --dialogues 2000
 
 The shipped policy talks with simulated people (`--people population`: the ones who decline

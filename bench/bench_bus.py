@@ -1,5 +1,5 @@
 """Message latency and throughput of the bus: in-process (`LocalBus`) against Zenoh on
-loopback, the subscriber in another process (issue 19).
+loopback, the subscriber in another process (as `oxbot robot --launch` runs the robot).
 
     .venv/bin/python bench/bench_bus.py                 # ~30 s
     .venv/bin/python bench/bench_bus.py --messages 5000

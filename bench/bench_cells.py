@@ -1,4 +1,4 @@
-"""Benchmark of the cells that must never be a move (issue 15): half-drawn and wrong shapes,
+"""Benchmark of the cells that must never be a move: half-drawn and wrong shapes,
 and blank cells of used paper, drawn by `oxbot.testing.odd_cells` (not the training
 synthesiser); and what the wholeness check costs whole symbols.
 

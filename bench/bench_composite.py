@@ -1,5 +1,5 @@
 """Benchmark of the board reader on boards composed from real handwriting on real paper photos
-(issue 15's independent test where real board photos are too few; `oxbot.testing.composite`).
+(the independent test, since licensed real board photos are too few; `oxbot.testing.composite`).
 
     PYTHONPATH=. .venv/bin/python bench/bench_composite.py                   # test part, 200
     PYTHONPATH=. .venv/bin/python bench/bench_composite.py --split dev --photos 100

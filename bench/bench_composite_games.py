@@ -1,4 +1,4 @@
-"""Benchmark of the move tracker over whole games on composed sheets: issue 15's acceptance line
+"""Benchmark of the move tracker over whole games on composed sheets, against the acceptance line
 "no board with a misread symbol accepted as a move by the tracker over a sequence of frames".
 
     PYTHONPATH=. .venv/bin/python bench/bench_composite_games.py                 # test part

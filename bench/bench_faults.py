@@ -11,7 +11,7 @@ failing call to the robot's next sentence and to its goodbye, the slowest goodby
 game ended: "played" (to a win, draw or loss) or "said" (the robot said the part stopped
 working). The robot runs 20 times faster than real time (its waits, speech and arm); the
 restart settings (`robot.restart_*`, `robot.hang_*`) are the shipped ones unless `--set`
-changes them. Issue 16 goal: every game goes on or ends in words within 10 s of the fault.
+changes them. The goal: every game goes on or ends in words within 10 s of the fault.
 Not a test.
 """
 

@@ -1,4 +1,4 @@
-"""Benchmark of learning from recorded games (issue 18): a new hand, new people, before and after.
+"""Benchmark of learning from recorded games: a new hand, new people, before and after.
 
     .venv/bin/python bench/bench_learn.py                       # 3 games, 60 later sheets
     .venv/bin/python bench/bench_learn.py --games 3 --sheets 100 --seed 1
@@ -13,7 +13,7 @@ the person in the 2nd), `oxbot learn perceiver` runs on their crops with its def
 later drawings are measured again with the new model; the project's test sets (1,000 generated
 images, the font set) before and after come from the learning's own metrics.
 
-Acceptance (issue 18): the shipped classifier reads the hand below 97%; after 3 games, >= 99.5%
+Acceptance: the shipped classifier reads the hand below 97%; after 3 games, >= 99.5%
 on the later drawings, the other test sets no worse.
 
 `--part agent`: a population of simulated people who decline twice as often (at first and for

@@ -1,6 +1,6 @@
 """How far the two listeners of a short yes or no (pocketsphinx and the keyword model) can go
 together on the DEVELOPMENT set of real people, and how much the keyword model's training data
-limits them: issue 14's line for single words (>= 95% understood, 0 flips).
+limits them, against the goal for single words (>= 95% understood, 0 flips).
 
     PYTHONPATH=. .venv/bin/python bench/bench_listeners.py                          # ~15 min
     PYTHONPATH=. .venv/bin/python bench/bench_listeners.py --repo B.git  # +10 min/share

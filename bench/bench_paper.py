@@ -1,10 +1,10 @@
-"""Benchmark of paper mode (issue 17): from the last stroke of a symbol to the robot's answer.
+"""Benchmark of paper mode: from the last stroke of a symbol to the robot's answer.
 
     .venv/bin/python bench/bench_paper.py               # 2 games in Chromium, 640x480 video
     .venv/bin/python bench/bench_paper.py --games 4 --size 1280x720
     .venv/bin/python bench/bench_paper.py --strokes     # how slow a circle may be drawn
 
-Issue 17's target: ≤ 0.6 s median with 640x480 video. A whole game is played in Debian's
+The target: ≤ 0.6 s median with 640x480 video. A whole game is played in Debian's
 Chromium on a rendered sheet that its fake webcam films (`oxbot.testing.webcam`: symbols drawn
 stroke by stroke; each frame carries its index), against the real server and a real, seeded
 robot. For each of the person's moves:

@@ -15,7 +15,7 @@ Runs `oxbot play` in its own process (real robots, 8x speed) and, from this one:
    messages, and a tab that draws and answers for 30 s but never reads; RSS around it and
    after them all.
 
-Issue 16's acceptance: /health within 1 s during a burst, the game finishes, at most
+The goal: /health within 1 s during a burst, the game finishes, at most
 `max_sessions` robots, and RSS back within 50 MB of its baseline once the connections close.
 Prints medians and maxima; not a test.
 """

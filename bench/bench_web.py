@@ -3,7 +3,7 @@
     .venv/bin/python bench/bench_web.py                    # 6 scripted games, 2 in Chromium
     .venv/bin/python bench/bench_web.py --games 10 --browser-games 0 --concurrent 20
 
-Issue 7's goal: a stroke becomes a move within 0.5 s after it ends — the board is read every
+The goal: a stroke becomes a move within 0.5 s after it ends — the board is read every
 100 ms and a drawing is accepted on its third agreeing reading, so about 0.2-0.3 s plus the
 processing. Starts a real server (real robots) on a free localhost port and measures, from the
 moment the finished sheet leaves the client to the moment the robot's GameMove arrives back:
@@ -139,7 +139,7 @@ def main() -> None:
                 f"{args.concurrent} scripted games at once, in lockstep",
                 asyncio.run(scripted(ws_url, args.concurrent, args.concurrent, 500)),
             )
-    print("  goal (issue 7): <= 500 ms after the stroke ends")
+    print("  goal: <= 500 ms after the stroke ends")
 
 
 if __name__ == "__main__":
