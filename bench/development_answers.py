@@ -47,9 +47,15 @@ class Heard:
 def decode_development(seed: int = 0) -> list[Heard]:
     """Every development recording under every condition of `CONDITIONS`, with bench_speech.py's
     seeds: the recogniser's N-best (the keyword model left out) and the keyword model's window."""
+    recordings = list(speech_commands(DEVELOPMENT))
+    if not recordings:
+        raise SystemExit(
+            f"no development recordings in {DEVELOPMENT}: restore them first "
+            "(bench/README.md, 'Data kept out of the repository')"
+        )
     recognizer = PocketsphinxRecognizer(user_phrases(load_domain()), keywords=False)
     heard = []
-    for rec in speech_commands(DEVELOPMENT):
+    for rec in recordings:
         clean = pcm16(rec.path)
         for condition in CONDITIONS:
             key = zlib.crc32(f"{rec.speaker}|{rec.path.name}|{condition.seed_key}".encode())
