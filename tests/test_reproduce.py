@@ -27,7 +27,7 @@ def table_rows(markdown: str) -> list[list[str]]:
 @pytest.mark.slow
 def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path: Path, monkeypatch):
     # the report's every cell and plot, not its figures: budgets smaller still than --quick's
-    budgets = Budgets(1_000, 2_000, 1_000, 20, 50)
+    budgets = Budgets(1_000, 1_000, 1_000, 10, 20)
     monkeypatch.setattr("oxbot.reproduce.budgets.QUICK", budgets)
     out, work = tmp_path / "reports", tmp_path / "work"
     result = CliRunner().invoke(

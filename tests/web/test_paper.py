@@ -54,6 +54,8 @@ CONFIG = load_config(
 """The person starts (circles): the video's first symbol needs no robot move before it."""
 SEED = 1
 MOVE = "GameMove(gridloc="
+PLAYBACK = 2.0
+"""The fake webcam plays the game's video this many times faster than it was scripted."""
 
 
 def seeded_game() -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -96,10 +98,13 @@ class Game:
 def game_video(tmp_path_factory) -> Game:
     """The whole game as the camera films it: 2.5 s of a sheet without a grid (the robot
     must say what to do), then the grid, and each of the person's circles drawn 3.5 s after
-    the last, stroke by stroke; 640x480, 10 frames a second, about 28 s."""
+    the last, stroke by stroke; 640x480, 10 frames a second, played `PLAYBACK` times as fast
+    (about 16 s): the page still sends a frame every 100 ms, so each drawing is read as often
+    as a slower hand's would be. The sheet without a grid lasts 2.5 s as played, longer than
+    the robot waits before it says what is wrong (`tracker.guidance_seconds`)."""
     person, robot = seeded_game()
     video = PaperVideo(seed=4)
-    video.show("no_grid", 2.5)
+    video.show("no_grid", 2.5 * PLAYBACK)
     video.hold(2.0)
     for k, cell in enumerate(person):
         video.draw(cell, "circle", stroke_seconds=0.8)
@@ -108,7 +113,7 @@ def game_video(tmp_path_factory) -> Game:
             video.draw(robot[0], "cross")
             video.hold(0.5)
     video.hold(3.0)
-    y4m = video.write_y4m(tmp_path_factory.mktemp("paper") / "game.y4m")
+    y4m = video.write_y4m(tmp_path_factory.mktemp("paper") / "game.y4m", speed=PLAYBACK)
     return Game(person, robot, video, y4m)
 
 
