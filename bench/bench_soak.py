@@ -164,7 +164,7 @@ async def burst(url: str, pid: int, connections: int, seed: int) -> dict:
 
 
 async def hostile(url: str, pid: int) -> list[str]:
-    """The issue's probes, one socket each; how each ended."""
+    """The hostile probes, one socket each; how each ended."""
     ws_url = url.replace("http://", "ws://") + "/ws"
     bomb = json.dumps({"type": "frame", "image": data_url(decompression_bomb(20_000))})
     ended = []

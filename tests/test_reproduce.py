@@ -43,7 +43,7 @@ def test_reproduce_quick_writes_a_full_report_with_every_cell_and_plot(tmp_path:
     for row in rows:
         assert all(row), f"empty cell in {row}"
         assert not any(c in ("nan%", "None", "not measuredx") for c in row), row
-    # every row the issue asks for, each against the paper's figure
+    # every row the report must have, each against the paper's figure
     for needle in (
         "same distribution",
         "another hand",

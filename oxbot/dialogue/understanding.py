@@ -64,7 +64,7 @@ MIN_PROBABILITY = 0.4
 cross-validation on the domain's own phrasings (see tests/dialogue/test_understanding.py)."""
 MIN_YES_CONFIDENCE = 0.75
 """A yes heard with a recogniser confidence below this (`intent_of`) is Unknown: a game nobody
-agreed to is worse than asking again. Issue 6's answers to the invitation in the 12 tuning
+agreed to is worse than asking again. The answers to the invitation in the 12 tuning
 voices, clean and at 20 dB (192 recordings, `tests/speech/test_evaluation.py`): 7 no's heard as
 a yes with the floor at 0, 3 at 0.6, 1 at 0.7, none from 0.75; 2 of the 72 yeses then asked
 again. Typed words (confidence 1) are never affected, nor the simulated person (`read`)."""

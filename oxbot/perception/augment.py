@@ -9,7 +9,7 @@ grid lines that grid removal leaves at a cell's border.
     images, labels = generate(load_seeds(), 10_000, np.random.default_rng(0))
     # images: uint8 (10000, 40, 40); labels: int64 (10000,), indices into LABELS
 
-Issue 15 (experimental, `[perception] partial_output`): with `partial=True` blank cells also come
+Experimental (`[perception] partial_output`): with `partial=True` blank cells also come
 on squared, dotted or ruled paper and with erased marks, and a fourth class, "partial" (index 3
 of OUTPUTS), is ink that is not a whole symbol: a seed's circle with a sector cut away, or a
 synthesised arc, stroke, plus or tick. Without it the images are those of SPEC §1's three labels

@@ -1,6 +1,6 @@
 """Listening tests: spoken answers through the real recogniser, scored by the intent understood.
 
-Issue 6's acceptance: "On espeak-ng recordings of the user answers in several voices, with and
+The listening goal: "On espeak-ng recordings of the user answers in several voices, with and
 without 20 dB noise, the recogniser gets the accept/decline intent right in ≥ 95% and decodes
 faster than real time." `listening_test` runs that measurement (and the same for any phrases);
 `bench/bench_speech.py` prints it and `tests/speech/test_evaluation.py` asserts it.

@@ -1,8 +1,8 @@
 """Cells that must never read as a move, drawn independently of the training synthesiser.
 
-Issue 15's acceptance sets. Nothing here imports `oxbot.perception`: the shapes come straight
-from OpenCV's drawing primitives with their own randomness, so that a classifier which learnt
-the synthesiser's quirks cannot pass by recognising them.
+The acceptance sets for such cells. Nothing here imports `oxbot.perception`: the shapes come
+straight from OpenCV's drawing primitives with their own randomness, so that a classifier which
+learnt the synthesiser's quirks cannot pass by recognising them.
 
     partial_cell(kind, rng)  ink that is not a whole symbol: PARTIAL_KINDS
     empty_cell(kind, rng)    a blank cell of a used sheet: EMPTY_KINDS

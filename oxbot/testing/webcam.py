@@ -52,7 +52,7 @@ STYLE = dataclasses.replace(
     ),
 )
 """A tidy sheet under a steady camera: the tuning style of the board reader, upright (the grid
-finder for tilted photos is another issue's), so that every frame of the sheet is readable."""
+finder's own tests cover tilted photos), so that every frame of the sheet is readable."""
 
 BITS = 12
 """Bits of the frame index strip: 4096 frames, 6.8 minutes at 10 frames a second."""

@@ -196,7 +196,7 @@ def test_see_reports_unreadable_photos_and_goes_on(tmp_path):
 
 
 def test_all_9_cells_right_in_most_wide_tuning_photos():
-    """issue 15's wider world (turned up to 40 degrees, strong perspective, squared, ruled and
+    """A wider world (turned up to 40 degrees, strong perspective, squared, ruled and
     dotted paper, whiteboards, coloured markers, pens and hands around, grids at the frame's
     edge): all 9 cells right in nearly all of 40 development photos (39 when measured)."""
     rng = np.random.default_rng(15)

@@ -39,7 +39,7 @@ def test_network_is_the_papers_architecture():
     assert (pool1.kernel_size, pool1.stride, pool2.kernel_size, pool2.stride) == (2, 2, 3, 3)
     assert (net.svm.in_features, net.svm.out_features) == (16 * 6 * 6, 3)
     assert net(torch.zeros(2, 1, 40, 40)).shape == (2, 3)
-    # issue 15's experimental variant: "partial" after the paper's three labels, kept there
+    # the experimental four-output variant: "partial" after the paper's three labels, kept there
     assert SymbolNet(outputs=4)(torch.zeros(2, 1, 40, 40)).shape == (2, 4)
     assert OUTPUTS[:3] == LABELS == ("circle", "cross", "nothing") and OUTPUTS[3] == "partial"
 
@@ -164,7 +164,7 @@ def test_the_shipped_model_has_three_outputs_and_never_reads_partial(shipped):
 
 
 def _four_output_model(seed=3):
-    """An untrained classifier with issue 15's partial output, made to win it always."""
+    """An untrained classifier with the experimental partial output, made to win it always."""
     clf = SymbolClassifier(PerceptionConfig(partial_output=True), seed=seed)
     with torch.no_grad():
         clf.net.svm.bias[3] += 5.0
@@ -227,7 +227,7 @@ def test_model_files_say_how_many_outputs_they_have(tmp_path):
     payload = artifacts.load(shipped_model_path(), "perceiver", 2, "model", "", lambda p: True)
     assert payload["outputs"] == list(LABELS)
     odd = tmp_path / "odd.pt"
-    del payload["outputs"]  # as saved before issue 15: three outputs
+    del payload["outputs"]  # as saved before files named their outputs (three)
     artifacts.save(odd, "perceiver", 2, payload)
     assert load_classifier(odd).outputs == LABELS
     payload["outputs"] = [*LABELS, "smudge"]

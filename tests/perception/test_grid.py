@@ -197,7 +197,7 @@ def same_crossings_any_order(scene: SheetScene, frame: np.ndarray) -> float:
 
 @pytest.mark.parametrize("degrees", [-40, -30, 22, 30, 40])
 def test_finds_the_grid_turned_well_past_15_degrees(degrees):
-    # issue 15: up to 45 degrees. Before, only lines within 27 degrees of the frame's axes
+    # the goal is up to 45 degrees. Before, only lines within 27 degrees of the frame's axes
     # were looked for, and three of these five grids were not found at all.
     rng = np.random.default_rng(200 + degrees)
     scene = random_scene(rng, TUNING_STYLE, rotation=degrees).with_symbol(4, "cross", rng)
@@ -223,7 +223,8 @@ def test_finds_the_grid_under_strong_perspective():
 
 def test_finds_thin_coloured_marker_lines_that_gray_hides():
     # A light blue marker on a grey-white board: in gray its lines are barely darker than the
-    # board; in the red channel they are dark (the real whiteboard photos of issue 15).
+    # board; in the red channel they are dark (the real whiteboard photos of
+    # bench/data/real_boards/).
     style = dataclasses.replace(
         TUNING_STYLE,
         pen_colors=((90, 150, 230),),

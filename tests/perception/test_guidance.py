@@ -1,4 +1,4 @@
-"""What the robot tells a person whose camera cannot show it the board (issue 17): rendered
+"""What the robot tells a person whose camera cannot show it the board: rendered
 webcam frames of a sheet, dark, blurred, under a hand, out of the picture, read by the real
 board reader and diagnosed."""
 

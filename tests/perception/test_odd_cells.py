@@ -1,6 +1,6 @@
-"""Issue 15's acceptance sets on a fixed seed, small: half-drawn and wrong shapes, and blank
-cells of used paper, drawn by `oxbot.testing.odd_cells` (not the training synthesiser).
-bench/bench_cells.py measures the same on 1,400 of each."""
+"""The acceptance sets for cells that are no move, on a fixed seed, small: half-drawn and wrong
+shapes, and blank cells of used paper, drawn by `oxbot.testing.odd_cells` (not the training
+synthesiser). bench/bench_cells.py measures the same on 1,400 of each."""
 
 from collections import Counter
 
@@ -41,7 +41,7 @@ def test_the_generators_are_reproducible_and_dark_on_light():
         partial_cell("square", np.random.default_rng(0))
 
 
-# Issue 15's targets (half-drawn and wrong shapes never a symbol; blanks of used paper nothing).
+# The targets (half-drawn and wrong shapes never a symbol; blanks of used paper nothing).
 # The shipped perceiver has the paper's three outputs and reads every partial shape as a symbol
 # (bench/bench_cells.py, 1,400 of each, seed 15: all 1,400, 1,207 at confidence >= 0.9); the
 # board reader's wholeness check (`oxbot.perception.wholeness`) makes most of them partial (243

@@ -1,4 +1,4 @@
-"""The wholeness check (issue 15): ink that is not a whole circle or cross reads "partial"."""
+"""The wholeness check: ink that is not a whole circle or cross reads "partial"."""
 
 from __future__ import annotations
 

@@ -157,7 +157,7 @@ def test_bad_frames_are_refused_clearly():
 
 
 def test_a_board_unreadable_for_a_while_is_told_once_per_reason_with_the_grid_shown_before():
-    """Issue 17: BoardSeen carries the grid and the guidance at once; after `guidance_seconds`
+    """BoardSeen carries the grid and the guidance at once; after `guidance_seconds`
     of refused frames one BoardProblem per kind, and again only after the board was read."""
     from oxbot.testing.webcam import PaperVideo
 

@@ -1,4 +1,4 @@
-"""The whole robot, headless, against a scripted person who speaks and draws (issue 6).
+"""The whole robot, headless, against a scripted person who speaks and draws.
 
 The person's answers are espeak-ng recordings fed through the real recogniser; their crosses
 are drawn stroke by stroke on a rendered photo of a sheet, which a "camera" thread shows the

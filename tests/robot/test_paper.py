@@ -1,4 +1,4 @@
-"""The robot on real paper (issue 17): it says where it plays, and what to do when its camera
+"""The robot on real paper: it says where it plays, and what to do when its camera
 cannot show it the board, only while it waits for the person's drawing (real components)."""
 
 import time

@@ -1,4 +1,4 @@
-"""Every component of the robot failing mid-game: the game goes on or ends in words (issue 16).
+"""Every component of the robot failing mid-game: the game goes on or ends in words.
 
 Each real component (the shipped policy, recogniser, voice, ...) is broken by a fault injected
 into one of its methods once the game is under way (`oxbot.testing.faults`): it raises once,

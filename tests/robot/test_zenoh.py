@@ -1,4 +1,4 @@
-"""The robot across processes on Zenoh (issue 19): real sessions over loopback, real component
+"""The robot across processes on Zenoh: real sessions over loopback, real component
 processes, multicast scouting off and a fresh robot name and port per test."""
 
 from __future__ import annotations

@@ -13,8 +13,8 @@ from oxbot.speech.evaluation import (
 
 
 def test_accept_decline_intent_in_twelve_voices_clean_and_at_20_db():
-    """Issue 6's answers to the invitation: never a yes heard for a no or the reverse, most
-    understood, decoded faster than real time. Issue 6 asked 95% of the grammar of its 16
+    """The answers to the invitation: never a yes heard for a no or the reverse, most
+    understood, decoded faster than real time. The first goal asked 95% of a grammar of 16
     phrases (97%); the recogniser of ~600 phrasings hears 97% clean and 85% at 20 dB, the rest
     unsure (asked again), and far more of what it never saw (docs/robot.md)."""
     domain = load_domain()

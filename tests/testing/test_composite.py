@@ -1,4 +1,4 @@
-"""The composer of issue 15's independent board photos, on sources made here: it writes what
+"""The composer of the independent test's board photos, on sources made here: it writes what
 bench_real_boards.py reads, its two parts share no drawing and no paper photo, a seed gives the
 same photos, and what it labels is what the board reader sees on a clean, easy sheet."""
 

@@ -1,4 +1,4 @@
-"""The fake webcam's video maker (issue 17): symbols stroke by stroke, frame indices, Y4M."""
+"""The fake webcam's video maker: symbols stroke by stroke, frame indices, Y4M."""
 
 import cv2
 import numpy as np

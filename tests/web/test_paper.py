@@ -1,4 +1,4 @@
-"""Paper mode in Debian's Chromium (issue 17): a whole game played on a rendered sheet that
+"""Paper mode in Debian's Chromium: a whole game played on a rendered sheet that
 Chromium's fake webcam films, symbols appearing stroke by stroke, with the robot's moves
 virtual on the video; the camera's troubles each told once, the game going on on the canvas;
 the page over HTTPS on this machine's network address, its certificate accepted.

@@ -1,4 +1,4 @@
-"""Recording through the real page (issue 18): the toggle, off by default, a whole game kept
+"""Recording through the real page: the toggle, off by default, a whole game kept
 by the real server and robot in Debian's Chromium, then `oxbot learn perceiver` on it and the
 "what I learned" page."""
 

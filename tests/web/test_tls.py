@@ -1,4 +1,4 @@
-"""`oxbot play --https`'s certificate (issue 17): made once, reused, renewed for a new address."""
+"""`oxbot play --https`'s certificate: made once, reused, renewed for a new address."""
 
 import hashlib
 import stat
