@@ -198,6 +198,7 @@ def summary(results: dict[str, list[Trial]], conditions: Sequence[Condition]) ->
             f"flips {sum(t.flip for t in answers)}, unsure {sum(t.unsure for t in answers)}; "
             f"other intents {f'{accuracy(rest):.1%}' if rest else '-'} of {len(rest)}; "
             f"RTF median {median_real_time_factor(trials):.3f}, "
+            f"max {max(t.real_time_factor for t in trials):.3f}, "
             f"total {decoding:.1f} s / {audio:.1f} s audio"
         )
 

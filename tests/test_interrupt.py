@@ -115,7 +115,7 @@ def test_ctrl_c_while_training_the_agent_saves_and_the_printed_command_resumes(t
 
 
 def test_ctrl_c_while_training_the_perceiver_saves_and_the_printed_command_resumes(tmp_path):
-    args = ["--set", "perception.epochs=3", "--set", "perception.test_images=100"]
+    args = ["--set", "perception.epochs=1", "--set", "perception.test_images=100"]
     args += ["train", "perceiver", "--images", "1500", "--out", "p/perceiver.pt", "--quiet"]
     line, _ = _interrupt(args, tmp_path, "training on 1000 images")
 
@@ -125,7 +125,7 @@ def test_ctrl_c_while_training_the_perceiver_saves_and_the_printed_command_resum
     assert done in ([100, 300], [100, 300, 1000])  # SIGINT came during the third fit, or after
     assert line.startswith(f"training interrupted after {len(done)} of 4 fits")
     assert line.endswith(
-        "resume with: oxbot --set perception.epochs=3 --set perception.test_images=100 "
+        "resume with: oxbot --set perception.epochs=1 --set perception.test_images=100 "
         "train perceiver --out p/perceiver.pt --images 1500 --resume"
     )
     assert not (tmp_path / "p" / "perceiver.pt").exists()
