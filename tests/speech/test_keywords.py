@@ -16,7 +16,8 @@ from oxbot.speech.keywords import (
     shipped_keyword_spotter,
     train_keywords,
 )
-from oxbot.speech.recognition import Hypothesis, default_recognizer
+from oxbot.speech.nbest import Hypothesis
+from oxbot.speech.recognition import shipped_recognizer
 from oxbot.speech.speech_commands import split_of
 
 YES, NO, OTHER = (LABELS.index(label) for label in ("yes", "no", "other"))
@@ -70,7 +71,7 @@ def test_long_answers_get_no_keyword_opinion(spotter):
 
 
 def test_a_short_yes_becomes_an_accept_through_the_real_recogniser(classifier):
-    recognizer = default_recognizer()
+    recognizer = shipped_recognizer("pocketsphinx")
     listening = recognizer.listen(pcm16(synthesize("yes", Voice("en-us+m3"))))
     assert listening is not None and listening.keywords is not None
     assert listening.keywords[YES] > 0.9

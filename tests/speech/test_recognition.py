@@ -11,7 +11,8 @@ from oxbot.errors import InvalidInputError
 from oxbot.speech import RATE, PocketsphinxRecognizer, Voice, pcm16, synthesize
 from oxbot.speech.audio import add_noise, with_noise_floor
 from oxbot.speech.evaluation import CHECK_VOICES, Condition, chatter_sentences
-from oxbot.speech.recognition import default_recognizer, normalise
+from oxbot.speech.nbest import normalise
+from oxbot.speech.recognition import shipped_recognizer
 
 PHRASES = [
     "yes let's go for it",
@@ -84,9 +85,7 @@ def test_spec_recognize_uses_the_shipped_domain():
 def test_every_word_the_shipped_domain_lets_people_say_can_be_pronounced():
     # A word left out of the dictionary is silently never heard ("hiya" was, with a warning
     # at every start).
-    from oxbot.speech.recognition import load_recognizer
-
-    recognizer = load_recognizer()
+    recognizer = shipped_recognizer("pocketsphinx")
     assert {w for p in recognizer.phrases for w in p.split()} <= recognizer.vocabulary
 
 
@@ -94,7 +93,7 @@ def test_digital_silence_no_longer_throws_the_decoder_off():
     # espeak-ng pads with exact zeros; before the noise floor this "okay" came back as "hi".
     samples = pcm16(synthesize("okay", Voice("en-gb")))
     assert (samples == 0).mean() > 0.3
-    nbest = default_recognizer().decode(samples)
+    nbest = shipped_recognizer("pocketsphinx").decode(samples)
     assert nbest and nbest[0].text == "okay"
 
 
@@ -109,7 +108,7 @@ def test_the_noise_floor_is_faint_and_the_same_every_time():
 
 def test_grammar_fragments_are_not_offered_as_hypotheses():
     # "hi" in this voice used to come back with "i take", "i pick" and "i" below it.
-    recognizer = default_recognizer()
+    recognizer = shipped_recognizer("pocketsphinx")
     for voice in ("en+f3", "en-gb-scotland"):
         nbest = recognizer.decode(pcm16(synthesize("hi", Voice(voice))))
         assert nbest[0].text in ("hi", "hiya")  # both greetings of the domain
@@ -160,7 +159,7 @@ def _acts() -> dict[str, str]:
 @pytest.fixture(scope="module")
 def chatter_heard():
     """(sentence, N-best) for ten check lines of the chatter, each in a check voice."""
-    recognizer = default_recognizer()
+    recognizer = shipped_recognizer("pocketsphinx")
     sentences = chatter_sentences()[1::2][:10]
     return [
         (normalise(s), recognizer.decode(pcm16(synthesize(s, Voice(CHECK_VOICES[i % 6])))))
@@ -171,7 +170,7 @@ def chatter_heard():
 @pytest.fixture(scope="module")
 def phrases_heard():
     """(phrase, N-best) for sixteen of the domain's phrasings in check voices at 20 dB SNR."""
-    recognizer = default_recognizer()
+    recognizer = shipped_recognizer("pocketsphinx")
     phrases = sorted(_acts())[3::37][:16]
     heard = []
     for i, phrase in enumerate(phrases):
@@ -222,7 +221,7 @@ def test_right_hypotheses_are_more_confident_than_wrong_ones(chatter_heard, phra
     ids=lambda c: c.name,
 )
 def test_leading_silence_and_a_quiet_microphone_do_not_change_what_is_heard(condition):
-    recognizer = default_recognizer()
+    recognizer = shipped_recognizer("pocketsphinx")
     for i, (phrase, voice) in enumerate(
         [
             ("yes please", "en-gb"),
