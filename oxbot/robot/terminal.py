@@ -45,6 +45,7 @@ from oxbot.robot.messages import (
     GameState,
     Message,
     SpeakingStarted,
+    SpeechHypotheses,
 )
 from oxbot.robot.session import Robot, warm_up
 from oxbot.speech.audio import RATE, Audio, to_wav_bytes
@@ -233,6 +234,7 @@ class TerminalRobot:
             ComponentFailed,
             ComponentLost,
             SpeakingStarted,
+            SpeechHypotheses,
         )
         self._printer = threading.Thread(target=self._print_events, daemon=True)
         self._stopping = threading.Event()
@@ -343,6 +345,8 @@ class TerminalRobot:
             print_board(c, message.board, message.robot_starts)
         elif isinstance(message, BoardProblem):
             c.print(f"[yellow]On the sheet: {escape(message.reason)}[/]")
+        elif isinstance(message, SpeechHypotheses) and message.source == "microphone":
+            c.print(f"[dim]{escape(heard_line(message.nbest))}[/]")
         elif isinstance(message, SpeakingStarted):
             self.speakers.play(message.audio)
         elif isinstance(message, ComponentFailed):
@@ -351,3 +355,12 @@ class TerminalRobot:
             c.print(f"[red]{escape(message.component)} is off until a new game[/]")
         elif isinstance(message, DialogueEnded):
             print_game_over(c, message.outcome)
+
+
+def heard_line(nbest: Sequence[tuple[str, float]]) -> str:
+    """What the recogniser heard in a recording, as the terminal shows it: the best hypothesis
+    with its confidence (and the next two), or that nothing was heard."""
+    if not nbest:
+        return "(heard nothing: noise or silence)"
+    shown = [f'"{text}" {confidence:.0%}' for text, confidence in nbest[:3]]
+    return "(heard " + shown[0] + (f"; or {', '.join(shown[1:])}" if shown[1:] else "") + ")"

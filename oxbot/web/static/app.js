@@ -258,6 +258,7 @@ const handlers = {
     }
   },
   Decision(d) { showDecision(d); },
+  SpeechHypotheses(d) { if (d.source === "microphone") showHeard(d.nbest || []); },
   HeadMove(d) { lookTowards(d.direction); },
   DialogueEnded(d) {
     state.ended = true;   // drawings stop; words still go: "new game", "again!" start another
@@ -308,6 +309,18 @@ function addLog(speaker, act, text) {
 function addNote(text) {
   const li = document.createElement("li"); li.className = "note"; li.textContent = `— ${text}`;
   appendLog(li);
+}
+
+// What the recogniser heard in the last recording, best first with its confidence: the person
+// sees whether a "no" was taken for a "go", or noise for nothing.
+function showHeard(nbest) {
+  const pct = (c) => `${Math.round(100 * c)}%`;
+  $("heard").textContent = nbest.length
+    ? `Heard: “${nbest[0][0]}” (${pct(nbest[0][1])})`
+      + (nbest.length > 1 ? `; or ${nbest.slice(1, 3).map(([t, c]) => `“${t}” (${pct(c)})`).join(", ")}` : "")
+    : "Heard nothing: noise or silence.";
+  $("heard").dataset.text = nbest.length ? nbest[0][0] : "";
+  $("heard").dataset.confidence = nbest.length ? String(nbest[0][1]) : "";
 }
 
 function appendLog(li) { const log = $("log"); log.append(li); log.scrollTop = log.scrollHeight; }
