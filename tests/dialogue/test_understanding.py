@@ -34,7 +34,7 @@ from oxbot.dialogue.domain import (
 )
 from oxbot.dialogue.understanding import UserAct, UserActClassifier
 from oxbot.errors import DataError, InvalidInputError
-from oxbot.speech.recognition import Hypothesis
+from oxbot.speech.nbest import Hypothesis
 
 
 @pytest.fixture(scope="module")

@@ -61,9 +61,11 @@ def test_two_answers_with_a_pause_between_are_two_utterances_heard_as_said():
     second, _ = in_noise(spoken("no not now"), rng, before=0.2, after=1.0)
     heard = cut(np.concatenate([first, second]))
     words = [words_in(u.samples) for u in heard]
-    # The second, cut in room noise, fits the domain's words poorly and the general model hears
-    # "no don't know" (the whole recording: "no not now"); what is checked here is the cut.
-    assert len(words) == 2 and words[0] == "okay" and words[1].startswith("no "), words
+    # What is checked here is the cut: the recogniser hears each answer begin, and the second
+    # utterance is long enough to hold all of "no not now" (how much of it is heard in room
+    # noise is the recogniser's business, measured in bench/bench_speech.py).
+    assert len(words) == 2 and words[0] == "okay" and words[1].split()[:1] == ["no"], words
+    assert len(heard[1].samples) >= len(spoken("no not now")) - 0.2 * RATE
     assert heard[1].start > heard[0].start + len(heard[0].samples)
 
 

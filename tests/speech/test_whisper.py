@@ -35,9 +35,9 @@ def test_weights_that_differ_are_refused_naming_the_fix(tmp_path):
     fake = tmp_path / "model.bin"
     fake.write_bytes(b"not whisper")
     with pytest.raises(SpeechUnavailable, match=r"not the pinned ones.*make setup"):
-        whisper._check_weights.__wrapped__(fake)
+        whisper._check_weights.__wrapped__(fake, "0" * 64)
     with pytest.raises(SpeechUnavailable, match=r"missing.*make setup"):
-        whisper._check_weights.__wrapped__(tmp_path / "absent.bin")
+        whisper._check_weights.__wrapped__(tmp_path / "absent.bin", "0" * 64)
 
 
 def test_without_whisper_the_robot_hears_with_pocketsphinx_and_says_so(monkeypatch, caplog):
