@@ -499,8 +499,8 @@ class WhisperConfig:
     """oxbot: OpenAI's no_speech_threshold; above this probability of no speech, and with a best
     hypothesis less likely than `low_logprob`, nothing was said."""
     low_logprob: float = -1.0
-    """oxbot: OpenAI's logprob_threshold, the mean log probability per token below which a hypothesis is
-    a guess."""
+    """oxbot: OpenAI's logprob_threshold, the mean log probability per token below which a
+    hypothesis is a guess."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "threads", "beam_size", "window_seconds")

@@ -332,6 +332,8 @@ class WhisperRecognizer:
             return _silent(heard, "decoder")
         if best_text in SILENCE_PHRASES and heard.no_speech > cfg.no_speech_gate / 2:
             return _silent(heard, "silence phrase")
+        if echoes_prompt(best_text, cfg.prompt):
+            return _silent(heard, "prompt echo")
         lead = min(2.0, best - ranked[1][1]) if len(ranked) > 1 else 2.0
         features = (best, heard.no_speech, lead)
         confidence = calibrated(*features, model=cfg.model)
@@ -358,6 +360,13 @@ def clean_text(text: str) -> str:
     text = _TAG.sub(" ", text)
     text = " ".join(_NUMBERS.get(w, w) for w in re.findall(r"[\w']+|[^\w\s]", text))
     return without_repeats(normalise(text))
+
+
+def echoes_prompt(text: str, prompt: str) -> bool:
+    """True when `text` is three or more of the prompt's words in the prompt's order: what
+    the decoder says when it has nothing better ("noughts and crosses" for an espeak "no not
+    now", "top left middle" for "perhaps tomorrow"). Nobody answers the robot with that."""
+    return len(text.split()) >= 3 and f" {text} " in f" {clean_text(prompt)} "
 
 
 def without_repeats(text: str) -> str:

@@ -167,6 +167,15 @@ def test_intent_of_nothing_heard_or_nothing_matched(classifier):
         classifier.intent_of([("okay", 1.5)])
 
 
+def test_words_the_recogniser_barely_heard_are_no_answer(classifier):
+    floor = classifier.min_heard_confidence
+    assert 0.0 < floor < classifier.min_yes_confidence
+    assert classifier.intent_of([("no thanks", floor + 0.02)], INVITATION).act == DECLINE
+    barely = [("no thanks", floor - 0.02), ("no", floor - 0.03)]
+    assert classifier.intent_of(barely, INVITATION) == UserAct(UNKNOWN, 0.0)
+    assert classifier.intent_of([("stop", floor - 0.02)], MOVE_REQUEST).act == UNKNOWN
+
+
 def test_a_yes_the_recogniser_is_unsure_of_is_asked_again_a_no_is_not(classifier):
     sure, unsure = classifier.min_yes_confidence + 0.05, classifier.min_yes_confidence - 0.05
     assert classifier.intent_of([("sure why not", sure)], INVITATION).act == ACCEPT

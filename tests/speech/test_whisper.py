@@ -15,6 +15,7 @@ from oxbot.speech.synthesis import synthesize
 from oxbot.speech.whisper import (
     WhisperRecognizer,
     clean_text,
+    echoes_prompt,
     model_folder,
     without_repeats,
     word_posteriors,
@@ -67,6 +68,14 @@ def test_without_whisper_the_robot_hears_with_pocketsphinx_and_says_so(monkeypat
 )
 def test_what_whisper_writes_is_read_as_plain_words(text, clean):
     assert clean_text(text) == clean
+
+
+def test_the_prompt_said_back_is_nothing_heard_a_short_part_of_it_is_an_answer():
+    prompt = WhisperConfig().prompt
+    for echo in ("noughts and crosses", "top left middle", "yes no thanks let's play"):
+        assert echoes_prompt(echo, prompt), echo
+    for answer in ("top left", "no thanks", "let's play noughts and crosses", "stop"):
+        assert not echoes_prompt(answer, prompt), answer
 
 
 def test_only_phrases_said_back_to_back_are_kept_once():
