@@ -67,7 +67,9 @@ MIN_YES_CONFIDENCE = 0.75
 agreed to is worse than asking again. The answers to the invitation in the 12 tuning
 voices, clean and at 20 dB (192 recordings, `tests/speech/test_evaluation.py`): 7 no's heard as
 a yes with the floor at 0, 3 at 0.6, 1 at 0.7, none from 0.75; 2 of the 72 yeses then asked
-again. Typed words (confidence 1) are never affected, nor the simulated person (`read`)."""
+again. An acknowledgement ("okay", "nice") is held to the same floor: a sneeze heard as "okay" at
+0.3 is no answer to "I won". Typed words (confidence 1) are never affected, nor the simulated
+person (`read`)."""
 MIN_HEARD_CONFIDENCE = 0.1
 """An N-best list whose best hypothesis the recogniser is less than this sure of is Unknown,
 whatever its words: a sigh heard as "no" at 0.08 is no answer. Chosen on development data only:
@@ -242,8 +244,9 @@ class UserActClassifier:
         near ties between a right phrase and a wrong one; two hypotheses that agree outweigh one
         that does not. The score is the weighted probability of the chosen act, scaled by the
         recogniser's confidence in the best hypothesis. A best hypothesis below
-        `MIN_HEARD_CONFIDENCE` is Unknown; so is a yes from one below `MIN_YES_CONFIDENCE`, and
-        a no whose words do not say no below `MIN_UNSAID_NO_CONFIDENCE`.
+        `MIN_HEARD_CONFIDENCE` is Unknown; so is a yes or an acknowledgement from one below
+        `MIN_YES_CONFIDENCE`, and a no whose words do not say no below
+        `MIN_UNSAID_NO_CONFIDENCE`.
         """
         total = np.zeros(len(self.classes))
         weight = 0.0
@@ -266,7 +269,7 @@ class UserActClassifier:
         if weight <= 0.0 or best_confidence < self.min_heard_confidence:
             return UserAct(UNKNOWN if best_text else SILENCE, 0.0)
         decided = self._decide(total / weight, best_text, context)
-        if decided.act == ACCEPT and best_confidence < self.min_yes_confidence:
+        if decided.act in (ACCEPT, ACKNOWLEDGE) and best_confidence < self.min_yes_confidence:
             return UserAct(UNKNOWN, 0.0)
         if (
             decided.act == DECLINE

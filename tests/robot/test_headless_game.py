@@ -33,8 +33,10 @@ pytestmark = pytest.mark.slow
 ANSWERS = {
     "Salutation(greeting)": "Hello!",
     "Request(playGame)": "Yes, let's play.",
-    "Provide(feedback=win)": "Well done.",
-    "Provide(feedback=draw)": "Good game.",
+    # Whisper hears this espeak-ng voice's "well done" as "welcome" and "good game" as "god
+    # game": answers it hears are chosen, the recogniser is measured in bench/bench_speech.py
+    "Provide(feedback=win)": "Well played.",
+    "Provide(feedback=draw)": "Well played.",
     "Salutation(closing)": "Good bye!",
 }
 EXPECTED_ACTS = {
