@@ -1,0 +1,142 @@
+"""A whole game by voice in Debian's Chromium: the person speaks every answer and every move,
+hands-free, from the greeting to the goodbye, and turns down another game with "no thanks".
+
+The person is espeak-ng WAVs played into the page's microphone (`conversation_script`: the
+page's getUserMedia hears a room where the test makes the person speak). Chromium's own fake
+microphone cannot hold a conversation: it plays one file, from the start, at each getUserMedia.
+What the robot hears goes through the real recogniser (Whisper), understanding and manager.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from playwright.sync_api import Page, sync_playwright
+
+from oxbot.config import load_config
+from oxbot.game.board import CELL_NAMES
+from oxbot.speech.audio import RATE, Audio, pcm16, to_wav_bytes, trim_silence
+from oxbot.speech.evaluation import speak
+from oxbot.testing.browser import CHROMIUM, FLAGS, conversation_script, say
+from oxbot.web.server import create_app, serving_in_background
+
+ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
+CONFIG = load_config(
+    None,
+    ["robot.speed_factor=6", "robot.answer_timeout=8", "robot.question_timeout=240"],
+)
+VOICE = "en-us"
+MOVE = "GameMove(gridloc="
+SPOKEN_CELLS = {
+    "upperleft": "top left",
+    "uppermiddle": "top middle",
+    "upperright": "top right",
+    "middleleft": "middle left",
+    "middle": "the middle one",
+    "middleright": "middle right",
+    "lowerleft": "bottom left",
+    "lowermiddle": "bottom middle",
+    "lowerright": "bottom right corner",
+}
+
+
+def spoken(text: str) -> bytes:
+    """`text` said by the person: a WAV with a short silence either side."""
+    samples = trim_silence(pcm16(speak(text, VOICE)), 0.3)
+    assert samples is not None, text
+    return to_wav_bytes(Audio(samples, RATE))
+
+
+@pytest.fixture(scope="module")
+def page() -> Iterator[Page]:
+    assert Path(CHROMIUM).exists(), f"{CHROMIUM} is missing: run `make setup`"
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    args = [*FLAGS, "--use-fake-ui-for-media-stream", "--use-fake-device-for-media-stream"]
+    with serving_in_background(create_app(CONFIG)) as url, sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=args)
+        try:
+            tab = browser.new_page()
+            tab.add_init_script(conversation_script())
+            tab.goto(url + "/")
+            yield tab
+        finally:
+            browser.close()
+
+
+def log(page: Page) -> list[tuple[str, str, str]]:
+    return [
+        tuple(row)
+        for row in page.evaluate(
+            """() => [...document.querySelectorAll('[data-testid=log] li[data-act]')]
+                 .map(li => [li.dataset.speaker, li.dataset.act,
+                             li.querySelector('.text').textContent])"""
+        )
+    ]
+
+
+def wait_for(page: Page, act: str, speaker: str = "sys", after: int = 0, timeout=40_000) -> None:
+    page.wait_for_function(
+        """([act, speaker, after]) =>
+             [...document.querySelectorAll('[data-testid=log] li[data-act]')].slice(after)
+               .some(li => li.dataset.act.startsWith(act) && li.dataset.speaker === speaker)""",
+        arg=[act, speaker, after],
+        timeout=timeout,
+    )
+
+
+def answer(page: Page, text: str) -> int:
+    """Wait until the robot has finished speaking, then say `text`; the log's length before."""
+    page.wait_for_function("!window.oxbot.speaking", timeout=20_000)
+    before = len(log(page))
+    say(page, spoken(text))
+    return before
+
+
+def test_a_whole_game_by_voice_then_no_thanks_to_another(page: Page):
+    try:
+        play_by_voice(page)
+    except Exception as exc:
+        page.screenshot(path=ARTIFACTS / "voice-game-failure.png", full_page=True)
+        raise AssertionError(f"{exc}\nthe page's log: {log(page)}") from exc
+
+
+def play_by_voice(page: Page) -> None:
+    page.get_by_test_id("start").click()
+    wait_for(page, "Request(playGame)")
+    page.get_by_test_id("hands-free").click()
+    page.wait_for_function("window.oxbot.mic.handsFree", timeout=5_000)
+    before = answer(page, "yes let's play")
+    wait_for(page, "Confirm(playGame=yes)", "usr", before)
+    # what the robot heard is shown, with its confidence
+    assert "yes" in page.get_by_test_id("heard").inner_text().lower()
+
+    deadline = time.monotonic() + 180
+    while not any(a.startswith("Provide(feedback=") for _, a, _ in log(page)):
+        assert time.monotonic() < deadline, "the game never ended"
+        items = log(page)
+        asked = sum(1 for s, a, _ in items if s == "sys" and a == "Request(userGameMove)")
+        moves = [a[len(MOVE) : -1] for s, a, _ in items if a.startswith(MOVE)]
+        mine = sum(1 for s, a, _ in items if s == "usr" and a.startswith(MOVE))
+        if asked <= mine:
+            page.wait_for_timeout(100)
+            continue
+        where = next(cell for cell in CELL_NAMES if cell not in moves)
+        before = answer(page, SPOKEN_CELLS[where])
+        wait_for(page, f"{MOVE}{where})", "usr", before)
+    page.screenshot(path=ARTIFACTS / "voice-game-over.png", full_page=True)
+
+    before = answer(page, "one more game")
+    wait_for(page, "Request(playGame)", after=before)
+    before = answer(page, "no thanks")
+    wait_for(page, "Reject(playGame=no)", "usr", before)
+    wait_for(page, "Salutation(closing)", after=before)
+    items = log(page)
+    assert items[-1][:2] == ("sys", "Salutation(closing)")
+    assert ("sys", "Acknowledge(playGame=no)") in [(s, a) for s, a, _ in items[before:]]
+    # every move the person said became theirs, and no move was theirs that they did not say
+    said = [a for s, a, t in items if s == "usr" and a.startswith(MOVE)]
+    assert len(said) >= 2 and len(set(said)) == len(said)
+    page.screenshot(path=ARTIFACTS / "voice-game-goodbye.png", full_page=True)
