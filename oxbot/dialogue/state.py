@@ -195,6 +195,12 @@ class DialogueState:
         in the transcript, not in what the policy sees."""
         self._turn("sys", act, text)
 
+    def person_informs(self, act: str, text: str, score: float = 1.0) -> None:
+        """The person said something the robot answers outside the policy's acts (a move in
+        words it asks about): in the transcript, as understood as `act` with `score`, not in
+        what the policy sees."""
+        self._turn("usr", act, text, act, score)
+
     def robot_skips(self) -> None:
         """The robot's act could not be done (a GameMove out of turn): nothing said or heard."""
         self.system_words, self.heard, self.understood = (), (), None
