@@ -524,6 +524,14 @@ class SpeechConfig:
     """Paper §3.1: the recogniser's N-best list is passed on; oxbot keeps this many entries."""
     voice: str = "en-us"
     """Paper §3.1 used MARY TTS; oxbot: the espeak-ng voice of the robot."""
+    min_move_confidence: float = 0.95
+    """oxbot: a move said in words ("top left", `oxbot.dialogue.cells_in_words`) is played
+    when heard at least this surely (the recogniser's confidence, times the N-best's agreement
+    on the cell; typed words count 1); below it the robot asks which cell. Measured with
+    pocketsphinx on espeak-ng's 12 tuning voices, clean and at 20 dB
+    (`bench/bench_moves_in_words.py`): the lowest gate at which no move was played on a wrong
+    cell, in the phrase file's words (35% played, the rest asked about) or in others (none
+    played; at 0.9, 4% on a wrong cell). Measure again for another recogniser."""
     listening: ListeningConfig = field(default_factory=ListeningConfig)
     """Paper §3.1 listened by push-to-talk; oxbot adds hands-free listening with a VAD."""
     whisper: WhisperConfig = field(default_factory=WhisperConfig)
@@ -531,6 +539,7 @@ class SpeechConfig:
 
     def __post_init__(self) -> None:
         _require_positive(self, "nbest")
+        _require_range(self, "min_move_confidence", "[0, 1]")
         _require_finite(self)
         if not self.recognizer.strip():
             raise ConfigError(

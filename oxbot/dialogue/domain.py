@@ -173,6 +173,14 @@ def plays(act: str) -> bool:
     return act == LETS_PLAY or is_game_move(act)
 
 
+def acts_on_an_answer(act: str) -> bool:
+    """True for a system act that acts on what the person answered or drew: "let's play",
+    "your turn" and the robot's moves go on with a game they agreed to, the acknowledgements
+    let their no or their stop go. Until the person says something new, the robot must not say
+    it did not catch the answer (`ASK_AGAIN`) after one of these."""
+    return act in _ACTING or is_game_move(act)
+
+
 def starts_game(act: str) -> bool:
     """True for a system act after which the game is on: one that `plays`, or asking for the
     person's move (a person who starts is asked without a "let's play")."""
@@ -192,6 +200,7 @@ def is_feedback(act: str) -> bool:
 
 
 _FEEDBACK = frozenset(FEEDBACK_ACTS.values())
+_ACTING = frozenset({LETS_PLAY, MOVE_REQUEST, GRANT_REFUSAL, GRANT_STOP})
 
 
 def draw_tag(who: str, cell: int | str) -> str:

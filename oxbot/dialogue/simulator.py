@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from oxbot.dialogue.cells_in_words import read_cell
 from oxbot.dialogue.domain import (
     ACCEPT,
     ASK_AGAIN,
@@ -313,13 +314,15 @@ def phrasings_of(domain: Domain) -> dict[str, tuple[str, ...]]:
 
 def _phrasings(domain: Domain) -> tuple[dict[str, tuple[str, ...]], tuple[str, ...]]:
     """User act -> the texts the person may say it with (its phrasings and user responses; a
-    drawing: its response texts without the tag, "" for a silent drawing), and every word of
-    them; worked out once per domain."""
+    drawing: its response texts without the tag, "" for a silent drawing, never one that names a
+    cell), and every word of them; worked out once per domain."""
     cached = _PHRASINGS.get(id(domain))
     if cached is not None and cached[0] is domain:
         return cached[1], cached[2]
     found: dict[str, dict[str, None]] = {}
     for text, act in domain.user_phrases():
+        if act == GAME_MOVE_TEMPLATE and read_cell(text) is not None:
+            continue  # "top left" with a drawing that may be anywhere: a person would not
         found.setdefault(act, {})[text] = None
     for utterance in domain.responses_to(MOVE_REQUEST):
         if is_game_move(utterance.act):

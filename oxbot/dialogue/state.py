@@ -28,10 +28,13 @@ from oxbot.dialogue.domain import (
     ACCEPT,
     ACTION_INDEX,
     ASK_AGAIN,
+    GRANT_REFUSAL,
+    GRANT_STOP,
     INVITATION,
     REFUSALS,
     STOP,
     SYSTEM_ACTS,
+    acts_on_an_answer,
     game_move_cell,
     plays,
     starts_game,
@@ -55,6 +58,12 @@ _PLAYING = np.array([plays(act) for act in SYSTEM_ACTS])
 """The acts that play, as a mask: "let's play" and the moves."""
 _STARTING = np.array([starts_game(act) for act in SYSTEM_ACTS])
 """The acts that start a game before it is on: those and "your turn"."""
+
+_GRANTS = (
+    (ACTION_INDEX[GRANT_REFUSAL], frozenset(REFUSALS)),
+    (ACTION_INDEX[GRANT_STOP], frozenset({STOP})),
+)
+"""The acknowledgements and the answers each acts on ("Okay, maybe another time." a no)."""
 
 if TYPE_CHECKING:
     from oxbot.dialogue.features import FeatureLayout
@@ -106,6 +115,13 @@ class DialogueState:
         understanding's score (None: nothing said)."""
         self.person_acts: list[str] = []
         """Every act the person's turns were understood as, in order."""
+        self.answers_from = 0
+        """Where in `person_acts` the answers that count begin: asking again ("Sorry, I didn't
+        catch that.") makes every answer before it count for nothing."""
+        self.acted_on_answer = False
+        """Whether the robot has acted on the person's last answer or drawing
+        (`domain.acts_on_an_answer`) and they have said nothing since: it may not say now that
+        it did not catch it."""
         self.invitations = 0
         """How many times the robot has asked to play (invited, or asked again)."""
         self.refused_unasked = False
@@ -167,6 +183,9 @@ class DialogueState:
         self.said.add(act)
         self.last_act = act
         self.invitations += act in ASKING_TO_PLAY
+        if act == ASK_AGAIN:
+            self.answers_from = len(self.person_acts)
+        self.acted_on_answer = self.acted_on_answer or acts_on_an_answer(act)
         self.system_words = _words(text)
         self.heard, self.understood = (), None
         self._turn("sys", act, text)
@@ -175,6 +194,12 @@ class DialogueState:
         """The robot says something outside the policy's acts (about an impossible drawing):
         in the transcript, not in what the policy sees."""
         self._turn("sys", act, text)
+
+    def person_informs(self, act: str, text: str, score: float = 1.0) -> None:
+        """The person said something the robot answers outside the policy's acts (a move in
+        words it asks about): in the transcript, as understood as `act` with `score`, not in
+        what the policy sees."""
+        self._turn("usr", act, text, act, score)
 
     def robot_skips(self) -> None:
         """The robot's act could not be done (a GameMove out of turn): nothing said or heard."""
@@ -195,6 +220,9 @@ class DialogueState:
         cell = game_move_cell(act)
         if cell is not None:
             self.board = play(self.board, cell, USER)
+            self.acted_on_answer = True  # a drawing is seen, not heard, and taken as a move
+        elif understood is not None:
+            self.acted_on_answer = False  # words the robot has not acted on yet
         if heard is not None:
             self.heard = tuple(heard)
         if understood is not None:
@@ -226,13 +254,20 @@ class DialogueState:
         return any(starts_game(act) for act in self.said)
 
     @property
+    def counted_answers(self) -> list[str]:
+        """What the person was understood to say since the robot last asked again (all of it
+        if it never did): the answers it asked again about count for nothing."""
+        return self.person_acts[self.answers_from :]
+
+    @property
     def agreed(self) -> bool:
         """Whether the person has drawn on the sheet, or their last answer about a game was
         understood as yes (`ACCEPT`: "one game", "can I start" and a change of mind are one in
-        context), not a no or a "later" said after it."""
+        context), not a no or a "later" said after it, nor said before the robot last asked
+        again (`counted_answers`)."""
         if USER in self.board:
             return True
-        answers = [act for act in self.person_acts if act == ACCEPT or act in REFUSALS]
+        answers = [act for act in self.counted_answers if act == ACCEPT or act in REFUSALS]
         return bool(answers) and answers[-1] == ACCEPT
 
     def offered(self) -> tuple[np.ndarray, np.ndarray]:
@@ -245,7 +280,14 @@ class DialogueState:
         misheard still starts one: the check of `wellformed` can fail there.) Likewise, until
         the robot has invited the person, inviting is offered instead: a yes heard before it
         asked ("Hi!" heard as a no, then "Yes, I want to play.") left only "let's play". Before
-        the game is on, "your turn" starts it, and is held back the same way."""
+        the game is on, "your turn" starts it, and is held back the same way.
+
+        The robot never acts on an answer it said it did not catch, and never says it did not
+        catch an answer it acted on. Once it asked again, the answers before count for nothing
+        (`counted_answers`): a yes before it agrees to nothing (above), and a no or a stop
+        before it is not acknowledged, the robot asks about it again instead. Once it acted on
+        the person's last answer or drawing (`acted_on_answer`), asking again is not offered
+        until they say something new."""
         if self.action_model is None:
             raise TypeError("this DialogueState has no action model to offer acts with")
         probs, mask = self.action_model.offered(self.encode(), self.board, self.robot_to_move)
@@ -256,6 +298,14 @@ class DialogueState:
             if (mask & starting).any():
                 mask = mask & ~starting
                 mask[ACTION_INDEX[ASK_AGAIN if not self.agreed else INVITATION]] = True
+        counted = set(self.counted_answers)
+        for grant, needed in _GRANTS:
+            if mask[grant] and needed.isdisjoint(counted):
+                mask = mask.copy()
+                mask[grant], mask[ACTION_INDEX[ASK_AGAIN]] = False, True
+        if self.acted_on_answer and mask[ACTION_INDEX[ASK_AGAIN]]:
+            mask = mask.copy()
+            mask[ACTION_INDEX[ASK_AGAIN]] = False
         return probs, mask
 
     def at(self, board: Board) -> DialogueState:

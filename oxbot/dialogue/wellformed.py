@@ -7,7 +7,7 @@ evaluations count how many dialogues break them (`oxbot.dialogue.evaluation`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -20,13 +20,17 @@ from oxbot.dialogue.domain import (
     GREETING,
     INTRODUCTION,
     INVITATION,
+    LETS_PLAY,
     MOVE_REQUEST,
+    PROBLEM,
     REFUSALS,
     STOP,
+    acts_on_an_answer,
     game_move_cell,
     is_feedback,
     is_game_move,
     plays,
+    starts_game,
 )
 from oxbot.dialogue.state import Turn
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, play
@@ -65,7 +69,9 @@ def check_dialogue(
     as in `DialogueState.agreed`). A game it
     plays, it plays properly: introduction and invitation before the first move, the person
     asked for their move after each robot move until the game is over, and exactly one feedback
-    act, the one of the real outcome. It never walks away from a person who wanted to play.
+    act, the one of the real outcome. It never walks away from a person who wanted to play. It
+    never acts on an answer it said it did not catch, nor says it did not catch an answer it
+    acted on (`acts_on_what_it_did_not_catch`).
     The person's turns are read as the acts they meant (the environment's transcript) or, where
     `understood` gives one per turn, as the acts the robot understood, with `scores` the
     understanding's scores (none given: every turn clear).
@@ -73,7 +79,9 @@ def check_dialogue(
     sys_acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
     if not sys_acts or sys_acts[0] != GREETING:
         return "does not greet first"
-    problem = ignores_the_person(transcript, understood, scores)
+    problem = ignores_the_person(transcript, understood, scores) or acts_on_what_it_did_not_catch(
+        transcript, understood
+    )
     if problem is not None:
         return problem
     if sys_acts[-1] != CLOSING or sys_acts.count(CLOSING) != 1:
@@ -98,6 +106,66 @@ def ignores_the_person(
         or _lets_a_no_go(transcript, heard, sure)
         or _lets_a_stop_go(transcript, heard, sure)
     )
+
+
+def acts_on_what_it_did_not_catch(
+    transcript: list[Turn], understood: Sequence[str] | None = None
+) -> str | None:
+    """The first turn at which the robot acts on an answer it said it did not catch, or says it
+    did not catch an answer it acted on; None if there is none.
+
+    Once the robot asks again (`Request(repeat)`: "Sorry, I didn't catch that. Shall we
+    play?"), every answer before it counts for nothing: starting a game needs a yes said after
+    it (or a drawing), acknowledging a no a no said after it, acknowledging a stop a stop said
+    after it. And once the robot has acted on the person's last answer or drawing
+    (`domain.acts_on_an_answer`), it does not ask again until they say something new. The
+    person's turns are read as the robot understood them (`understood`, one per turn; none
+    given: as the transcript's acts); the robot's `Inform(problem)` sentences are no act of its
+    policy and do not count."""
+    heard = list(understood) if understood is not None else [t["act"] for t in transcript]
+    counted: list[str] = []  # the answers since the robot last asked again
+    voided: list[str] = []  # the answers it asked again about
+    drew = started = acted = False
+    for turn, act in zip(transcript, heard, strict=True):
+        if turn["speaker"] == "usr":
+            if game_move_cell(turn["act"]) is not None:  # a drawing is seen, not heard
+                drew = acted = True
+            else:
+                counted.append(act)
+                acted = False
+            continue
+        said = turn["act"]
+        if said == PROBLEM:
+            continue
+        if said == ASK_AGAIN:
+            if acted:
+                return "asks again about an answer it acted on"
+            voided, counted = voided + counted, []
+            continue
+        needs = _needed_answer(said, started, drew)
+        if needs is not None and not needs(counted) and needs(voided):
+            return f"acts on an answer it said it did not catch ({said})"
+        started = started or starts_game(said)
+        acted = acted or acts_on_an_answer(said)
+    return None
+
+
+def _needed_answer(act: str, started: bool, drew: bool) -> Callable[[Sequence[str]], bool] | None:
+    """What `act` needs the person to have answered, as a test of a list of answers (None:
+    nothing): a "let's play", or a game started, needs their last yes or no to be a yes (unless
+    they drew, which agrees as well)."""
+    if (act == LETS_PLAY or (starts_game(act) and not started)) and not drew:
+        return _last_says_yes
+    if act == GRANT_REFUSAL:
+        return lambda answers: any(a in REFUSALS for a in answers)
+    if act == GRANT_STOP:
+        return lambda answers: STOP in answers
+    return None
+
+
+def _last_says_yes(answers: Sequence[str]) -> bool:
+    said = [a for a in answers if a == ACCEPT or a in REFUSALS]
+    return bool(said) and said[-1] == ACCEPT
 
 
 def blame(

@@ -19,7 +19,8 @@ The tracker keeps the board it has accepted. Each reading is compared with it:
 - while a new drawing is seen in an empty cell, an occupied cell read as another symbol is
   ignored: a frame's noise on the robot's thin circle must not hold up the person's move;
 - the robot's own drawings are known in advance (`robot_draws`), so they never become the
-  person's moves;
+  person's moves, and so are the person's moves made without drawing (`person_drew`: typed, or
+  said in words), so that drawing them afterwards makes no second move;
 - a stable change that is not a legal move — two new symbols at once, a symbol drawn over an
   occupied cell, the other player's symbol, a symbol drawn out of turn or after the game
   ended — is reported as an `ImpossibleEvent` once, and never accepted.
@@ -169,6 +170,18 @@ class MoveTracker:
             )
         self._board[index] = self.robot_symbol
         self._robot_cells.add(index)
+
+    def person_drew(self, cell: int | str) -> None:
+        """Tell the tracker that the person's move is in `cell`, given another way than by
+        drawing it (typed, or said in words): the cell counts as theirs from now on, so that the
+        symbol they may draw there later is no new move. A cell the tracker already holds is
+        left as it is."""
+        index = cell if isinstance(cell, int) else cell_index(cell)
+        if not 0 <= index < N_CELLS:
+            raise InvalidInputError(f"cell {cell!r} does not exist; cells are 0-{N_CELLS - 1}")
+        if self._board[index] == "nothing":
+            self._board[index] = self.user_symbol
+            self._candidate, self._count = (), 0
 
     def update(
         self, labels: Sequence[str] | None, cells: Sequence[CellReading] | None = None

@@ -15,8 +15,9 @@ picture): BoardSeen's `refusal` says what to do at once, and once the board has 
 unreadable for `guidance_seconds` a BoardProblem of the guidance's kind says it again, once
 per kind every GUIDANCE_REPEAT_SECONDS until the board is read again, for the robot to say out
 loud. Listens
-to ArmCommand, because the tracker must know the robot's own drawings before they appear, and
-to NewGame, which starts a clean sheet.
+to ArmCommand, because the tracker must know the robot's own drawings before they appear, to
+GameState, for the person's moves the interaction manager took without a drawing (typed, or said
+in words: the sheet may show them later, or never), and to NewGame, which starts a clean sheet.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ import numpy as np
 from oxbot.config import PerceptionConfig, TrackerConfig
 from oxbot.dialogue.domain import GREETING, starts_game
 from oxbot.errors import FrameSourceError, NoGridFound
-from oxbot.game.board import CELL_NAMES, SIZE
+from oxbot.game.board import CELL_NAMES, SIZE, USER
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
 from oxbot.perception.cells import CELL_SIZE, SHEET_CELL
 from oxbot.perception.classifier import CellReading, ink_share
@@ -49,6 +50,7 @@ from oxbot.robot.messages import (
     DialogueAct,
     Frame,
     GameMove,
+    GameState,
     Message,
     NewGame,
     SourceEnded,
@@ -134,9 +136,10 @@ class GameMoveComponent(Component):
     handed over by `push(frame)` or a Frame message.
     """
 
-    listens_to = (Frame, ArmCommand, NewGame, DialogueAct)
-    # the tracker must know the robot's drawings and whether the game is on; not frames
-    retries = (ArmCommand, NewGame, DialogueAct)
+    listens_to = (Frame, ArmCommand, NewGame, DialogueAct, GameState)
+    # the tracker must know the robot's drawings, the person's moves made in words and whether
+    # the game is on; not frames
+    retries = (ArmCommand, NewGame, DialogueAct, GameState)
     part = "eyes"
 
     def __init__(
@@ -188,6 +191,11 @@ class GameMoveComponent(Component):
             self.push(frame_pixels(message))
         elif isinstance(message, ArmCommand):
             self.tracker.robot_draws(message.where)
+        elif isinstance(message, GameState):
+            # the moves the manager took: typed or said in words too (its own drawings it knew)
+            for cell, mark in enumerate(message.board):
+                if mark == USER:
+                    self.tracker.person_drew(cell)
         elif isinstance(message, DialogueAct):
             if message.speaker == "sys":  # a robot that talks: its game starts when it says so
                 self._talking = True

@@ -22,6 +22,14 @@ and anything the robot has to say meanwhile (an impossible drawing) waits for Ar
 The manager is the authority on the game: a move that is not legal on its board (typed moves
 bypass the tracker) is refused in words and never changes the board.
 
+A move said or typed in words when it is the person's turn ("top left", "number five":
+`oxbot.dialogue.cells_in_words`) is played as a typed move is, by a GameMove on the bus (which
+the eyes read too, so that drawing it afterwards is no second move), when heard at least
+`speech.min_move_confidence` surely; below that, or among other words ("I'll go in the middle
+this time", when nothing else was understood), the robot asks which cell (`WHICH_CELL`, like
+the problem sentences outside the policy's acts) and waits for the move as before; a taken cell
+is refused in words. It never plays a cell the person did not name.
+
 "New game" after the outcome starts another game once this dialogue has said goodbye; said
 mid-game, where the simulated people never say it, it is taken as a stop (the policy lets go,
 "Okay, let's stop here") followed by another game.
@@ -61,9 +69,11 @@ import numpy as np
 
 from oxbot.config import OxbotConfig, RobotConfig
 from oxbot.dialogue.agent import DQNPolicy, load_policy, masked_argmax
+from oxbot.dialogue.cells_in_words import MoveHeard, move_in_words, read_cell
 from oxbot.dialogue.domain import (
     ACCEPT,
     CLOSING,
+    GAME_MOVE_TEMPLATE,
     MOVE_REQUEST,
     NEW_GAME,
     PROBLEM,
@@ -71,6 +81,7 @@ from oxbot.dialogue.domain import (
     SILENCE,
     STOP,
     SYSTEM_ACTS,
+    UNKNOWN,
     draw_tag,
     game_move,
     game_move_cell,
@@ -151,6 +162,11 @@ NOBODY_SENTENCE = "Nobody seems to be there, so I'll stop here. Goodbye."
 """The robot's goodbye (as the act CLOSING) after `give_up_after` unanswered questions."""
 LOST_SENTENCES = {"hearing": "Sorry, my hearing has stopped working. Please type your answers."}
 """What the robot tells the person when a part the game can do without is lost, by part."""
+WHICH_CELL = "Which cell do you mean? Say it like top left, the middle, or number five."
+"""What the robot asks (as the act PROBLEM) when the person seems to name their cell in words
+but not surely enough to play it (`speech.min_move_confidence`), or among other words."""
+TAKEN_IN_WORDS = "{cell} is already taken. Please pick an empty cell."
+"""What the robot says (as the act PROBLEM) to a move in words on an occupied cell."""
 
 
 def say_goodbye(bus: Bus, part: str, result: Ending | None) -> None:
@@ -317,6 +333,7 @@ class InteractionManagerComponent(Component):
             "_rematch",
             "_unanswered_in_a_row",
             "_early_answer",
+            "_move_in_words",
         ):
             setattr(self, name, getattr(old, name))
         self._deadline = old._deadline
@@ -331,6 +348,7 @@ class InteractionManagerComponent(Component):
         self._arm_cell: int | None = None
         self._rematch = False
         self._early_answer: SpeechHypotheses | None = None  # a yes or no before "Shall we play?"
+        self._move_in_words: tuple[MoveHeard, Sequence[tuple[str, float]]] | None = None
         self._deferred: list[str] = []
         self._deadline = 0.0
         self._unanswered_in_a_row = 0
@@ -431,7 +449,20 @@ class InteractionManagerComponent(Component):
         text, confidence = nbest[0]
         # per-word confidences when the recogniser gives them (paper §2.2), else the utterance's
         words = words or tuple((w, confidence) for w in words_of(text))
+        if self._persons_turn():
+            move = move_in_words(nbest)
+            if move is not None:  # "top left": the person's move, said instead of drawn
+                self._moved_in_words(move, words)
+                return
         reading = self._understand(nbest, self.state.last_act)
+        if (
+            self._persons_turn()
+            and reading.act in (UNKNOWN, GAME_MOVE_TEMPLATE)
+            and read_cell(text) is not None
+        ):
+            # a cell among other words ("I'll go in the middle this time"): which one, if any?
+            self._ask_which_cell(UNKNOWN, text)
+            return
         if (
             (reading.act in (ACCEPT, STOP, CLOSING) or reading.act in REFUSALS)
             and not self.state.invitations
@@ -471,17 +502,61 @@ class InteractionManagerComponent(Component):
         if message.who != "usr":
             return
         cell = cell_index(message.where)
+        said, self._move_in_words = self._move_in_words, None
+        if said is not None and said[0].cell != cell:
+            said = None  # a drawing, or a typed move, came first: the words wait no longer
         problem = self._illegal(cell, message.symbol)
         if problem is not None:
-            self._problem(problem)
+            if said is not None and problem == "occupied_cell":
+                self._aside(TAKEN_IN_WORDS.format(cell=cell_in_words(cell).capitalize()))
+            else:
+                self._problem(problem)
             return
         self._moved_since = True
         self._unanswered_in_a_row = 0
-        self.state.person_says(game_move(cell), draw_tag("usr", cell))  # heard words stay
-        self._publish_turn("usr", game_move(cell), draw_tag("usr", cell))
+        text = draw_tag("usr", cell)
+        if said is None:
+            self.state.person_says(game_move(cell), text)  # heard words stay
+        else:  # heard as the simulated people's drawings are, with their words
+            move, words = said
+            text = move.words  # as heard, like every answer (the recorder links the two)
+            self.state.person_says(game_move(cell), text, words, (GAME_MOVE_TEMPLATE, move.score))
+        self._publish_turn("usr", game_move(cell), text)
         self._publish_game()
         if self.phase is Phase.LISTENING:
             self._decide()
+
+    def _persons_turn(self) -> bool:
+        """Whether the game is on and waits for the person's move."""
+        return self.state.game_started and self.state.person_to_move
+
+    def _moved_in_words(self, move: MoveHeard, words: Sequence[tuple[str, float]]) -> None:
+        """A move said in words: played, through the path of a typed move (a GameMove on the
+        bus, which the eyes also learn from), when heard surely enough; else asked about."""
+        self._unanswered_in_a_row = 0
+        if move.score < self.config.speech.min_move_confidence:
+            self._ask_which_cell(GAME_MOVE_TEMPLATE, move.words, move.score)
+            return
+        self._move_in_words = (move, words)
+        symbol = symbol_of(USER, self.state.robot_starts)
+        self.bus.publish(
+            GameMove(who="usr", what="draw", where=CELL_NAMES[move.cell], symbol=symbol)
+        )
+
+    def _ask_which_cell(self, act: str, text: str, score: float = 0.0) -> None:
+        """The person seemed to name a cell, not surely: in the transcript, not in what the
+        policy sees, and the robot asks which cell (it waits for the move as before)."""
+        self._unanswered_in_a_row = 0
+        self.state.person_informs(act, text, score)
+        self._publish_turn("usr", act, text)
+        self._aside(WHICH_CELL)
+
+    def _aside(self, sentence: str) -> None:
+        """Say `sentence` (as PROBLEM) now if the robot is listening, else after its act."""
+        if self.phase is Phase.LISTENING:
+            self._tell(sentence)
+        else:
+            self._deferred.append(sentence)  # never over the robot's own words or arm
 
     def _illegal(self, cell: int, symbol: str) -> str | None:
         """Why the person may not draw `symbol` in `cell` now, as a problem kind, or None."""
@@ -513,10 +588,7 @@ class InteractionManagerComponent(Component):
             shape=SHAPES[symbol_of(USER, starts)],
             cell=cell_in_words(CELL_NAMES.index(cells[0])) if cells else "a cell",
         )
-        if self.phase is Phase.LISTENING:
-            self._tell(sentence)
-        else:
-            self._deferred.append(sentence)  # never over the robot's own words or arm
+        self._aside(sentence)
 
     def _lost(self, message: ComponentLost) -> None:
         """A part is gone for good: say goodbye now if the game needs it, else tell the person."""

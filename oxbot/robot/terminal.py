@@ -55,8 +55,8 @@ log = logging.getLogger(__name__)
 
 HELP = (
     f"Answer by typing (Enter sends), 'talk' to speak into the microphone (until Enter), "
-    f"'listen' to talk hands-free, {CELL_HELP} to draw in it, 'new' for a new game, 'quit' to "
-    "leave."
+    f"'listen' to talk hands-free, {CELL_HELP} to draw in it (or say it: top left), 'new' for "
+    "a new game, 'quit' to leave."
 )
 
 

@@ -5,14 +5,20 @@ from oxbot.dialogue.action_model import ActionModel, act_class, action_mask, see
 from oxbot.dialogue.domain import (
     ACCEPT,
     ACTION_INDEX,
+    ASK_AGAIN,
+    DECLINE,
     GAME_MOVE_TEMPLATE,
+    GRANT_REFUSAL,
+    GRANT_STOP,
     GREETING,
     INTRODUCTION,
     INVITATION,
     LETS_PLAY,
     MOVE_REQUEST,
     N_ACTIONS,
+    STOP,
     SYSTEM_ACTS,
+    UNKNOWN,
 )
 from oxbot.dialogue.model import shipped_dialogue_model
 from oxbot.game.board import EMPTY_BOARD, play
@@ -172,3 +178,44 @@ def test_after_a_no_or_stop_taken_back_the_mask_offers_to_play_on():
     state = state_after([*playing, ("Acknowledge(stop)", ACCEPT)], board)
     offered = {SYSTEM_ACTS[i] for i in np.flatnonzero(state.offered()[1])}
     assert {MOVE_REQUEST, "Salutation(closing)"} <= offered, offered
+
+
+def test_answers_the_robot_asked_again_about_count_for_nothing():
+    """ "Go for it" understood unsure, "Pardon?", silence: the robot started the game on the
+    answer it had just said it did not catch. A no or a stop it asked again about is not
+    acknowledged either: the robot asks again."""
+    asked = [(GREETING, None), (INTRODUCTION, None)]
+    state = state_after([*asked, (INVITATION, ACCEPT), (ASK_AGAIN, None)])
+    _, mask = state.offered()
+    assert not state.agreed and state.counted_answers == []
+    assert not mask[:9].any() and not mask[ACTION_INDEX[LETS_PLAY]]
+    assert not mask[ACTION_INDEX[MOVE_REQUEST]] and mask[ACTION_INDEX[ASK_AGAIN]]
+    # a new yes after it counts
+    state = state_after([*asked, (INVITATION, ACCEPT), (ASK_AGAIN, ACCEPT)])
+    assert state.agreed and state.offered()[1][ACTION_INDEX[LETS_PLAY]]
+
+    refused = state_after([*asked, (INVITATION, DECLINE)])
+    assert refused.offered()[1][ACTION_INDEX[GRANT_REFUSAL]]  # the no itself is let go
+    state = state_after([*asked, (INVITATION, DECLINE), (ASK_AGAIN, None)])
+    assert not state.offered()[1][ACTION_INDEX[GRANT_REFUSAL]]
+
+    board = play(play(EMPTY_BOARD, 4, 1), 0, 2)
+    playing = [*asked, (INVITATION, ACCEPT), (LETS_PLAY, None), ("GameMove(gridloc=middle)", None)]
+    stopped = state_after([*playing, (MOVE_REQUEST, STOP)], board)
+    assert stopped.offered()[1][ACTION_INDEX[GRANT_STOP]]
+    state = state_after([*playing, (MOVE_REQUEST, STOP), (ASK_AGAIN, None)], board)
+    assert not state.offered()[1][ACTION_INDEX[GRANT_STOP]]
+
+
+def test_after_acting_on_an_answer_asking_again_is_not_offered_until_the_person_speaks():
+    """Found in the simulator: the person drew, with words heard as nothing it knew, and the
+    robot said "Sorry, I didn't catch that. Shall we play?" about a move it had taken."""
+    m = shipped_dialogue_model()
+    asked = [(GREETING, None), (INTRODUCTION, None), (INVITATION, ACCEPT), (LETS_PLAY, None)]
+    state = state_after([*asked, (MOVE_REQUEST, None)], robot_starts=False)
+    state.person_says("GameMove(gridloc=upperleft)", "over to you", (("over", 1.0),), (UNKNOWN, 1))
+    learnt = m.action_model.offered(state.encode(), state.board, state.robot_to_move)[1]
+    assert learnt[ACTION_INDEX[ASK_AGAIN]]  # what the learnt mask alone offered
+    assert state.acted_on_answer and not state.offered()[1][ACTION_INDEX[ASK_AGAIN]]
+    state.person_says(UNKNOWN, "what time is it", (("what", 1.0),), (UNKNOWN, 1.0))
+    assert not state.acted_on_answer  # words it has not acted on: it may ask about them

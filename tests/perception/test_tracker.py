@@ -82,6 +82,22 @@ def test_tracker_ignores_the_robots_drawings():
     assert events[2].where == "middle"
 
 
+def test_a_move_made_in_words_is_no_new_move_when_drawn_later():
+    """The person said "top left" (the manager took it); drawing it afterwards makes no second
+    move, and the turns count it: their next drawing is in turn."""
+    tracker = MoveTracker(robot_starts=True)
+    tracker.robot_draws("middle")
+    tracker.person_drew("upperleft")
+    tracker.person_drew(0)  # told twice (every GameState tells it): no change
+    assert tracker.board[0] == "cross"
+    assert feed(tracker, *[board(middle="circle", upperleft="cross")] * 4) == [None] * 4
+    tracker.robot_draws("lowerright")
+    seen = board(middle="circle", upperleft="cross", lowerright="circle", upperright="cross")
+    assert isinstance(feed(tracker, seen, seen, seen)[2], AcceptedDrawing)
+    with pytest.raises(InvalidInputError, match="does not exist"):
+        tracker.person_drew(9)
+
+
 def test_tracker_reports_two_new_symbols_once_and_accepts_neither():
     tracker = MoveTracker(robot_starts=True, check_turns=False)
     two = board(upperleft="cross", lowerright="cross")
