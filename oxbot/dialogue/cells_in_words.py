@@ -125,6 +125,15 @@ class MoveHeard:
     the N-best's confidence that names the same cell; in [0, 1]."""
     words: str
     """The best hypothesis, which named the cell."""
+    agreement: float = 1.0
+    """Of the N-best's confidence on hypotheses that name a cell, the share on this one: below
+    `MIN_AGREEMENT` the hypotheses are torn between cells, however sure the best one is."""
+
+
+MIN_AGREEMENT = 2 / 3
+"""A move the N-best list is torn about (two cells heard about as surely, "top left" 0.8 and
+"top right" 0.8: agreement 0.5) is asked about whatever the gate: the recogniser's confidence
+says how sure it is of the words, not which of two cells was meant."""
 
 
 def read_cell(text: str) -> CellWords | None:
@@ -165,14 +174,16 @@ def move_in_words(nbest: Iterable[tuple[str, float]]) -> MoveHeard | None:
     if best is None or best.loose:
         return None
     total = sum(confidence for _, confidence in hypotheses)
-    same = 0.0
+    same = naming = 0.0
     for text, confidence in hypotheses:
         reading = read_cell(text)
-        if reading is not None and not reading.loose and reading.cell == best.cell:
-            same += confidence
+        if reading is not None and not reading.loose:
+            naming += confidence
+            same += confidence if reading.cell == best.cell else 0.0
     agreement = same / total if total > 0 else 1.0
     score = best_confidence * best.certainty * agreement
-    return MoveHeard(best.cell, round(score, 6), best_text)
+    among_cells = same / naming if naming > 0 else 1.0
+    return MoveHeard(best.cell, round(score, 6), best_text, round(among_cells, 6))
 
 
 def _read_chunk(tokens: Sequence[str]) -> CellWords | None:

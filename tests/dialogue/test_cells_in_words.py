@@ -4,6 +4,7 @@ mishearings undone, and how sure an N-best list makes a move."""
 import pytest
 
 from oxbot.dialogue.cells_in_words import (
+    MIN_AGREEMENT,
     REPAIRED_CERTAINTY,
     CellWords,
     move_in_words,
@@ -138,3 +139,11 @@ def test_a_move_heard_is_as_sure_as_the_best_hypothesis_and_the_n_best_agree():
     assert torn.cell == 0 and torn.score == pytest.approx(0.4)
     assert move_in_words([("stop it", 0.9), ("top left", 0.8)]) is None  # the best decides
     assert move_in_words([]) is None and move_in_words([("", 0.5)]) is None
+
+
+def test_an_n_best_torn_between_two_cells_is_told_apart_from_one_with_misheard_rivals():
+    torn = move_in_words([("top left", 0.8), ("top right", 0.8)])
+    assert torn is not None and torn.agreement == 0.5 < MIN_AGREEMENT
+    # Whisper's rivals are the same words misheard, naming no cell or the same one
+    sure = move_in_words([("top middle", 0.99), ("top right middle", 0.35), ("top middle", 0.2)])
+    assert sure is not None and sure.cell == 1 and sure.agreement == 1.0

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from oxbot.config import load_config
+from oxbot.config import SpeechConfig, load_config
 from oxbot.dialogue.domain import INVITATION, MOVE_REQUEST
 from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, outcome
 from oxbot.robot.manager import TAKEN_IN_WORDS, WHICH_CELL, cell_in_words
@@ -68,7 +68,7 @@ def test_below_the_gate_the_robot_asks_which_cell_and_does_not_move(torn):
     if torn:
         robot.say(IN_WORDS[cell], 0.8, (IN_WORDS[other], 0.8))
     else:
-        robot.say(IN_WORDS[cell], 0.3)
+        robot.say(IN_WORDS[cell], SpeechConfig().min_move_confidence / 2)
     assert robot.manager.board == board and robot.said[said:] == [WHICH_CELL]
     assert robot.last_act == MOVE_REQUEST  # still waiting for the move
     robot.say(IN_WORDS[cell])  # said again, surely

@@ -224,7 +224,9 @@ const handlers = {
     $("bubble").textContent = d.text; speak(d.audio, d.seconds);
   },
   SpeakingFinished() { state.speaking = false; },
-  NewGame() { sendFrame(); },   // the robot starts a clean sheet: show it the page's
+  // Another game, from the button or asked for in words ("one more game"): a clean sheet on
+  // the page too (paper is the person's to change), listening again, and the robot shown it.
+  NewGame() { if (!paper.on) resetSheet(); else state.ended = false; sendFrame(); },
   ArmStroke(d) {
     drawArmStroke(d.where, d.points);
     (state.robotStrokes[d.where] = state.robotStrokes[d.where] || []).push(d.points);
