@@ -11,9 +11,10 @@ them are added sounds made here: digital silence, white and pink noise at three 
 hum, a tone, a swept tone, a train of clicks and a synthesised tune. Each recording goes through
 the recogniser and the understanding, read as the answer to the invitation to play, to "Your
 move" and to the end of a game (where a yes, a no, a stop or "again" changes what the robot
-does). A clip becomes an answer when any of them reads it as an act other than `Unknown` or
-`Silence`. Printed: clips that produced words, clips that became an answer (each one listed,
-with its words and confidence), per category. Not a test.
+does), and as a move said in words at the person's turn (played at or above
+`speech.min_move_confidence`). A clip becomes an answer when any of them reads it as an act
+other than `Unknown` or `Silence`, or as a move. Printed: clips that produced words, clips that
+became an answer (each one listed, with its words and confidence), per category. Not a test.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from collections import Counter
 
 import numpy as np
 
+from oxbot.config import load_config
+from oxbot.dialogue.cells_in_words import MIN_AGREEMENT, move_in_words
 from oxbot.dialogue.domain import (
     FEEDBACK_WIN,
     INVITATION,
@@ -32,6 +35,7 @@ from oxbot.dialogue.domain import (
     load_domain,
 )
 from oxbot.dialogue.understanding import UserActClassifier
+from oxbot.game.board import CELL_NAMES
 from oxbot.speech.audio import RATE, Audio, pcm16, to_wav_bytes
 from oxbot.speech.recognition import shipped_recognizer
 
@@ -105,6 +109,7 @@ def main() -> None:
     args = parser.parse_args()
 
     recognizer = shipped_recognizer(args.recognizer)
+    gate = load_config(None).speech.min_move_confidence
     classifier = UserActClassifier(load_domain())
     recordings = clips(args.part, not args.no_made)
     worded, answers = Counter(), []
@@ -117,6 +122,9 @@ def main() -> None:
         worded[category] += 1
         acts = {context: classifier.intent_of(nbest, context).act for context in CONTEXTS}
         taken = {c: a for c, a in acts.items() if a not in (UNKNOWN, SILENCE)}
+        move = move_in_words([(h.text, h.confidence) for h in nbest])
+        if move is not None and move.score >= gate and move.agreement >= MIN_AGREEMENT:
+            taken["a move in words"] = CELL_NAMES[move.cell]
         if taken:
             answers.append((category, name, nbest[0].text, nbest[0].confidence, taken))
 
