@@ -79,6 +79,11 @@ class Camera(threading.Thread):
             self.stopped.wait(0.1)
 
 
+def moved_cells(log: list) -> set[int]:
+    """Every cell a GameMove on the bus has played so far, by either player."""
+    return {CELL_NAMES.index(m.where) for m in log if isinstance(m, GameMove)}
+
+
 def test_a_spoken_and_drawn_game_runs_to_the_goodbye():
     config = load_config(
         None, ["robot.speed_factor=8", "robot.answer_timeout=4", "robot.move_timeout=60"]
@@ -111,8 +116,10 @@ def test_a_spoken_and_drawn_game_runs_to_the_goodbye():
                     if message.act in recordings:
                         robot.hear(recordings[message.act])
                     if message.act == "Request(userGameMove)" and drawing is None:
-                        board = robot.board
-                        drawing = next(c for c in prefer if board[c] == EMPTY)
+                        # the moves on the bus so far, not only robot.board, which a loaded
+                        # machine may show a move late
+                        board, taken = robot.board, moved_cells(log)
+                        drawing = next(c for c in prefer if board[c] == EMPTY and c not in taken)
                         camera.add(drawing, "cross", strokes_drawn=0.0)
         finally:
             camera.stopped.set()
@@ -145,7 +152,11 @@ def test_a_spoken_and_drawn_game_runs_to_the_goodbye():
             and m.speaker == "usr"
             and m.act == f"GameMove(gridloc={where})"
         ]
-        assert acted and acted[0] > i
+        assert acted and acted[0] > i, [
+            (j, type(m).__name__, getattr(m, "who", ""), getattr(m, "where", ""))
+            for j, m in enumerate(log[max(0, i - 20) : i + 2], start=max(0, i - 20))
+            if isinstance(m, GameMove | DialogueAct | BoardSeen)
+        ]
     # The robot never spoke while its arm moved.
     busy = []
     for start, end in ((SpeakingStarted, SpeakingFinished), (ArmCommand, ArmDone)):
