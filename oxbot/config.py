@@ -392,10 +392,19 @@ class HeadConfig:
         _require_finite(self)
 
 
+MANAGERS = ("dqn", "rules", "script")
+"""The interaction managers the robot can run (`oxbot.dialogue.baselines.load_manager`): the
+trained DQN, the hand-written rules, the script."""
+
+
 @dataclass(frozen=True)
 class RobotConfig:
     """The integrated robot: how long it waits for the person, how fast it runs, its body."""
 
+    manager: str = "dqn"
+    """oxbot: who decides what the robot says and where it draws: "dqn" (the trained policy, as
+    in the paper), "rules" (a hand-written finite-state manager) or "script" (the action model's
+    most probable act); the last two are baselines for comparison."""
     answer_timeout: float = 4.0
     """oxbot: seconds to wait for an optional answer (to a greeting, say) before taking silence."""
     question_timeout: float = 30.0
@@ -435,6 +444,11 @@ class RobotConfig:
         _require_at_least(self, 0, "restart_limit", "hang_limit", "restart_backoff_max")
         _require_at_least(self, 0, "give_up_after")
         _require_finite(self)
+        if self.manager not in MANAGERS:
+            raise ConfigError(
+                f"{_where(self, 'manager')} is {self.manager!r}; "
+                f"choose one of {', '.join(MANAGERS)}"
+            )
         if not 0 <= self.restart_backoff <= self.restart_backoff_max:
             raise ConfigError(
                 f"{_where(self, 'restart_backoff')} must be from 0 up to restart_backoff_max "

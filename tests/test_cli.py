@@ -50,6 +50,7 @@ def test_game_survives_garbage_and_eof():
         (["--set", "game.opponent=perfect", "game"], "choose one of random, blocker, minimax"),
         (["game", "--opponent", "perfect"], "unknown opponent 'perfect'"),
         (["--config", "/nonexistent.toml", "config"], "does not exist"),
+        (["play", "--manager", "oracle"], "manager is 'oracle'; choose one of dqn, rules, script"),
     ],
 )
 def test_bad_options_give_one_clear_line_and_no_traceback(args, message):

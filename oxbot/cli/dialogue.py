@@ -64,8 +64,16 @@ def evaluate_agent_command(
     as_json: Annotated[bool, typer.Option("--json", help="Print the figures as JSON.")] = False,
     show: Annotated[int, typer.Option(help="Print this many transcripts like Figure 1.")] = 0,
     policy_file: Annotated[
-        Path | None, typer.Option("--policy", help="A policy file (default: the shipped one).")
+        Path | None,
+        typer.Option("--policy", help="The DQN's policy file (default: the shipped one)."),
     ] = None,
+    manager: Annotated[
+        str,
+        typer.Option(
+            help="The manager measured: dqn (the trained policy), rules (hand-written) or "
+            "script (the action model's most probable act)."
+        ),
+    ] = "dqn",
     seed: Annotated[int, typer.Option(help="Seed of the simulated people.")] = 0,
     cooperative: Annotated[
         bool,
@@ -75,10 +83,11 @@ def evaluate_agent_command(
         ),
     ] = False,
 ) -> None:
-    """Play the greedy policy against simulated people and measure its dialogues."""
+    """Play the greedy policy (or a baseline) against simulated people and measure its
+    dialogues."""
     import json
 
-    from oxbot.dialogue.agent import load_policy
+    from oxbot.dialogue.baselines import load_manager
     from oxbot.dialogue.evaluation import evaluate, format_transcript
     from oxbot.errors import ConfigError
     from oxbot.game.opponents import OPPONENTS
@@ -89,7 +98,9 @@ def evaluate_agent_command(
     starts = who_starts(robot_starts, "--robot-starts")
     if games <= 0:
         raise ConfigError(f"--games is {games}; play at least one game")
-    policy = load_policy(policy_file)
+    if policy_file is not None and manager != "dqn":
+        raise ConfigError(f"--policy is a DQN's file; leave it out with --manager {manager}")
+    policy = load_manager(manager, config_of(ctx), policy_file)
     results = [
         evaluate(
             policy.act_batch,

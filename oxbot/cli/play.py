@@ -79,11 +79,18 @@ def play(
     data_dir: Annotated[
         Path | None, typer.Option(help="Folder of the recordings (default: user data folder).")
     ] = None,
+    manager: Annotated[
+        str | None,
+        typer.Option(
+            help="Who decides what the robot says: dqn (the trained policy), rules or script "
+            "(the baselines it is compared with); default: config."
+        ),
+    ] = None,
 ) -> None:
     """Play with the whole robot: the web page at http(s)://HOST:PORT, or --terminal."""
     changes = {
         "game": {"robot_starts": robot_starts},
-        "robot": {"speed_factor": speed},
+        "robot": {"speed_factor": speed, "manager": manager},
         "web": {"host": host, "port": port, "https": {True: "on", False: "off"}.get(https)},
     }
     config = with_overrides(

@@ -3,7 +3,9 @@
 Paper §3.1: the interaction manager (SimpleDS) takes the latest speech and game moves, builds
 the state, acts greedily with the trained policy among the acts the Naive Bayes mask offers,
 and verbalises the act through the templates; a GameMove also moves the arm, and the next
-utterance waits until the arm is done.
+utterance waits until the arm is done. `[robot] manager` (`oxbot play --manager`) may put the
+baselines the policy is compared with in its place (`oxbot.dialogue.baselines`: the rules, the
+script), their scores in the Q-values' place.
 
 One turn here is what one environment step is in training (`oxbot.dialogue.env`): the robot
 says an act (and for a GameMove then draws it), then listens for the person's answer — their
@@ -68,7 +70,8 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from oxbot.config import OxbotConfig, RobotConfig
-from oxbot.dialogue.agent import DQNPolicy, load_policy, masked_argmax
+from oxbot.dialogue.agent import masked_argmax
+from oxbot.dialogue.baselines import Manager, load_manager
 from oxbot.dialogue.cells_in_words import MIN_AGREEMENT, MoveHeard, move_in_words, read_cell
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -228,7 +231,7 @@ class InteractionManagerComponent(Component):
     def __init__(
         self,
         bus: Bus,
-        policy: DQNPolicy | None = None,
+        policy: Manager | None = None,
         config: OxbotConfig | None = None,
         understand: Understand | None = None,
         rng: np.random.Generator | None = None,
@@ -237,7 +240,7 @@ class InteractionManagerComponent(Component):
         super().__init__(bus, name)
         self.config = config if config is not None else OxbotConfig()
         self.model = build_dialogue_model(self.config)
-        self.policy = policy if policy is not None else load_policy()
+        self.policy = policy if policy is not None else load_manager(self.config.robot.manager)
         self.rng = rng if rng is not None else np.random.default_rng()
         self._understand = understand or self.model.understanding.intent_of
         domain = self.model.domain

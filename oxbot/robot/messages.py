@@ -242,7 +242,8 @@ class Decision(Message):
     topic: ClassVar[str] = "dialogue/decision"
     offered: tuple[str, ...]
     q_values: tuple[float, ...]
-    """Q(s, a) for every act, in `oxbot.dialogue.domain.SYSTEM_ACTS` order."""
+    """Q(s, a) for every act (a baseline manager's scores), in `oxbot.dialogue.domain.SYSTEM_ACTS`
+    order."""
     chosen: str
 
 

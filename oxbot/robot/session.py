@@ -15,7 +15,8 @@ waits, speed, arm and head, `[speech]` the recogniser and voice, `[tracker]` the
 rate). The terminal (`oxbot play --terminal`), the web page (`oxbot play`) and the tests build
 the same Robot; each browser tab has its own. The Robot talks to its components only through
 messages on its bus, and learns the board and the dialogue from them too. Components that load
-models (the classifier, the recogniser, the policy) share one copy per process.
+models (the classifier, the recogniser, the policy) share one copy per process. `[robot] manager`
+picks the policy: the trained DQN, or the rules or the script it is compared with.
 
 The components run under a `Supervisor` (oxbot.robot.bus, with the `[robot]` restart budget and
 hang deadline): a part that fails is restarted, a hung one replaced, and one lost for good is
@@ -35,7 +36,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from oxbot.config import OxbotConfig
-from oxbot.dialogue.agent import DQNPolicy
+from oxbot.dialogue.baselines import Manager
 from oxbot.dialogue.domain import words_of
 from oxbot.dialogue.state import Turn
 from oxbot.errors import InvalidInputError, SpeechUnavailable
@@ -78,11 +79,12 @@ log = logging.getLogger(__name__)
 
 
 @functools.cache
-def shared_policy() -> DQNPolicy:
-    """The shipped policy, loaded once per process."""
-    from oxbot.dialogue.agent import load_policy
+def shared_policy(manager: str = "dqn") -> Manager:
+    """The interaction manager `[robot] manager` names (the shipped policy, the rules or the
+    script), loaded once per process."""
+    from oxbot.dialogue.baselines import load_manager
 
-    return load_policy()
+    return load_manager(manager)
 
 
 @functools.cache
@@ -93,7 +95,7 @@ def warm_up(config: OxbotConfig | None = None) -> None:
     from oxbot.perception.board import default_reader
 
     config = config if config is not None else OxbotConfig()
-    shared_policy()
+    shared_policy(config.robot.manager)
     default_reader(config.perception)
     try:
         load_recognizer(config.speech)
@@ -106,7 +108,8 @@ class Robot:
 
     `sheet_camera` / `head_camera` are frame sources the robot reads itself; without them it
     sees only what `show` / `look` hand over. `recognizer` and `policy` replace the ones the
-    config names (the shipped ones); `seed` fixes the choice among templates and the arm's hand.
+    config names (the shipped ones; `policy` is any `oxbot.dialogue.baselines.Manager`); `seed`
+    fixes the choice among templates and the arm's hand.
     `joining` makes more components on the robot's bus, each from the bus: a
     `oxbot.recording.Recorder` that keeps the games, say (`oxbot.recording.recorder.joining`).
     """
@@ -118,7 +121,7 @@ class Robot:
         sheet_camera: FrameSource | None = None,
         head_camera: FrameSource | None = None,
         recognizer: Recognizer | None = None,
-        policy: DQNPolicy | None = None,
+        policy: Manager | None = None,
         seed: int | None = None,
         joining: Sequence[Callable[[Bus], Component]] = (),
     ) -> None:
@@ -130,7 +133,7 @@ class Robot:
         components: list[Component] = [
             InteractionManagerComponent(
                 self.bus,
-                policy=policy if policy is not None else shared_policy(),
+                policy=policy if policy is not None else shared_policy(body.manager),
                 config=self.config,
                 rng=np.random.default_rng(manager_seed),
             ),

@@ -61,3 +61,19 @@ def test_bad_evaluate_options_give_one_clear_line():
     assert result.returncode == 2
     assert "--robot-starts is 'sometimes'; use yes, no or both" in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_evaluate_agent_measures_the_rule_based_manager():
+    result = oxbot(
+        "evaluate", "agent", "--manager", "rules", "--opponent", "minimax",
+        "--robot-starts", "no", "--games", "30", "--json",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    (figures,) = json.loads(result.stdout)
+    assert figures["games"] == 30 and figures["loss_rate"] == 0.0
+
+
+def test_a_policy_file_goes_with_the_dqn_only():
+    result = oxbot("evaluate", "agent", "--manager", "rules", "--policy", "agent.pt")
+    assert result.returncode == 2
+    assert "--policy is a DQN's file" in result.stderr

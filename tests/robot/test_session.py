@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from oxbot.config import load_config
-from oxbot.dialogue.domain import N_ACTIONS, plays
+from oxbot.dialogue.domain import N_ACTIONS, SYSTEM_ACTS, plays
 from oxbot.errors import IllegalMoveError, InvalidInputError
 from oxbot.game.board import CELL_NAMES, EMPTY, ROBOT, USER, outcome
 from oxbot.robot.messages import (
@@ -505,3 +505,20 @@ def test_goodbye_to_the_invitation_is_a_no_acknowledged_with_a_goodbye(answer):
         "Salutation(closing)",
     ], said
     assert ended.outcome == "declined"
+
+
+@pytest.mark.parametrize("manager", ["rules", "script"])
+def test_the_baseline_managers_run_the_robot_too(manager):
+    """`robot.manager` (`oxbot play --manager`) puts a baseline in the DQN's place."""
+    from oxbot.config import with_overrides
+
+    config = with_overrides(FAST, {"robot": {"manager": manager}})
+    with Robot(config, seed=3) as robot:
+        person = TypingPerson(robot)
+        ended = person.play()
+        acts = [t["act"] for t in robot.transcript if t["speaker"] == "sys"]
+        assert acts[-1] == "Salutation(closing)" and ended.outcome in ("win", "draw")
+        decisions = [m for m in person.log if isinstance(m, Decision)]
+        for d in decisions:
+            scores = dict(zip(SYSTEM_ACTS, d.q_values, strict=True))
+            assert scores[d.chosen] == max(scores[a] for a in d.offered)
