@@ -27,9 +27,9 @@ from oxbot.web.server import create_app, serving_in_background
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 CONFIG = load_config(
     None,
-    ["robot.speed_factor=6", "robot.answer_timeout=120", "robot.question_timeout=240"],
+    ["robot.speed_factor=6", "robot.answer_timeout=60", "robot.question_timeout=240"],
 )
-"""6x faster than real time, with 20 s to answer the greeting or the outcome and 40 s to answer
+"""6x faster than real time, with 10 s to answer the greeting or the outcome and 40 s to answer
 a question: a busy machine never loses the person's turn."""
 VOICE = "en-us+m3"
 MOVE = "GameMove(gridloc="
