@@ -135,8 +135,20 @@ def play_by_voice(page: Page) -> None:
         where = next(cell for cell in CELL_NAMES if cell not in moves)
         named.append(where)
         answer(page, SPOKEN_CELLS[where])
-        spoken_at = len(items)
+        # the robot heard it (a move, or words it asks about) before the person speaks again
+        page.wait_for_function(
+            """(n) => [...document.querySelectorAll('[data-testid=log] li[data-act]')]
+                 .slice(n).some(li => li.dataset.speaker === 'usr')""",
+            arg=len(items),
+            timeout=40_000,
+        )
+        spoken_at = len(log(page))
     page.screenshot(path=ARTIFACTS / "voice-game-over.png", full_page=True)
+    # the moves said in words are on the page's sheet too, in the person's ink
+    strokes = page.evaluate("[...oxbot.committed, ...oxbot.pending].length")
+    said = sum(1 for s, a, _ in log(page) if s == "usr" and a.startswith(MOVE) and "$" not in a)
+    per_symbol = 2 if page.evaluate("oxbot.hello.user_symbol") == "cross" else 1
+    assert strokes == per_symbol * said, (strokes, said)
 
     before = answer(page, "one more game")
     wait_for(page, "Request(newGame)", "usr", before)

@@ -133,6 +133,20 @@ function cellBox(where) {
   return [L[col], L[row], L[col + 1], L[row + 1]];
 }
 
+// A move said or typed instead of drawn: the person's symbol goes on the sheet for them, as
+// strokes of their ink, so the sheet (and what the robot's eyes see of it) shows the game.
+function inkForMoveInWords(where) {
+  const box = cellBox(where);
+  if (!box || !state.hello) return;
+  const [l, t, r, b] = box, cx = (l + r) / 2, cy = (t + b) / 2, h = 0.3 * Math.min(r - l, b - t);
+  const strokes = state.hello.user_symbol === "cross"
+    ? [[[cx - h, cy - h], [cx + h, cy + h]], [[cx + h, cy - h], [cx - h, cy + h]]]
+    : [Array.from({ length: 33 }, (_, k) => [cx + h * Math.cos(k * Math.PI / 16),
+                                              cy + h * Math.sin(k * Math.PI / 16)])];
+  state.pending.push(...strokes);
+  redrawSheet(); state.dirty = true;
+}
+
 function drawArmStroke(where, points) {
   const box = cellBox(where);
   if (!box) return;
@@ -255,6 +269,7 @@ const handlers = {
     state.stats.moves.push({ ...d, at: performance.now() });
     if (d.who === "usr") {
       if (paper.on) paper.moves.add(d.where);   // drawn on paper, not on the canvas
+      else if (!state.pending.length) inkForMoveInWords(d.where);
       state.committed.push(...state.pending); state.pending = [];
       showProblem(""); $("turn").textContent = "";
     }
