@@ -25,7 +25,7 @@ from collections import Counter
 import numpy as np
 
 from oxbot.config import load_config
-from oxbot.dialogue.cells_in_words import MIN_AGREEMENT, move_in_words
+from oxbot.dialogue.cells_in_words import move_in_words
 from oxbot.dialogue.domain import (
     FEEDBACK_WIN,
     INVITATION,
@@ -123,7 +123,7 @@ def main() -> None:
         acts = {context: classifier.intent_of(nbest, context).act for context in CONTEXTS}
         taken = {c: a for c, a in acts.items() if a not in (UNKNOWN, SILENCE)}
         move = move_in_words([(h.text, h.confidence) for h in nbest])
-        if move is not None and move.score >= gate and move.agreement >= MIN_AGREEMENT:
+        if move is not None and move.played_at(gate):
             taken["a move in words"] = CELL_NAMES[move.cell]
         if taken:
             answers.append((category, name, nbest[0].text, nbest[0].confidence, taken))

@@ -129,6 +129,11 @@ class MoveHeard:
     """Of the N-best's confidence on hypotheses that name a cell, the share on this one: below
     `MIN_AGREEMENT` the hypotheses are torn between cells, however sure the best one is."""
 
+    def played_at(self, gate: float) -> bool:
+        """Whether the robot plays this move with `gate` (`speech.min_move_confidence`): heard
+        surely enough, and the N-best not torn between cells; otherwise it asks which cell."""
+        return self.score >= gate and self.agreement >= MIN_AGREEMENT
+
 
 MIN_AGREEMENT = 2 / 3
 """A move the N-best list is torn about (two cells heard about as surely, "top left" 0.8 and

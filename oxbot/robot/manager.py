@@ -72,7 +72,7 @@ import numpy as np
 from oxbot.config import OxbotConfig, RobotConfig
 from oxbot.dialogue.agent import masked_argmax
 from oxbot.dialogue.baselines import Manager, load_manager
-from oxbot.dialogue.cells_in_words import MIN_AGREEMENT, MoveHeard, move_in_words, read_cell
+from oxbot.dialogue.cells_in_words import MoveHeard, move_in_words, read_cell
 from oxbot.dialogue.domain import (
     ACCEPT,
     CLOSING,
@@ -537,7 +537,7 @@ class InteractionManagerComponent(Component):
         """A move said in words: played, through the path of a typed move (a GameMove on the
         bus, which the eyes also learn from), when heard surely enough; else asked about."""
         self._unanswered_in_a_row = 0
-        if move.score < self.config.speech.min_move_confidence or move.agreement < MIN_AGREEMENT:
+        if not move.played_at(self.config.speech.min_move_confidence):
             self._ask_which_cell(GAME_MOVE_TEMPLATE, move.words, move.score)
             return
         self._move_in_words = (move, words)

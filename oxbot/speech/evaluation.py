@@ -196,6 +196,12 @@ class Condition:
             return str(self.snr_db)
         return self.name
 
+    def heard(self, samples: np.ndarray, noise_key: str, seed: int = 0) -> np.ndarray:
+        """`apply`, with the noise and silences drawn from `seed` and `noise_key` (a voice and
+        a phrase, say): the same recording under the same condition every run."""
+        key = zlib.crc32(f"{noise_key}|{self.seed_key}".encode())
+        return self.apply(samples, np.random.default_rng([seed, key]))
+
     def apply(self, samples: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """`samples` (int16 at 16 kHz) as heard under this condition."""
         x = samples.astype(np.float64)
@@ -463,8 +469,7 @@ def _hear(
     intent = expected if expected in INTENTS else intent_of_act(expected)
     context = INVITATION if intent in ("accept", "decline") else ""
     for condition in conditions:
-        key = zlib.crc32(f"{noise_key}|{condition.seed_key}".encode())
-        samples = condition.apply(clean, np.random.default_rng([seed, key]))
+        samples = condition.heard(clean, noise_key, seed)
         started = time.perf_counter()
         hypotheses, keywords = heard_by(recognizer, samples)
         decode_seconds = time.perf_counter() - started

@@ -41,7 +41,7 @@ import re
 import shutil
 import threading
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -138,7 +138,8 @@ class WhisperListening:
     hypotheses: list[Hypothesis] = field(default_factory=list)
     """The N-best list handed on (empty: nothing heard)."""
     silent_because: str = ""
-    """Why nothing was heard: "quiet", "no speech", "decoder", "silence phrase", "tags only"."""
+    """Why nothing was heard: "quiet", "no speech", "tags only", "decoder", "silence phrase",
+    "prompt echo"."""
     features: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """The calibration's inputs for the best hypothesis: log probability, no-speech, lead."""
     seconds: float = 0.0
@@ -279,7 +280,7 @@ class WhisperRecognizer:
         with self.model.lock:
             raw, no_speech = self._decode(cut)
         listening = self._hypotheses(WhisperListening(speech, raw, no_speech))
-        return _with_time(listening, time.perf_counter() - started)
+        return replace(listening, seconds=time.perf_counter() - started)
 
     # --- decoding -----------------------------------------------------------------------
 
@@ -342,9 +343,7 @@ class WhisperRecognizer:
             Hypothesis(text, confidence * math.exp(score - best), words if k == 0 else ())
             for k, (text, score) in enumerate(ranked[: self.nbest])
         ]
-        return WhisperListening(
-            heard.speech_seconds, heard.raw, heard.no_speech, hypotheses, "", features
-        )
+        return replace(heard, hypotheses=hypotheses, features=features)
 
 
 def calibrated(logprob: float, no_speech: float, lead: float, model: str = "base") -> float:
@@ -408,19 +407,7 @@ def word_posteriors(
 
 
 def _silent(heard: WhisperListening, why: str) -> WhisperListening:
-    return WhisperListening(heard.speech_seconds, heard.raw, heard.no_speech, [], why)
-
-
-def _with_time(listening: WhisperListening, seconds: float) -> WhisperListening:
-    return WhisperListening(
-        listening.speech_seconds,
-        listening.raw,
-        listening.no_speech,
-        listening.hypotheses,
-        listening.silent_because,
-        listening.features,
-        seconds,
-    )
+    return replace(heard, hypotheses=[], silent_because=why)
 
 
 class _SpeechFinder:

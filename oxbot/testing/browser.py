@@ -152,3 +152,15 @@ def say(page: Any, wav: bytes) -> None:
     have finished speaking."""
     page.evaluate("(b64) => window.__room.say(b64)", base64.b64encode(wav).decode())
     page.wait_for_function("window.__room.playing === 0", timeout=30_000)
+
+
+def log_items(page: Any) -> list[tuple[str, str, str]]:
+    """(speaker, act, text) of every turn in the page's conversation log, oldest first."""
+    return [
+        tuple(row)
+        for row in page.evaluate(
+            """() => [...document.querySelectorAll('[data-testid=log] li[data-act]')]
+                 .map(li => [li.dataset.speaker, li.dataset.act,
+                             li.querySelector('.text').textContent])"""
+        )
+    ]

@@ -19,7 +19,7 @@ import pytest
 from playwright.sync_api import Page, sync_playwright
 from skimage import data
 
-from oxbot.testing.browser import CHROMIUM, draw
+from oxbot.testing.browser import CHROMIUM, draw, log_items
 from oxbot.testing.browser import FLAGS as BROWSER_FLAGS
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
@@ -88,18 +88,6 @@ def page(server_url, answer_wav, webcam_y4m, tmp_path_factory):
             yield tab
         finally:
             context.close()
-
-
-def log_items(page: Page) -> list[tuple[str, str, str]]:
-    """(speaker, act, text) of every turn in the conversation log."""
-    return [
-        tuple(row)
-        for row in page.evaluate(
-            """() => [...document.querySelectorAll('[data-testid=log] li[data-act]')]
-                 .map(li => [li.dataset.speaker, li.dataset.act,
-                             li.querySelector('.text').textContent])"""
-        )
-    ]
 
 
 def wait_for_act(page: Page, act: str, speaker: str = "sys", after: int = 0, timeout=30_000):

@@ -21,7 +21,7 @@ from oxbot.dialogue.domain import PROBLEM
 from oxbot.game.board import CELL_NAMES
 from oxbot.speech.audio import RATE, Audio, pcm16, to_wav_bytes, trim_silence
 from oxbot.speech.evaluation import speak
-from oxbot.testing.browser import CHROMIUM, FLAGS, conversation_script, say
+from oxbot.testing.browser import CHROMIUM, FLAGS, conversation_script, log_items, say
 from oxbot.web.server import create_app, serving_in_background
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
@@ -69,17 +69,6 @@ def page() -> Iterator[Page]:
             browser.close()
 
 
-def log(page: Page) -> list[tuple[str, str, str]]:
-    return [
-        tuple(row)
-        for row in page.evaluate(
-            """() => [...document.querySelectorAll('[data-testid=log] li[data-act]')]
-                 .map(li => [li.dataset.speaker, li.dataset.act,
-                             li.querySelector('.text').textContent])"""
-        )
-    ]
-
-
 def wait_for(page: Page, act: str, speaker: str = "sys", after: int = 0, timeout=40_000) -> None:
     page.wait_for_function(
         """([act, speaker, after]) =>
@@ -95,7 +84,7 @@ def answer(page: Page, text: str) -> int:
     not listen to the echo of its own voice), then say `text`; the log's length before."""
     page.wait_for_function("!window.oxbot.speaking", timeout=20_000)
     page.wait_for_timeout(1_000)
-    before = len(log(page))
+    before = len(log_items(page))
     say(page, spoken(text))
     return before
 
@@ -106,7 +95,9 @@ def test_a_whole_game_by_voice_then_no_thanks_to_another(page: Page):
     except Exception as exc:
         page.screenshot(path=ARTIFACTS / "voice-game-failure.png", full_page=True)
         heard = page.get_by_test_id("heard").inner_text()
-        raise AssertionError(f"{exc}\nthe page's log: {log(page)}\nlast heard: {heard}") from exc
+        raise AssertionError(
+            f"{exc}\nthe page's log: {log_items(page)}\nlast heard: {heard}"
+        ) from exc
 
 
 def play_by_voice(page: Page) -> None:
@@ -123,9 +114,9 @@ def play_by_voice(page: Page) -> None:
     assert "yes" in page.get_by_test_id("heard").inner_text().lower()
 
     deadline, spoken_at, named = time.monotonic() + 180, 0, []
-    while not any(a.startswith("Provide(feedback=") for _, a, _ in log(page)):
+    while not any(a.startswith("Provide(feedback=") for _, a, _ in log_items(page)):
         assert time.monotonic() < deadline, "the game never ended"
-        items = log(page)
+        items = log_items(page)
         speaker, act, text = items[-1]
         asks = act == "Request(userGameMove)" or (act == PROBLEM and "Which cell" in text)
         if speaker != "sys" or not asks or len(items) <= spoken_at:
@@ -142,11 +133,13 @@ def play_by_voice(page: Page) -> None:
             arg=len(items),
             timeout=40_000,
         )
-        spoken_at = len(log(page))
+        spoken_at = len(log_items(page))
     page.screenshot(path=ARTIFACTS / "voice-game-over.png", full_page=True)
     # the moves said in words are on the page's sheet too, in the person's ink
     strokes = page.evaluate("[...oxbot.committed, ...oxbot.pending].length")
-    said = sum(1 for s, a, _ in log(page) if s == "usr" and a.startswith(MOVE) and "$" not in a)
+    said = sum(
+        1 for s, a, _ in log_items(page) if s == "usr" and a.startswith(MOVE) and "$" not in a
+    )
     per_symbol = 2 if page.evaluate("oxbot.hello.user_symbol") == "cross" else 1
     assert strokes == per_symbol * said, (strokes, said)
 
@@ -158,7 +151,7 @@ def play_by_voice(page: Page) -> None:
     before = answer(page, "no thanks")
     wait_for(page, "Reject(playGame=no)", "usr", before)
     wait_for(page, "Salutation(closing)", after=before)
-    items = log(page)
+    items = log_items(page)
     assert items[-1][:2] == ("sys", "Salutation(closing)")
     assert ("sys", "Acknowledge(playGame=no)") in [(s, a) for s, a, _ in items[before:]]
     # the person's moves are cells they named, each once
