@@ -40,13 +40,16 @@ import subprocess
 import sys
 import wave
 from collections import defaultdict
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import av
 import numpy as np
 from scipy.signal import resample_poly
 from sound_sets import BACKGROUND, NONSPEECH, PARTS, Item, read_manifest
+
+from oxbot.errors import DataError
+from oxbot.speech.speech_commands import read_blobs
 
 RATE = 16000
 SETS = (NONSPEECH, BACKGROUND)
@@ -104,25 +107,9 @@ def convert(samples: np.ndarray, rate: int, start_s: str, duration_s: str) -> tu
     return out.getvalue(), "; ".join(steps)
 
 
-def read_blobs(git_dir: Path, commit: str, paths: Iterable[str]) -> Iterator[tuple[str, bytes]]:
-    """(blob id, bytes) of each `path` at `commit`, in order, through one `git cat-file`."""
-    paths = list(paths)
-    request = "".join(f"{commit}:{path}\n" for path in paths).encode()
-    result = subprocess.run(
-        ["git", f"--git-dir={git_dir}", "cat-file", "--batch"],
-        input=request,
-        capture_output=True,
-        check=True,
-    )
-    out, at = result.stdout, 0
-    for path in paths:
-        header_end = out.index(b"\n", at)
-        header = out[at:header_end].split()
-        if len(header) < 3 or header[1] != b"blob":
-            raise SystemExit(f"{path} is not in {git_dir} at {commit[:12]} (a partial copy?)")
-        size = int(header[2])
-        yield header[0].decode(), out[header_end + 1 : header_end + 1 + size]
-        at = header_end + 1 + size + 1
+def git_blob_id(data: bytes) -> str:
+    """The id git gives a file of these bytes (the SHA-1 of its blob object)."""
+    return hashlib.sha1(b"blob %d\0" % len(data) + data).hexdigest()
 
 
 def match_sources(git_dirs: list[Path], commits: dict[str, str]) -> dict[str, Path]:
@@ -207,7 +194,10 @@ def main() -> None:
         sys.exit(check())
     if not args.git_dirs:
         parser.error("give the fetched git directories (see SOURCES.md), or --check")
-    sys.exit(restore(args.git_dirs, args.keep_different))
+    try:
+        sys.exit(restore(args.git_dirs, args.keep_different))
+    except DataError as missing:  # a path not in a fetched copy: a partial fetch, say
+        sys.exit(f"{missing} (a partial copy?)")
 
 
 def _convert_all(items: list[Item], sources: dict[str, Path]) -> Iterator[tuple[Item, bytes]]:
@@ -221,8 +211,8 @@ def _convert_all(items: list[Item], sources: dict[str, Path]) -> Iterator[tuple[
     for repo, keys in by_repo.items():
         commit = by_source[keys[0]][0].commit
         blobs = read_blobs(sources[repo], commit, [path for _, path in keys])
-        for key, (blob, data) in zip(keys, blobs, strict=True):
-            group = by_source[key]
+        for key, data in zip(keys, blobs, strict=True):
+            group, blob = by_source[key], git_blob_id(data)
             if blob != group[0].blob:
                 raise SystemExit(
                     f"{repo}:{key[1]} is blob {blob}, the manifest says {group[0].blob}"
