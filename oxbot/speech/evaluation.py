@@ -499,10 +499,6 @@ def heard_by(
     if isinstance(recognizer, PocketsphinxRecognizer):
         listening = recognizer.listen(samples)
         return (listening.hypotheses, listening.keywords) if listening else ([], None)
-    from oxbot.speech.whisper import WhisperRecognizer
-
-    if isinstance(recognizer, WhisperRecognizer):
-        return recognizer.listen(samples).hypotheses, None
     return recognizer.recognize(to_wav_bytes(Audio(samples, RATE))), None
 
 

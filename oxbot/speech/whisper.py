@@ -40,6 +40,7 @@ import os
 import re
 import shutil
 import threading
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -263,8 +264,6 @@ class WhisperRecognizer:
 
     def listen(self, samples: np.ndarray) -> WhisperListening:
         """Everything one decoding makes of int16 samples at 16 kHz (`WhisperListening`)."""
-        import time
-
         started = time.perf_counter()
         samples = np.asarray(samples, dtype=np.int16)
         if len(samples) == 0 or level_dbfs(samples) < SILENT_DBFS:
