@@ -161,7 +161,19 @@ def play_a_whole_game_then_answer_by_voice(page: Page) -> None:
             f"strokes with too few points: {inked}, finger={finger}, "
             f"{page.evaluate('window.oxbot.stats')}"
         )
-        page.wait_for_function(f"window.oxbot.stats.moves.length > {moves_before}", timeout=10_000)
+        try:
+            page.wait_for_function(
+                f"window.oxbot.stats.moves.length > {moves_before}", timeout=20_000
+            )
+        except Exception as exc:  # what the page held when the move was not seen
+            seen = page.evaluate(
+                "({drawing: !!oxbot.drawing, pending: oxbot.pending.length, dirty: oxbot.dirty,"
+                " problem: document.querySelector('[data-testid=problem]').innerText,"
+                " seen: oxbot.lastSeen && {labels: oxbot.lastSeen.labels,"
+                " agreeing: oxbot.lastSeen.agreeing, readings: oxbot.lastSeen.readings},"
+                " stats: oxbot.stats})"
+            )
+            raise AssertionError(f"{where} by {'touch' if finger else 'mouse'}: {seen}") from exc
         stats = page.evaluate("window.oxbot.stats")
         move = stats["moves"][-1]
         assert (move["who"], move["where"]) == ("usr", where)
