@@ -97,6 +97,10 @@ class PerceptionConfig:
     0.78 about 84, three quarters 92-100, a semicircle about 170; on photos, blur widens them).
     95 keeps every whole circle measured (generated, font, board photos); 85 catches more three
     quarters of a circle, but makes 3 open circles of 200 `wide-tuning` photos partial."""
+    grid_finder: str = "classical"
+    """oxbot: how the board reader finds the grid: "classical" (hand-written line grouping,
+    `oxbot.perception.grid`) or "learned" (a network's heatmaps of the grid's points,
+    `oxbot.perception.grid_points`; trained by `oxbot train reader`)."""
     plus_is_cross: bool = False
     """oxbot: a plus sign (strokes along the cell's sides) is a cross. Off, the default, it is
     a wrong shape and reads "partial" (whoever drew it may not have meant a move); on for a hand
@@ -108,6 +112,47 @@ class PerceptionConfig:
         _require_positive(self, "epochs", "batch_size", "learning_rate", "threads")
         _require_at_least(self, 0, "weight_decay", "seed")
         _require_range(self, "max_circle_gap", "[0, 360]")
+        _require_finite(self)
+        if self.grid_finder not in GRID_FINDERS:
+            raise ConfigError(
+                f"{_where(self, 'grid_finder')} is {self.grid_finder!r}; "
+                f"choose one of {', '.join(GRID_FINDERS)}"
+            )
+
+
+GRID_FINDERS = ("classical", "learned")
+"""The ways the board reader can find the grid (`PerceptionConfig.grid_finder`)."""
+
+
+@dataclass(frozen=True)
+class GridModelConfig:
+    """The learned grid finder's network and its training on randomised renders."""
+
+    width: int = 16
+    """oxbot: channels of the network's first layer (then 2, 4, 6 and 8 times as many)."""
+    scenes: int = 8000
+    """oxbot: randomised renders to train on (chesscog used about 5,000)."""
+    validation_scenes: int = 400
+    """oxbot: renders kept apart to follow the training with, from their own seeds."""
+    epochs: int = 12
+    """oxbot: passes over the training renders."""
+    batch_size: int = 32
+    """oxbot: pictures per optimiser step."""
+    learning_rate: float = 0.003
+    """oxbot: peak AdamW step size of a one-cycle schedule."""
+    weight_decay: float = 0.0001
+    """oxbot: AdamW's decoupled weight decay."""
+    heat_sigma: float = 1.2
+    """oxbot: spread of each point's target peak, in heatmap pixels (4 input pixels each)."""
+    seed: int = 0
+    """oxbot: seed of the renders and of the network's initial weights."""
+    threads: int = 2
+    """oxbot: torch threads and rendering processes while training."""
+
+    def __post_init__(self) -> None:
+        _require_positive(self, "width", "scenes", "validation_scenes", "epochs", "batch_size")
+        _require_positive(self, "learning_rate", "heat_sigma", "threads")
+        _require_at_least(self, 0, "weight_decay", "seed")
         _require_finite(self)
 
 
@@ -636,6 +681,7 @@ class OxbotConfig:
 
     game: GameConfig = field(default_factory=GameConfig)
     perception: PerceptionConfig = field(default_factory=PerceptionConfig)
+    grid_model: GridModelConfig = field(default_factory=GridModelConfig)
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
     agent: AgentConfig = field(default_factory=AgentConfig)

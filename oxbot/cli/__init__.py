@@ -50,6 +50,7 @@ app.command("robot")(robot.robot_command)
 train_app.command("perceiver")(perception.train_perceiver_command)
 train_app.command("agent")(dialogue.train_agent_command)
 train_app.command("keywords")(speech.train_keywords_command)
+train_app.command("reader")(perception.train_reader_command)
 evaluate_app.command("perceiver")(perception.evaluate_perceiver_command)
 evaluate_app.command("agent")(dialogue.evaluate_agent_command)
 

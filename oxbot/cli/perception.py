@@ -102,6 +102,38 @@ def train_perceiver_command(
     typer.echo(f"wrote {result.model_path}, {result.metrics_path}, {result.curve_path}")
 
 
+def train_reader_command(
+    ctx: typer.Context,
+    out: Annotated[
+        Path, typer.Option(help="Model file; metrics JSON and curve PNG are written beside it.")
+    ] = Path("runs/reader/grid_points.pt"),
+    scenes: Annotated[
+        int | None, typer.Option(help="Randomised renders to train on (default: config).")
+    ] = None,
+    epochs: Annotated[int | None, typer.Option(help="Passes over them (default: config).")] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
+) -> None:
+    """Train the learned grid finder from nothing on randomised renders (`[grid_model]`)."""
+    import dataclasses
+
+    from oxbot.perception.grid_training import train_reader
+
+    config = config_of(ctx).grid_model
+    changes = {"scenes": scenes, "epochs": epochs}
+    config = dataclasses.replace(config, **{k: v for k, v in changes.items() if v is not None})
+    result = train_reader(config, out, show_progress=not quiet)
+    m, v = result.metrics, result.metrics["validation"]
+    typer.echo(
+        f"trained on {config.scenes:,} renders in {m['train_seconds']:.0f} s "
+        f"(+{m['render_seconds']:.0f} s rendering); validation renders: "
+        f"{v['found']}/{v['grids']} grids found, median point error "
+        f"{v['median_point_error_px']:.2f} px, {v['false_grids']}/{v['without_grid']} "
+        "without a grid given one"
+    )
+    typer.echo(f"wrote {result.model_path}, {result.metrics_path}, {result.curve_path}")
+    typer.echo("read boards with it: oxbot --set perception.grid_finder=learned see PHOTO")
+
+
 def evaluate_perceiver_command(
     ctx: typer.Context,
     folders: Annotated[
@@ -157,24 +189,35 @@ def see(
         Path | None,
         typer.Option("--debug", help="Write the found grid, rectified sheet and 9 cells here."),
     ] = None,
+    reader: Annotated[
+        str | None,
+        typer.Option(help="Grid finder: classical or learned (default: perception.grid_finder)."),
+    ] = None,
 ) -> None:
     """Print the board read from each photo of the game sheet (O circles, X crosses)."""
+
+    import dataclasses
 
     from oxbot.game.board import CELL_NAMES, render_labels
     from oxbot.perception.board import default_reader, save_debug, save_refusal
     from oxbot.perception.sources import load_image
 
+    perception = config_of(ctx).perception
+    if reader is not None:
+        perception = dataclasses.replace(perception, grid_finder=reader)
+    board_reader = default_reader(perception)
     failed = 0
     for path in images:
         frame = None
         try:
             frame = load_image(path)
-            reading = default_reader(config_of(ctx).perception).read(frame)
+            reading = board_reader.read(frame)
         except OxbotError as exc:
             failed += 1
             err_console.print(f"[bold red]error:[/] {escape(f'{path}: {exc}')}", soft_wrap=True)
             if debug is not None and frame is not None:
                 typer.echo(f"wrote {save_refusal(frame, str(exc), debug, path.stem)}")
+                save_heatmaps(perception.grid_finder, frame, debug, path.stem)
             continue
         typer.echo(f"{path}: {' '.join(reading.labels)}")
         typer.echo(render_labels(reading.labels))
@@ -185,8 +228,22 @@ def see(
         if debug is not None:
             written = save_debug(reading, frame, debug, path.stem)
             typer.echo(f"wrote {len(written)} images to {debug}/{path.stem}_*.png")
+            save_heatmaps(perception.grid_finder, frame, debug, path.stem)
     if failed:
         raise typer.Exit(2)
+
+
+def save_heatmaps(finder: str, frame, folder: Path, stem: str) -> None:
+    """With the learned grid finder, what its network saw: `<stem>_heatmaps.png`."""
+    if finder != "learned":
+        return
+    from oxbot.perception.grid_points import heatmap_picture, shipped_finder
+    from oxbot.perception.seeds import write_png
+
+    picture = heatmap_picture(shipped_finder().look(frame), frame)
+    path = folder / f"{stem}_heatmaps.png"
+    write_png(path, picture[:, :, ::-1].copy())
+    typer.echo(f"wrote {path}")
 
 
 def cell_confidences(readings) -> str:

@@ -18,6 +18,7 @@ confidence and the cell's ink.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -89,14 +90,21 @@ class BoardReading:
     """Each cell's reading among OUTPUTS (partial included) with its confidence and ink."""
 
 
-def cut_board(frame: np.ndarray) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarray, np.ndarray]:
-    """The 9 cells of the sheet in `frame`, uint8 (9, 40, 40), with the grid, the sheets and
-    where in each cell a grid line was painted over (bool (9, 40, 40)).
+GridFinder = Callable[[np.ndarray], Grid]
+"""Finds the grid in a frame, or raises NoGridFound: `grid.find_grid` (classical) or
+`grid_points.LearnedGridFinder.find` (learned)."""
+
+
+def cut_board(
+    frame: np.ndarray, find: GridFinder = find_grid
+) -> tuple[np.ndarray, Grid, np.ndarray, np.ndarray, np.ndarray]:
+    """The 9 cells of the sheet in `frame`, uint8 (9, 40, 40), with the grid (found by `find`),
+    the sheets and where in each cell a grid line was painted over (bool (9, 40, 40)).
 
     Raises InvalidInputError for a frame that is not a photo, NoGridFound when no grid is seen.
     """
     image = as_image(frame)
-    grid = find_grid(image)
+    grid = find(image)
     border = SHEET_RING
     sheet = rectify(image, grid, border=border)
     cleaned = remove_grid_lines(sheet, border=border)
@@ -147,6 +155,7 @@ class BoardReader:
             classifier = load_classifier()
         self.classifier = classifier
         self.config = config if config is not None else PerceptionConfig()
+        self.find_grid = grid_finder(self.config.grid_finder)
 
     def read(self, frame: np.ndarray) -> BoardReading:
         """Find the grid in `frame`, cut the 9 cells and classify them in one batch.
@@ -157,7 +166,7 @@ class BoardReader:
         person is still drawing (a rule kept from before the network learnt "partial"; its
         confidence is the rule's, 1).
         """
-        cells, grid, sheet, cleaned, painted = cut_board(frame)
+        cells, grid, sheet, cleaned, painted = cut_board(frame, self.find_grid)
         readings = self.classify(cells, painted)
         for i in grid.cells_out_of_view():
             readings[i] = CellReading(OUT_OF_VIEW, 1.0, 0.0)
@@ -186,6 +195,15 @@ class BoardReader:
                 cells, readings, self.config.max_circle_gap, self.config.plus_is_cross, painted
             )
         return readings
+
+
+def grid_finder(name: str) -> GridFinder:
+    """The grid finder `PerceptionConfig.grid_finder` names."""
+    if name == "learned":
+        from oxbot.perception.grid_points import shipped_finder
+
+        return shipped_finder().find
+    return find_grid
 
 
 def ink_elongation(cells: np.ndarray) -> np.ndarray:
@@ -274,6 +292,9 @@ def save_debug(
         for line in (lattice[k, :], lattice[:, k]):
             pts = np.round(line * 16).astype(np.int32).reshape(-1, 1, 2)
             cv2.polylines(overlay, [pts], False, color, thickness, cv2.LINE_AA, shift=4)
+    for point in lattice.reshape(-1, 2):  # the points found (or extended to)
+        at = tuple(np.round(point * 16).astype(np.int32))
+        cv2.circle(overlay, at, 3 * thickness * 16, (255, 140, 0), thickness, cv2.LINE_AA, 4)
     for i, cell_reading in enumerate(reading.readings):
         r, c = divmod(i, SIZE)
         corners = lattice[r : r + 2, c : c + 2].reshape(-1, 2)

@@ -46,7 +46,16 @@ from oxbot.perception.lattice import lattice_of
 from oxbot.perception.lines import any_crossing, best_grid, hough_lines
 from oxbot.perception.refit import local_crossings, pixels_near, refine
 
-__all__ = ["FINDER", "FinderTuning", "Grid", "NoGridFound", "as_gray", "as_image", "find_grid"]
+__all__ = [
+    "FINDER",
+    "FinderTuning",
+    "Grid",
+    "NoGridFound",
+    "as_gray",
+    "as_image",
+    "cells_in_view",
+    "find_grid",
+]
 
 
 @dataclass(frozen=True)
@@ -148,14 +157,14 @@ def find_grid(frame: np.ndarray) -> Grid:
         lattice = local_crossings(refined, lattice, pixels, ways)
     assert lattice is not None
     lattice = lattice / scale
-    return Grid(lattice=lattice, support=support, in_view=_cells_in_view(lattice, w, h))
+    return Grid(lattice=lattice, support=support, in_view=cells_in_view(lattice, w, h))
 
 
 # The points of a cell's middle (0.2 to 0.8 of its sides) that `FINDER.in_view` counts.
 _MIDDLE_SAMPLES = np.linspace(0.2, 0.8, 7)
 
 
-def _cells_in_view(lattice: np.ndarray, width: int, height: int) -> tuple[bool, ...]:
+def cells_in_view(lattice: np.ndarray, width: int, height: int) -> tuple[bool, ...]:
     """`Grid.in_view` of a lattice (4, 4, 2) in a frame this size."""
     u, v = np.meshgrid(_MIDDLE_SAMPLES, _MIDDLE_SAMPLES)
     seen = []

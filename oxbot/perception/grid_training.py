@@ -1,0 +1,323 @@
+"""Training the learned grid finder on randomised renders: `oxbot train reader`.
+
+The renders (`grid_scenes.random_grid_scene`) vary paper, ink, view, light, camera and clutter
+far beyond any one setting (domain randomisation: Tobin et al. 2017, Tremblay et al. 2018),
+each at one of the frames' shapes (4:3, 16:9, square, upright), padded as `picture_of` pads a
+frame. Targets are drawn from each render's lattice: a Gaussian peak of `heat_sigma` heatmap
+pixels at each inner crossing (one channel) and each outer point (another), and the grid lines'
+ink shrunk to the heatmaps' size. The loss is CenterNet's penalty-reduced focal loss on the
+points, cross-entropy on the lines and on "board present". A flip or a quarter turn of a
+picture is a picture of a grid too (the channels do not name the points), so each batch is
+flipped and turned at random.
+
+Writes the model (`artifacts`, with its checksum, config, seed and figures), a metrics JSON and
+a learning-curve PNG beside it. Renders kept apart (their own seeds) measure each epoch: the
+mean distance of the found lattice's points from the true ones, grids found, and renders
+without a grid wrongly given one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import math
+import multiprocessing
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from oxbot import artifacts
+from oxbot.atomic import save_figure, write_text_atomic
+from oxbot.config import GridModelConfig
+from oxbot.perception.grid_model import (
+    CROSSINGS,
+    HEATMAPS,
+    INPUT_SIDE,
+    LINES,
+    OUTER,
+    STRIDE,
+    GridPointNet,
+)
+from oxbot.perception.grid_points import KIND, VERSION, LearnedGridFinder
+
+log = logging.getLogger(__name__)
+
+SHAPES = ((256, 192), (256, 144), (256, 256), (192, 256), (256, 160))
+"""The renders' (width, height): webcams' 4:3 and 16:9, square, a phone held upright."""
+
+
+@dataclass(frozen=True)
+class Renders:
+    """Pictures padded to INPUT_SIDE square, with what is in them."""
+
+    pictures: np.ndarray
+    """uint8 (N, INPUT_SIDE, INPUT_SIDE, 3)."""
+    lattices: np.ndarray
+    """float32 (N, 4, 4, 2) picture pixels; nan where no grid."""
+    lines: np.ndarray
+    """uint8 (N, INPUT_SIDE // STRIDE, same) line ink, 0 or 1."""
+    present: np.ndarray
+    """bool (N,)."""
+    sizes: np.ndarray
+    """int (N, 2): width and height of each render before padding."""
+
+
+def _render_one(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool, tuple[int, int]]:
+    from oxbot.perception.grid_scenes import random_grid_scene
+
+    rng = np.random.default_rng(seed)
+    width, height = SHAPES[int(rng.integers(len(SHAPES)))]
+    scene = random_grid_scene(rng, (width, height))
+    picture = np.zeros((INPUT_SIDE, INPUT_SIDE, 3), np.uint8)
+    picture[:height, :width] = scene.image
+    side = INPUT_SIDE // STRIDE
+    ink = np.zeros((INPUT_SIDE, INPUT_SIDE), np.uint8)
+    ink[:height, :width] = scene.lines > 0
+    lines = ink.reshape(side, STRIDE, side, STRIDE).max(axis=(1, 3))
+    lattice = np.asarray(scene.lattice, np.float32)
+    if not scene.present:
+        lattice = np.full((4, 4, 2), np.nan, np.float32)
+    return picture, lattice, lines, bool(scene.present), (width, height)
+
+
+def render(seeds: list[int], processes: int, show_progress: bool, what: str) -> Renders:
+    """Render the scenes of `seeds`, in `processes` processes, with a progress bar."""
+    from rich.progress import Progress
+
+    results = []
+    with Progress(disable=not show_progress, transient=True) as progress:
+        task = progress.add_task(f"rendering {what}", total=len(seeds))
+        if processes > 1:
+            context = multiprocessing.get_context("forkserver")
+            with context.Pool(processes) as pool:
+                for result in pool.imap(_render_one, seeds, chunksize=32):
+                    results.append(result)
+                    progress.advance(task)
+        else:
+            for seed in seeds:
+                results.append(_render_one(seed))
+                progress.advance(task)
+    pictures, lattices, lines, present, sizes = zip(*results, strict=True)
+    return Renders(
+        np.stack(pictures), np.stack(lattices), np.stack(lines), np.array(present), np.array(sizes)
+    )
+
+
+def point_targets(lattices: np.ndarray, sigma: float) -> np.ndarray:
+    """Heatmap targets (N, 2, side, side) of lattices (N, 4, 4, 2) in picture pixels: the
+    CROSSINGS and OUTER channels, the maximum of the Gaussian peaks (nan lattices: none)."""
+    side = INPUT_SIDE // STRIDE
+    n = len(lattices)
+    targets = np.zeros((n, 2, side, side), np.float32)
+    ys, xs = np.mgrid[0:side, 0:side].astype(np.float32)
+    inner = np.zeros((4, 4), bool)
+    inner[1:3, 1:3] = True
+    for i in range(n):
+        if np.isnan(lattices[i]).any():
+            continue
+        points = (lattices[i] + 0.5) / STRIDE - 0.5  # picture pixels to heatmap pixels
+        for channel, mask in ((0, inner), (1, ~inner)):
+            for x, y in points[mask]:
+                if not (-3 * sigma < x < side + 3 * sigma and -3 * sigma < y < side + 3 * sigma):
+                    continue
+                peak = np.exp(-((xs - x) ** 2 + (ys - y) ** 2) / (2 * sigma**2))
+                np.maximum(targets[i, channel], peak, out=targets[i, channel])
+    return targets
+
+
+def focal_loss(logits: Any, targets: Any) -> Any:
+    """CenterNet's penalty-reduced focal loss (Zhou et al. 2019), per positive point."""
+    import torch
+
+    p = torch.sigmoid(logits).clamp(1e-4, 1 - 1e-4)
+    positive = targets > 0.99
+    pos_loss = -((1 - p) ** 2) * torch.log(p) * positive
+    neg_loss = -((1 - targets) ** 4) * p**2 * torch.log(1 - p) * ~positive
+    points = positive.sum().clamp(min=1)
+    return (pos_loss.sum() + neg_loss.sum()) / points
+
+
+def _batch(renders: Renders, index: np.ndarray, sigma: float, rng: np.random.Generator) -> tuple:
+    """Tensors of one batch, each picture flipped and turned by a quarter at random."""
+    import torch
+
+    pictures = renders.pictures[index].copy()
+    lines = renders.lines[index].copy()
+    points = point_targets(renders.lattices[index], sigma)
+    for k in range(len(index)):
+        turns, flip = int(rng.integers(4)), bool(rng.integers(2))
+        if flip:
+            pictures[k], lines[k] = pictures[k][:, ::-1], lines[k][:, ::-1]
+            points[k] = points[k][:, :, ::-1]
+        pictures[k] = np.rot90(pictures[k], turns)
+        lines[k] = np.rot90(lines[k], turns)
+        points[k] = np.rot90(points[k], turns, axes=(1, 2))
+    x = torch.from_numpy(pictures.transpose(0, 3, 1, 2).astype(np.float32) / 255.0)
+    heat = np.concatenate([points, lines[:, None].astype(np.float32)], axis=1)
+    present = torch.from_numpy(renders.present[index].astype(np.float32))
+    return x, torch.from_numpy(np.ascontiguousarray(heat)), present
+
+
+def loss_of(net: GridPointNet, batch: tuple) -> Any:
+    """The training loss of one batch: points, lines and presence."""
+    from torch.nn import functional
+
+    x, heat, present = batch
+    logits, presence = net(x)
+    points = focal_loss(logits[:, [CROSSINGS, OUTER]], heat[:, :2])
+    lines = functional.binary_cross_entropy_with_logits(logits[:, LINES], heat[:, 2])
+    there = functional.binary_cross_entropy_with_logits(presence, present)
+    return points + 0.5 * lines + 0.5 * there
+
+
+def measure(finder: LearnedGridFinder, renders: Renders) -> dict[str, float]:
+    """How well `finder` finds the grids of `renders`: mean and median distance of the 16
+    lattice points from the truth in picture pixels (and per cell side), grids found, and
+    renders without a grid given one."""
+    errors, relative, found, false_grids = [], [], 0, 0
+    for i in range(len(renders.pictures)):
+        w, h = renders.sizes[i]
+        grid = finder.look(renders.pictures[i][:h, :w]).grid
+        if not renders.present[i]:
+            false_grids += grid is not None
+            continue
+        if grid is None:
+            continue
+        found += 1
+        truth = renders.lattices[i]
+        distance = np.linalg.norm(grid.lattice - truth, axis=2)
+        cell = np.linalg.norm(np.diff(truth, axis=1), axis=2).mean()
+        errors.append(float(distance.mean()))
+        relative.append(float(distance.mean() / cell))
+    grids = int(renders.present.sum())
+    return {
+        "grids": grids,
+        "found": found,
+        "found_share": found / max(1, grids),
+        "mean_point_error_px": float(np.mean(errors)) if errors else math.nan,
+        "median_point_error_px": float(np.median(errors)) if errors else math.nan,
+        "within_a_tenth_of_a_cell": float(np.mean(np.array(relative) < 0.1)) if relative else 0.0,
+        "without_grid": int((~renders.present).sum()),
+        "false_grids": false_grids,
+    }
+
+
+@dataclass(frozen=True)
+class TrainedReader:
+    model_path: Path
+    metrics_path: Path
+    curve_path: Path
+    metrics: dict[str, Any]
+
+
+def train_reader(
+    config: GridModelConfig, out: str | Path, show_progress: bool = True
+) -> TrainedReader:
+    """Train the grid-point network from nothing on `config.scenes` renders; write the model,
+    its metrics JSON and learning curve beside `out`."""
+    import torch
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    torch.set_num_threads(config.threads)
+    torch.manual_seed(config.seed)
+    seeds = np.random.SeedSequence(config.seed).generate_state(
+        config.scenes + config.validation_scenes
+    )
+    tick = time.perf_counter()
+    train = render([int(s) for s in seeds[: config.scenes]], config.threads, show_progress, "")
+    valid = render(
+        [int(s) for s in seeds[config.scenes :]], config.threads, show_progress, "validation"
+    )
+    render_seconds = time.perf_counter() - tick
+    net = GridPointNet(config.width)
+    steps_per_epoch = math.ceil(config.scenes / config.batch_size)
+    optimiser = torch.optim.AdamW(
+        net.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay
+    )
+    schedule = torch.optim.lr_scheduler.OneCycleLR(
+        optimiser, config.learning_rate, total_steps=config.epochs * steps_per_epoch
+    )
+    rng = np.random.default_rng(config.seed)
+    curve: list[dict[str, float]] = []
+    tick = time.perf_counter()
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total} steps"),
+        TimeElapsedColumn(),
+        disable=not show_progress,
+        transient=True,
+    ) as progress:
+        task = progress.add_task("training", total=config.epochs * steps_per_epoch)
+        for epoch in range(config.epochs):
+            net.train()
+            order = rng.permutation(config.scenes)
+            losses = []
+            for step in range(steps_per_epoch):
+                index = order[step * config.batch_size : (step + 1) * config.batch_size]
+                loss = loss_of(net, _batch(train, index, config.heat_sigma, rng))
+                optimiser.zero_grad()
+                loss.backward()
+                optimiser.step()
+                schedule.step()
+                losses.append(float(loss))
+                progress.update(task, advance=1, description=f"epoch {epoch + 1}: {losses[-1]:.3f}")
+            figures = measure(LearnedGridFinder(net), valid)
+            curve.append({"epoch": epoch + 1, "loss": float(np.mean(losses)), **figures})
+            log.info("epoch %d: %s", epoch + 1, curve[-1])
+    train_seconds = time.perf_counter() - tick
+    metrics = {
+        "config": dataclasses.asdict(config),
+        "render_seconds": render_seconds,
+        "train_seconds": train_seconds,
+        "validation": curve[-1],
+        "curve": curve,
+    }
+    net.eval()
+    payload = {
+        "state_dict": net.state_dict(),
+        "width": config.width,
+        "config": dataclasses.asdict(config),
+        "seed": config.seed,
+        "metrics": {k: v for k, v in metrics.items() if k != "curve"},
+    }
+    model_path = artifacts.save(out, KIND, VERSION, payload)
+    metrics_path = out.with_suffix(".metrics.json")
+    write_text_atomic(metrics_path, json.dumps(metrics, indent=2) + "\n")
+    curve_path = plot_curve(curve, out.with_suffix(".curve.png"))
+    return TrainedReader(model_path, metrics_path, curve_path, metrics)
+
+
+def plot_curve(curve: list[dict[str, float]], path: Path) -> Path:
+    """Training loss and the validation renders' point error and grids found, by epoch."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    epochs = [p["epoch"] for p in curve]
+    fig, (left, right) = plt.subplots(1, 2, figsize=(8, 3.2), dpi=110)
+    left.plot(epochs, [p["loss"] for p in curve], "o-")
+    left.set_xlabel("epoch")
+    left.set_ylabel("training loss")
+    left.set_yscale("log")
+    right.plot(epochs, [p["median_point_error_px"] for p in curve], "o-", label="median error")
+    right.set_xlabel("epoch")
+    right.set_ylabel(f"lattice point error (px of {INPUT_SIDE})")
+    found = right.twinx()
+    found.plot(epochs, [100 * p["found_share"] for p in curve], "s:", color="tab:green")
+    found.set_ylabel("validation grids found (%)", color="tab:green")
+    for ax in (left, right):
+        ax.grid(True, alpha=0.3)
+    fig.suptitle("Learning to find the grid: heatmaps of its points")
+    fig.tight_layout()
+    return save_figure(fig, path)
+
+
+__all__ = ["HEATMAPS", "TrainedReader", "measure", "render", "train_reader"]

@@ -1,0 +1,79 @@
+"""The learned grid finder's geometry: heatmap peaks to an ordered lattice."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from oxbot.perception.grid_model import INPUT_SIDE, STRIDE
+from oxbot.perception.grid_points import lattice_from, order_crossings, peaks, picture_of
+from oxbot.perception.grid_training import point_targets
+
+
+def grid_lattice(rotation: float, centre=(120.0, 100.0), cell=40.0, tilt=0.0) -> np.ndarray:
+    """A 4x4 lattice in picture pixels: a grid turned by `rotation` degrees, seen with some
+    perspective (`tilt`: how much further apart the lower rows are)."""
+    a = math.radians(rotation)
+    turn = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    units = np.array([[c, r] for r in range(4) for c in range(4)], np.float64) - 1.5
+    units[:, 0] *= 1 + tilt * units[:, 1] / 1.5
+    return (units * cell @ turn.T + centre).reshape(4, 4, 2)
+
+
+@pytest.mark.parametrize("rotation", [-44.0, -30.0, -5.0, 0.0, 12.0, 33.0, 44.0])
+def test_the_crossings_are_ordered_by_where_they_lie_whatever_order_they_come_in(rotation):
+    truth = grid_lattice(rotation)
+    inner = np.array([truth[1, 1], truth[1, 2], truth[2, 2], truth[2, 1]])
+    rng = np.random.default_rng(int(rotation) + 50)
+    for _ in range(5):
+        shuffled = inner[rng.permutation(4)]
+        assert np.allclose(order_crossings(shuffled), inner)
+
+
+def test_a_grid_turned_past_45_degrees_is_read_as_turned_the_other_way():
+    # a # looks the same turned by a quarter: 60 degrees one way is 30 the other
+    inner60 = grid_lattice(60.0)[1:3, 1:3].reshape(4, 2)[[0, 1, 3, 2]]
+    inner_30 = grid_lattice(-30.0)[1:3, 1:3].reshape(4, 2)[[0, 1, 3, 2]]
+    assert np.allclose(order_crossings(inner60), inner_30, atol=1e-6)
+
+
+@pytest.mark.parametrize("rotation,tilt", [(0.0, 0.0), (25.0, 0.15), (-40.0, -0.2)])
+def test_peaks_of_the_target_heatmaps_give_back_the_lattice_to_a_tenth_of_a_pixel(
+    rotation, tilt
+):
+    truth = grid_lattice(rotation, tilt=tilt)
+    crossing_heat, outer_heat = point_targets(truth[None].astype(np.float32), sigma=1.2)[0]
+    found = np.array(peaks(crossing_heat, 4))
+    assert found[:, 2].min() > 0.7
+    crossings = order_crossings(found[:, :2])
+    lattice = lattice_from(crossings, outer_heat)
+    in_picture = (lattice + 0.5) * STRIDE - 0.5
+    assert np.abs(in_picture - truth).max() < 0.5  # picture pixels
+
+
+def test_an_outer_point_off_the_homography_is_taken_from_its_own_peak():
+    truth = grid_lattice(10.0)
+    uneven = truth.copy()
+    uneven[0, 3] += (6.0, -4.0)  # a line drawn longer and bent: not where perspective puts it
+    _, outer_heat = point_targets(uneven[None].astype(np.float32), sigma=1.2)[0]
+    crossing_heat, _ = point_targets(truth[None].astype(np.float32), sigma=1.2)[0]
+    crossings = order_crossings(np.array(peaks(crossing_heat, 4))[:, :2])
+    lattice = (lattice_from(crossings, outer_heat) + 0.5) * STRIDE - 0.5
+    assert np.abs(lattice[0, 3] - uneven[0, 3]).max() < 0.5
+    # without the outer heatmap, the homography's point: the drawn one is missed
+    plain = (lattice_from(crossings, None) + 0.5) * STRIDE - 0.5
+    assert np.abs(plain[0, 3] - uneven[0, 3]).max() > 3
+
+
+def test_a_frame_becomes_the_networks_picture_with_its_long_side_at_input_size():
+    frame = np.full((720, 1280, 3), 200, np.uint8)
+    picture, scale = picture_of(frame)
+    assert picture.shape == (3, 160, INPUT_SIDE)  # 144 rows padded to a multiple of 32
+    assert scale == pytest.approx(1280 / INPUT_SIDE)
+    assert picture[:, :144].min() == pytest.approx(200 / 255, abs=0.01)
+    assert picture[:, 144:].max() == 0.0
+    gray = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY)
+    assert picture_of(gray)[0].shape == picture.shape
