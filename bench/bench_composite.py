@@ -17,18 +17,17 @@ never tune on `test`.
 from __future__ import annotations
 
 import argparse
-import csv
 from collections import Counter, defaultdict
 
 import numpy as np
 from board_tally import Tally, measure, report
-from composite_sources import DATA, add_source_options, load_sources, paper_kind
+from composite_sources import add_source_options, composed_photos, load_sources, paper_kind
 from config_option import add_set_option
 
 from oxbot.config import OxbotConfig, load_config
 from oxbot.perception.board import BoardReader, deepen_faint_ink
 from oxbot.perception.cells import wipe_background
-from oxbot.testing.composite import HandwritingSource, PaperSource, symbol_cells, write_set
+from oxbot.testing.composite import HandwritingSource, PaperSource, symbol_cells
 
 
 def main() -> None:
@@ -46,19 +45,16 @@ def main() -> None:
     if args.cells:
         read_cells(hands.split(args.split), papers, args.seed, load_config(assignments=args.set))
         return
-    out = DATA / args.split
-    labels = write_set(out, hands, papers, args.photos, args.seed, args.split)
-    with labels.open(newline="", encoding="utf-8") as handle:
-        rows = [r for r in csv.DictReader(handle) if r["split"] == args.split]
+    rows, images = composed_photos(hands, papers, args.split, args.photos, args.seed)
     config = load_config(assignments=args.set).perception
     tally = Tally()
     by_kind: dict[str, Tally] = defaultdict(Tally)
     for row in rows:
         one = Tally()  # each photo read once, counted in all and in its kind
-        measure(row, out / "images", one, config)
+        measure(row, images, one, config)
         tally.add(one)
         by_kind[paper_kind(row)].add(one)
-    print(f"{len(rows)} composed photos, seed {args.seed}, in {out}")
+    print(f"{len(rows)} composed photos, seed {args.seed}, in {images.parent}")
     report(args.split, tally)
     print("\nby paper (and pencil apart):")
     for kind, part in sorted(by_kind.items()):

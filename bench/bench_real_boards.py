@@ -22,27 +22,23 @@ tunes on `test`.
 from __future__ import annotations
 
 import argparse
-import csv
 from collections import defaultdict
 from pathlib import Path
 
-from board_tally import Tally, measure, report
+from board_tally import REAL_BOARDS, Tally, labelled_rows, measure, report
 from config_option import add_set_option
 
 from oxbot.config import load_config
 
-DATA = Path(__file__).resolve().parent / "data" / "real_boards"
-
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--labels", type=Path, default=DATA / "labels.csv")
-    parser.add_argument("--images", type=Path, default=DATA / "images")
+    parser.add_argument("--labels", type=Path, default=REAL_BOARDS / "labels.csv")
+    parser.add_argument("--images", type=Path, default=REAL_BOARDS / "images")
     parser.add_argument("--split", choices=("dev", "test"), default=None, help="one split only")
     add_set_option(parser, "perception.plus_is_cross=true")
     args = parser.parse_args()
-    with args.labels.open(newline="", encoding="utf-8") as handle:
-        rows = list(csv.DictReader(handle))
+    rows = labelled_rows(args.labels)
     tallies: dict[str, Tally] = defaultdict(Tally)
     print(f"{len(rows)} labelled photos in {args.labels}")
     config = load_config(assignments=args.set).perception

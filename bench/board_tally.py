@@ -2,23 +2,31 @@
 `bench_real_boards.py` prints for real photos and `bench_composite.py` for composed ones.
 
 A labelled photo is a row of a `labels.csv` (file, board, split, paper, ink, grid fraction, the
-9 cell labels row by row from the upper left, notes; `bench/data/real_boards/SOURCES.md`).
-`measure` reads it once with `oxbot.read_board`'s reader and adds what came of it to a `Tally`;
-`report` prints a tally: boards fully right, refusals, cells, empty cells, symbols, symbols read
-wrong as surely as the move tracker needs, and one line per photo not fully right.
+9 cell labels row by row from the upper left, notes; `bench/data/real_boards/SOURCES.md`;
+`labelled_rows` reads them). `measure` reads it once with `oxbot.read_board`'s reader and adds
+what came of it to a `Tally`; `read_frame` does the same for a frame in memory with its labels
+(or none: a frame without a grid, right when refused); `report` prints a tally: boards fully
+right, refusals, cells, empty cells, symbols, symbols read wrong as surely as the move tracker
+needs, and one line per photo not fully right.
 """
 
 from __future__ import annotations
 
+import csv
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from oxbot.config import PerceptionConfig, TrackerConfig
 from oxbot.errors import NoGridFound
-from oxbot.perception.board import default_reader, refuse_cells_out_of_view
+from oxbot.perception.board import BoardReader, default_reader, refuse_cells_out_of_view
 from oxbot.perception.sources import load_image
 
+REAL_BOARDS = Path(__file__).resolve().parent / "data" / "real_boards"
+"""The real photos of hand-drawn boards: `labels.csv`, and `images/` once restored."""
 CELLS = tuple(f"c{r}{c}" for r in range(3) for c in range(3))
 SHORT = {"circle": "O", "cross": "X", "nothing": ".", "unreadable": "?"}
 
@@ -40,8 +48,9 @@ class Tally:
     empty_right: int = 0
     symbols: int = 0
     symbols_right: int = 0
-    sure_wrong: int = 0  # symbols read wrong that the move tracker would take (see measure)
-    seconds: float = 0.0
+    sure_wrong: int = 0  # symbols read wrong that the move tracker would take (see read_frame)
+    wall_ms: list[float] = field(default_factory=list)  # each read's time
+    cpu_ms: list[float] = field(default_factory=list)
     failures: list[str] = field(default_factory=list)
 
     def add(self, other: Tally) -> None:
@@ -66,6 +75,12 @@ def pct(part: int, whole: int) -> str:
     return f"{part}/{whole} ({100 * part / whole:.1f}%)" if whole else f"{part}/0"
 
 
+def labelled_rows(labels: Path, split: str | None = None) -> list[dict[str, str]]:
+    """The rows of a `labels.csv`, those of one split only when `split` is given."""
+    with labels.open(newline="", encoding="utf-8") as handle:
+        return [r for r in csv.DictReader(handle) if split is None or r["split"] == split]
+
+
 def measure(
     row: dict[str, str], image_dir: Path, tally: Tally, config: PerceptionConfig | None = None
 ) -> None:
@@ -75,31 +90,53 @@ def measure(
         tally.missing += 1
         print(f"  missing: {path} (restore it as SOURCES.md says); skipped")
         return
-    truth = [row[c] for c in CELLS]
-    readable = [i for i, label in enumerate(truth) if label != "unreadable"]
-    tally.photos += 1
     tally.boards.add(row["board"])
+    truth = [row[c] for c in CELLS]
+    sure = TrackerConfig().min_confidence
+    read_frame(load_image(path), truth, row["file"], tally, default_reader(config), sure)
+
+
+def read_frame(
+    frame: np.ndarray,
+    truth: Sequence[str] | None,
+    name: str,
+    tally: Tally,
+    reader: BoardReader,
+    sure: float,
+) -> None:
+    """Read `frame` with `reader` as `oxbot.read_board` does and add the outcome to `tally`.
+
+    `truth` is the 9 cells' labels (an `unreadable` cell is left out of the counts), or None for
+    a frame that holds no grid, which is right when refused. A cell read as a symbol it is not
+    with a confidence of `sure` or more (the tracker's `min_confidence`) is a sure misread.
+    """
+    readable = [] if truth is None else [i for i, lab in enumerate(truth) if lab != "unreadable"]
+    tally.photos += 1
     whole = len(readable) == 9
     tally.scorable += whole
-    frame = load_image(path)
-    started = time.perf_counter()
-    sure = TrackerConfig().min_confidence
+    started, started_cpu = time.perf_counter(), time.process_time()
     try:
-        reading = default_reader(config).read(frame)  # read_board, with the confidences
+        reading = reader.read(frame)  # read_board, with the confidences
         refuse_cells_out_of_view(reading.grid)
         got = list(reading.labels)
     except NoGridFound as err:
-        tally.seconds += time.perf_counter() - started
         tally.no_grid += 1
-        tally.failures.append(f"{row['file']:<26} NoGridFound: {err}")
+        tally.failures.append(f"{name:<26} NoGridFound: {err}")
         got = None
     except Exception as err:  # any other refusal is counted, not raised
-        tally.seconds += time.perf_counter() - started
         tally.other_refusals += 1
-        tally.failures.append(f"{row['file']:<26} {type(err).__name__}: {err}")
+        tally.failures.append(f"{name:<26} {type(err).__name__}: {err}")
         got = None
-    else:
-        tally.seconds += time.perf_counter() - started
+    tally.wall_ms.append(1000 * (time.perf_counter() - started))
+    tally.cpu_ms.append(1000 * (time.process_time() - started_cpu))
+    if truth is None:
+        if got is not None:
+            tally.sure_wrong += sum(
+                got[i] in ("circle", "cross") and reading.readings[i].confidence >= sure
+                for i in range(len(got))
+            )
+            tally.failures.append(f"{name:<26} no grid in it, read {short(got)}")
+        return
     for i in readable:
         right = got is not None and got[i] == truth[i]
         tally.cells += 1
@@ -128,7 +165,7 @@ def measure(
         return
     wrong = [f"{CELLS[i][1:]}:{truth[i]}->{got[i]}" for i in readable if got[i] != truth[i]]
     tally.failures.append(
-        f"{row['file']:<26} truth {short(truth)}  read {short(got)}  ({', '.join(wrong)})"
+        f"{name:<26} truth {short(truth)}  read {short(got)}  ({', '.join(wrong)})"
     )
 
 
@@ -146,6 +183,6 @@ def report(split: str, tally: Tally) -> None:
     print(f"  empty cells as empty   {pct(tally.empty_right, tally.empty)}")
     print(f"  symbols right          {pct(tally.symbols_right, tally.symbols)}")
     print(f"  wrong symbols, sure    {tally.sure_wrong}  (read wrong at the tracker's confidence)")
-    print(f"  mean read time         {1000 * tally.seconds / tally.photos:.1f} ms")
+    print(f"  mean read time         {sum(tally.wall_ms) / tally.photos:.1f} ms")
     for line in tally.failures:
         print(f"  FAIL {line}")

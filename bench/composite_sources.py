@@ -1,5 +1,6 @@
-"""The composed boards' sources, as `bench_composite.py` and `bench_composite_games.py` take
-them: the options that choose them, their loading, and the kind of paper a figure is told by.
+"""The composed boards' sources, as `bench_composite.py`, `bench_composite_games.py` and
+`bench_readers.py` take them: the options that choose them, their loading, the photos of a part
+made from them, and the kind of paper a figure is told by.
 
 The sources (real handwriting, photos of real paper) are not in git; restore them as
 `bench/data/composite_boards/SOURCES.md` says (`bench/restore_composite.py`).
@@ -11,7 +12,9 @@ import argparse
 from collections.abc import Mapping
 from pathlib import Path
 
-from oxbot.testing.composite import HandwritingSource, PaperSource
+from board_tally import labelled_rows
+
+from oxbot.testing.composite import HandwritingSource, PaperSource, write_set
 
 DATA = Path(__file__).resolve().parent / "data" / "composite_boards"
 
@@ -36,6 +39,16 @@ def load_sources(
         )
     except FileNotFoundError as err:
         raise SystemExit(f"{program}: {err}") from None
+
+
+def composed_photos(
+    hands: HandwritingSource, papers: PaperSource, split: str, photos: int, seed: int
+) -> tuple[list[dict[str, str]], Path]:
+    """`photos` composed photos of the `split` part (`papers` being that part's), made anew
+    into `DATA/<split>/images`: their `labels.csv` rows and that folder."""
+    out = DATA / split
+    labels = write_set(out, hands, papers, photos, seed, split)
+    return labelled_rows(labels, split), out / "images"
 
 
 def paper_kind(described: Mapping[str, str]) -> str:

@@ -1,5 +1,6 @@
 """Timing a function over many inputs on a shared machine: the median time per call over
-several passes, wall clock and CPU, as `bench_board.py` and `bench_perception.py` print it."""
+several passes, wall clock and CPU, as `bench_board.py` and `bench_perception.py` print it; and
+the one core the board benches time on."""
 
 from __future__ import annotations
 
@@ -8,6 +9,15 @@ import statistics
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
+
+import cv2
+import torch
+
+
+def one_core() -> None:
+    """Limit torch and OpenCV to one thread each, so that a time is one core's."""
+    torch.set_num_threads(1)
+    cv2.setNumThreads(1)
 
 
 def per_call_ms(
