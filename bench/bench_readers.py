@@ -56,7 +56,7 @@ from rendered_sets import (
 )
 from timing import one_core
 
-from oxbot.config import PerceptionConfig, load_config
+from oxbot.config import load_config
 from oxbot.errors import OxbotError
 from oxbot.perception.board import BoardReader, default_reader
 from oxbot.perception.sources import load_image
@@ -134,10 +134,7 @@ def make_reader(name: str, assignments: list[str]) -> tuple[BoardReader, float] 
     """The board reader with grid finder `name` and the tracker's `min_confidence`, or why
     there is none (the configuration rejects it, its model is missing)."""
     try:
-        if name == "classical" and not hasattr(PerceptionConfig, "grid_finder"):
-            config = load_config(assignments=assignments)  # before there was another finder
-        else:
-            config = load_config(assignments=[*assignments, f"perception.grid_finder={name}"])
+        config = load_config(assignments=[*assignments, f"perception.grid_finder={name}"])
         return default_reader(config.perception), config.tracker.min_confidence
     except OxbotError as err:
         return f"{type(err).__name__}: {err}"
