@@ -234,7 +234,8 @@ def _paper_and_marks(
     if kind != "desk":
         sheet, on_sheet = _lay_sheets(rng, image, h, kind, _grid_box(grid.lattice, 0.1))
         if kind in ("squared", "dotted", "ruled"):
-            for coverage, ink in print_pattern(rng, h, sheet, kind, shape, view):
+            darkest = grid_ink.darkening()
+            for coverage, ink in print_pattern(rng, h, sheet, kind, shape, view, darkest):
                 lay_ink(image, coverage * on_sheet, ink, rng)
         if kind != "whiteboard" and rng.random() < TEXT_SHARE:
             text = printed_text(rng, h, sheet, view, _grid_box(grid.lattice, 0.3))

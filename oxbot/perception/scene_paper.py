@@ -36,6 +36,9 @@ PRINT_COLOURS = np.array(
     np.float32,
 )
 """Squared, dotted and ruled paper's print, as transmittance: blue, grey, green, pink, dark."""
+PRINT_DARKENING = (0.06, 0.3)
+"""Share of the paper's light the print of squared, dotted and ruled paper takes away."""
+_LUMA = np.array([0.299, 0.587, 0.114], np.float32)
 PRINT_PER_CELL = (2.5, 8.0)
 """Squares (or dots, or rules, half as many) of a sheet's print per grid cell."""
 
@@ -203,13 +206,19 @@ def print_pattern(
     kind: str,
     shape: tuple[int, int],
     view: np.ndarray | None,
+    grid_darkening: float,
 ) -> list[tuple[np.ndarray, Ink]]:
-    """The sheet's squares, dots or rules (with a red margin line): coverages (H, W), inks."""
+    """The sheet's squares, dots or rules (with a red margin line): coverages (H, W), inks.
+
+    The print takes away 6-30% of the paper's light, and less than the grid's ink does
+    (`grid_darkening`), so that the drawn grid is never fainter than the paper's own lines.
+    """
     box = _local_box(h, sheet, view)
     if box[0] >= box[2] or box[1] >= box[3]:
         return []
     colour = PRINT_COLOURS[int(rng.integers(len(PRINT_COLOURS)))]
-    ink = Ink("print", tuple(colour), rng.uniform(0.25, 0.75), 0.0, 0.0)
+    darkening = min(rng.uniform(*PRINT_DARKENING), max(0.06, 0.8 * grid_darkening))
+    ink = Ink("print", tuple(colour), min(1.0, darkening / float(1 - _LUMA @ colour)), 0, 0)
     step = (2 if kind == "ruled" else 1) / rng.uniform(*PRINT_PER_CELL)
     phase = rng.uniform(0, step, 2)
     xs = np.arange(math.floor(box[0] / step), math.ceil(box[2] / step) + 1) * step + phase[0]
@@ -232,8 +241,9 @@ def print_pattern(
         margin = np.stack([np.full(12, x), box[1] + t * (box[3] - box[1])], 1)
         red = Coverage(shape)
         _draw_local(red, h, sheet, [margin], width * rng.uniform(1, 1.8))
-        pink = (rng.uniform(0.85, 1.0), rng.uniform(0.2, 0.55), rng.uniform(0.25, 0.6))
-        layers.append((red.result(), Ink("print", pink, rng.uniform(0.5, 0.9), 0.0, 0.0)))
+        pink = np.array([rng.uniform(0.85, 1.0), rng.uniform(0.2, 0.55), rng.uniform(0.25, 0.6)])
+        alpha = min(rng.uniform(0.5, 0.9), max(0.06, 0.8 * grid_darkening) / (1 - _LUMA @ pink))
+        layers.append((red.result(), Ink("print", tuple(pink), float(alpha), 0, 0)))
     return layers
 
 
