@@ -41,9 +41,7 @@ def test_a_grid_turned_past_45_degrees_is_read_as_turned_the_other_way():
 
 
 @pytest.mark.parametrize("rotation,tilt", [(0.0, 0.0), (25.0, 0.15), (-40.0, -0.2)])
-def test_peaks_of_the_target_heatmaps_give_back_the_lattice_to_a_tenth_of_a_pixel(
-    rotation, tilt
-):
+def test_peaks_of_the_target_heatmaps_give_back_the_lattice_to_a_tenth_of_a_pixel(rotation, tilt):
     truth = grid_lattice(rotation, tilt=tilt)
     crossing_heat, outer_heat = point_targets(truth[None].astype(np.float32), sigma=1.2)[0]
     found = np.array(peaks(crossing_heat, 4))
