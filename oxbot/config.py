@@ -134,15 +134,16 @@ class GridModelConfig:
     """oxbot: randomised renders to train on (chesscog used about 5,000)."""
     validation_scenes: int = 400
     """oxbot: renders kept apart to follow the training with, from their own seeds."""
-    epochs: int = 12
-    """oxbot: passes over the training renders."""
+    epochs: int = 16
+    """oxbot: passes over the training renders (the shipped model's validation renders: grids
+    found 173/356 after 12 with 1.2-pixel peaks, 312/356 after 16 with 1.5-pixel peaks)."""
     batch_size: int = 32
     """oxbot: pictures per optimiser step."""
     learning_rate: float = 0.003
     """oxbot: peak AdamW step size of a one-cycle schedule."""
     weight_decay: float = 0.0001
     """oxbot: AdamW's decoupled weight decay."""
-    heat_sigma: float = 1.2
+    heat_sigma: float = 1.5
     """oxbot: spread of each point's target peak, in heatmap pixels (4 input pixels each)."""
     seed: int = 0
     """oxbot: seed of the renders and of the network's initial weights."""

@@ -16,7 +16,9 @@ they were trained from, and their figures; `oxbot train reader` makes them from 
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.resources
+import itertools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,6 +37,8 @@ from oxbot.perception.grid_model import CROSSINGS, INPUT_SIDE, LINES, OUTER, STR
 KIND, VERSION = "grid_points", 1
 REMEDY = "train one with `oxbot train reader`, or reinstall oxbot for the shipped one"
 MULTIPLE = 32
+MIN_CROP = 64
+"""The closer look's cut is at least this wide and high (the smallest frame oxbot reads)."""
 """The network halves its picture 5 times: each side a multiple of this."""
 
 
@@ -42,15 +46,27 @@ MULTIPLE = 32
 class PeakTuning:
     """How heatmap peaks become points."""
 
-    min_crossing: float = 0.3
-    """A crossing's peak must be at least this sure (sigmoid) to count."""
-    min_outer: float = 0.3
+    min_candidate: float = 0.04
+    """A crossing peak weaker than this (sigmoid) is no candidate."""
+    candidates: int = 8
+    """The strongest peaks among which the middle cell's 4 corners are sought."""
+    min_crossing: float = 0.2
+    """The middle cell's 4 corners must be at least this sure on average."""
+    min_line: float = 0.6
+    """At least this share of the middle cell's sides must lie on drawn lines."""
+    zoom: bool = False
+    """Look again, closer, at a grid found small in the frame."""
+    zoom_margin: float = 0.6
+    """How far beyond the lattice the closer look reaches, in cells."""
+    max_side_ratio: float = 2.5
+    """A middle cell whose longest side is more than this times its shortest is a sliver."""
+    min_outer: float = 0.6
     """An outer point's peak, at least this sure, moves the homography's point to it."""
     outer_reach: float = 0.35
     """How far from the homography's point an outer peak is looked for, in cells."""
     min_presence: float = 0.5
     """Below this "board present" probability the frame holds no grid."""
-    min_side: float = 3.0
+    min_side: float = 2.0
     """The inner cell's sides must be at least this many heatmap pixels long."""
 
 
@@ -131,33 +147,98 @@ def order_crossings(points: np.ndarray) -> np.ndarray:
 def lattice_from(
     crossings: np.ndarray, outer_heat: np.ndarray | None, tuning: PeakTuning = PEAKS
 ) -> np.ndarray:
-    """The 4x4 lattice (heatmap pixels) from the ordered crossings, each outer point moved to
-    the outer heatmap's peak near where the crossings' homography puts it, if there is one."""
-    homography = cv2.getPerspectiveTransform(_INNER, crossings.astype(np.float32))
-    units = np.array([[c, r] for r in range(SIZE + 1) for c in range(SIZE + 1)], np.float32)
-    placed = cv2.perspectiveTransform(units[None], homography)[0].reshape(SIZE + 1, SIZE + 1, 2)
-    lattice = placed.astype(np.float64)
+    """The 4x4 lattice (heatmap pixels) from the ordered crossings: each drawn line extended
+    by its middle cell's side past each crossing, the corners completing parallelograms (as
+    the classical finder extends along the lines); an outer point is moved to the outer
+    heatmap's peak near it, where the net is sure of one (a line drawn longer or bent)."""
+    lattice = np.zeros((SIZE + 1, SIZE + 1, 2))
     lattice[1, 1], lattice[1, 2], lattice[2, 2], lattice[2, 1] = crossings
-    if outer_heat is None:
-        return lattice
+    inner = lattice.copy()
+    for k in (1, 2):
+        lattice[0, k] = 2 * inner[1, k] - inner[2, k]
+        lattice[3, k] = 2 * inner[2, k] - inner[1, k]
+        lattice[k, 0] = 2 * inner[k, 1] - inner[k, 2]
+        lattice[k, 3] = 2 * inner[k, 2] - inner[k, 1]
+    if outer_heat is not None:
+        _move_to_peaks(lattice, outer_heat, crossings, tuning)
+    for r, c, rr, cc in ((0, 0, 1, 1), (0, 3, 1, 2), (3, 0, 2, 1), (3, 3, 2, 2)):
+        lattice[r, c] = lattice[r, cc] + lattice[rr, c] - lattice[rr, cc]
+    return lattice
+
+
+def _move_to_peaks(
+    lattice: np.ndarray, outer_heat: np.ndarray, crossings: np.ndarray, tuning: PeakTuning
+) -> None:
+    """Each line's end moved to the outer heatmap's surest peak within reach, if sure enough."""
     cell = float(np.linalg.norm(crossings - np.roll(crossings, 1, axis=0), axis=1).mean())
     reach = max(1.0, tuning.outer_reach * cell)
     h, w = outer_heat.shape
-    for r in range(SIZE + 1):
-        for c in range(SIZE + 1):
-            if 1 <= r <= 2 and 1 <= c <= 2:
-                continue
-            x, y = lattice[r, c]
-            x0, x1 = int(max(0, math.floor(x - reach))), int(min(w, math.ceil(x + reach) + 1))
-            y0, y1 = int(max(0, math.floor(y - reach))), int(min(h, math.ceil(y + reach) + 1))
-            if x0 >= x1 or y0 >= y1:
-                continue  # out of the picture: the homography's point it is
-            found = peaks(outer_heat[y0:y1, x0:x1], 1)
-            if found and found[0][2] >= tuning.min_outer:
-                px, py, _ = found[0]
-                if math.hypot(px + x0 - x, py + y0 - y) <= reach:
-                    lattice[r, c] = (px + x0, py + y0)
-    return lattice
+    for r, c in ((0, 1), (0, 2), (3, 1), (3, 2), (1, 0), (2, 0), (1, 3), (2, 3)):
+        x, y = lattice[r, c]
+        x0, x1 = int(max(0, math.floor(x - reach))), int(min(w, math.ceil(x + reach) + 1))
+        y0, y1 = int(max(0, math.floor(y - reach))), int(min(h, math.ceil(y + reach) + 1))
+        if x0 >= x1 or y0 >= y1:
+            continue  # out of the picture: the extended line's point it is
+        found = peaks(outer_heat[y0:y1, x0:x1], 1)
+        if found and found[0][2] >= tuning.min_outer:
+            px, py, _ = found[0]
+            if math.hypot(px + x0 - x, py + y0 - y) <= reach:
+                lattice[r, c] = (px + x0, py + y0)
+
+
+def best_crossings(
+    found: np.ndarray, lines: np.ndarray, tuning: PeakTuning = PEAKS
+) -> tuple[np.ndarray, float] | None:
+    """The 4 of the crossing peaks `found` (K, 3) that make the likeliest middle cell, ordered,
+    with how sure that is (0-1); None if no 4 make one. A middle cell is convex, no sliver,
+    its corners sure enough on average, and its 4 sides drawn lines: the line heatmap `lines`
+    must be high along them (the net learns lines faster and surer than points)."""
+    candidates = found[found[:, 2] >= tuning.min_candidate][: tuning.candidates]
+    best, best_score = None, 0.0
+    for four in itertools.combinations(range(len(candidates)), 4):
+        quad = order_crossings(candidates[list(four), :2])
+        sides = np.linalg.norm(quad - np.roll(quad, 1, axis=0), axis=1)
+        if sides.min() < tuning.min_side or sides.max() > tuning.max_side_ratio * sides.min():
+            continue
+        if not _convex(quad):
+            continue
+        sure = float(candidates[list(four), 2].mean())
+        drawn = (_along(lines, quad) + _beyond(lines, quad)) / 2
+        score = sure * drawn
+        if sure >= tuning.min_crossing and drawn >= tuning.min_line and score > best_score:
+            best, best_score = quad, score
+    return None if best is None else (best, best_score)
+
+
+def _along(lines: np.ndarray, quad: np.ndarray, samples: int = 12) -> float:
+    """The share of points along the quadrilateral's sides where the line heatmap says ink."""
+    t = np.linspace(0.1, 0.9, samples)[:, None]
+    points = np.concatenate(
+        [a + t * (b - a) for a, b in zip(quad, np.roll(quad, -1, 0), strict=True)]
+    )
+    x = np.clip(np.round(points[:, 0]).astype(int), 0, lines.shape[1] - 1)
+    y = np.clip(np.round(points[:, 1]).astype(int), 0, lines.shape[0] - 1)
+    return float((lines[y, x] > 0.5).mean())
+
+
+def _beyond(lines: np.ndarray, quad: np.ndarray, reach: float = 0.6, samples: int = 6) -> float:
+    """The share of points on drawn lines where the 4 lines run on past the middle cell, by
+    `reach` of its side (a #'s lines do; a cross's strokes, or a cell's own corners, do not);
+    points outside the picture are not counted."""
+    ends = []
+    t = np.linspace(0.15, reach, samples)[:, None]
+    for k in range(4):
+        here, before, after = quad[k], quad[k - 1], quad[(k + 1) % 4]
+        for other in (before, after):  # along each of the two sides meeting here, outwards
+            ends.append(here + t * (here - other))
+    points = np.concatenate(ends)
+    h, w = lines.shape
+    inside = (points[:, 0] >= 0) & (points[:, 0] <= w - 1) & (points[:, 1] >= 0)
+    inside &= points[:, 1] <= h - 1
+    if not inside.any():
+        return 0.0
+    x, y = np.round(points[inside]).astype(int).T
+    return float((lines[y, x] > 0.5).mean())
 
 
 @dataclass(frozen=True)
@@ -216,14 +297,43 @@ class LearnedGridFinder:
 
     def look(self, frame: np.ndarray) -> GridPoints:
         """The network's view of `frame`: heatmaps, crossing peaks, and the grid if one is
-        found (None if not)."""
+        found (None if not). A grid found small in the frame is looked at again, closer: the
+        frame cut round it (`zoom_margin` cells beyond the lattice) fills the network's picture,
+        and the lattice found there replaces the first if one is."""
+        points = self._look_at(frame)
+        grid = points.grid
+        if grid is None or not self.tuning.zoom:
+            return points
+        h, w = frame.shape[:2]
+        reach = self.tuning.zoom_margin * grid.cell_size()
+        low = np.floor(grid.lattice.reshape(-1, 2).min(axis=0) - reach).astype(int)
+        high = np.ceil(grid.lattice.reshape(-1, 2).max(axis=0) + reach).astype(int)
+        middle, half = (low + high) / 2, np.maximum((high - low) / 2, MIN_CROP / 2)
+        x0, y0 = (max(0, int(v)) for v in middle - half)
+        x1, y1 = min(w, int(middle[0] + half[0]) + 1), min(h, int(middle[1] + half[1]) + 1)
+        if min(x1 - x0, y1 - y0) < MIN_CROP:
+            return points
+        if max(x1 - x0, y1 - y0) > 0.8 * max(h, w):
+            return points  # already seen at nearly full size
+        closer = self._look_at(frame[y0:y1, x0:x1]).grid
+        if closer is None or closer.cell_size() < 0.5 * grid.cell_size() * max(h, w) / max(
+            x1 - x0, y1 - y0
+        ):
+            return points
+        lattice = closer.lattice + np.array([x0, y0], np.float64)
+        if np.abs(lattice[1:3, 1:3] - grid.lattice[1:3, 1:3]).max() > 0.3 * grid.cell_size():
+            return points  # another grid than the first look's: keep the first
+        zoomed = Grid(lattice=lattice, support=closer.support, in_view=cells_in_view(lattice, w, h))
+        return dataclasses.replace(points, grid=zoomed)
+
+    def _look_at(self, frame: np.ndarray) -> GridPoints:
         picture, scale = picture_of(frame)
         torch = self._torch
         with torch.inference_mode():
             heat, presence = self.net(torch.from_numpy(picture)[None])
         heatmaps = torch.sigmoid(heat[0]).numpy()
         present = float(torch.sigmoid(presence[0]))
-        found = np.array(peaks(heatmaps[CROSSINGS], 6), np.float64).reshape(-1, 3)
+        found = np.array(peaks(heatmaps[CROSSINGS], PEAKS.candidates), np.float64).reshape(-1, 3)
         to_frame = scale * STRIDE
         shown = found.copy()
         shown[:, :2] = (shown[:, :2] + 0.5) * to_frame - 0.5
@@ -238,17 +348,15 @@ class LearnedGridFinder:
         shape: tuple[int, ...],
         to_frame: float,
     ) -> Grid | None:
-        t = self.tuning
-        if present < t.min_presence or len(found) < 4 or found[3, 2] < t.min_crossing:
+        if present < self.tuning.min_presence:
             return None
-        crossings = order_crossings(found[:4, :2])
-        sides = np.linalg.norm(crossings - np.roll(crossings, 1, axis=0), axis=1)
-        if sides.min() < t.min_side or not _convex(crossings):
+        best = best_crossings(found, heatmaps[LINES], self.tuning)
+        if best is None:
             return None
-        lattice = lattice_from(crossings, heatmaps[OUTER], t)
+        crossings, support = best
+        lattice = lattice_from(crossings, heatmaps[OUTER], self.tuning)
         lattice = (lattice + 0.5) * to_frame - 0.5  # heatmap pixel centres to frame pixels
         h, w = shape[:2]
-        support = float(present * found[:4, 2].mean())
         return Grid(lattice=lattice, support=support, in_view=cells_in_view(lattice, w, h))
 
     def find(self, frame: np.ndarray) -> Grid:

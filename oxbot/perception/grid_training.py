@@ -266,7 +266,7 @@ def train_reader(
                 loss.backward()
                 optimiser.step()
                 schedule.step()
-                losses.append(float(loss))
+                losses.append(float(loss.detach()))
                 progress.update(task, advance=1, description=f"epoch {epoch + 1}: {losses[-1]:.3f}")
             figures = measure(LearnedGridFinder(net), valid)
             curve.append({"epoch": epoch + 1, "loss": float(np.mean(losses)), **figures})
