@@ -192,20 +192,33 @@ def best_crossings(
     """The 4 of the crossing peaks `found` (K, 3) that make the likeliest middle cell, ordered,
     with how sure that is (0-1); None if no 4 make one. A middle cell is convex, no sliver,
     its corners sure enough on average, and its 4 sides drawn lines: the line heatmap `lines`
-    must be high along them (the net learns lines faster and surer than points)."""
+    must be high along them and past its corners (the net learns lines faster and surer than
+    points). A corner the net missed may be completed from the other three (a parallelogram),
+    counted as not sure at all: the lines must then vouch for it."""
     candidates = found[found[:, 2] >= tuning.min_candidate][: tuning.candidates]
-    best, best_score = None, 0.0
+    quads = []
     for four in itertools.combinations(range(len(candidates)), 4):
-        quad = order_crossings(candidates[list(four), :2])
+        quads.append((candidates[list(four), :2], float(candidates[list(four), 2].mean())))
+    for three in itertools.combinations(range(len(candidates)), 3):
+        points = candidates[list(three), :2]
+        sure = float(candidates[list(three), 2].sum() / 4)
+        for corner in range(3):  # the corner opposite the missing one
+            a, b = (points[k] for k in range(3) if k != corner)
+            missing = a + b - points[corner]
+            quads.append((np.vstack([points, missing]), sure))
+    best, best_score = None, 0.0
+    for points, sure in quads:
+        if sure < tuning.min_crossing:
+            continue
+        quad = order_crossings(points)
         sides = np.linalg.norm(quad - np.roll(quad, 1, axis=0), axis=1)
         if sides.min() < tuning.min_side or sides.max() > tuning.max_side_ratio * sides.min():
             continue
         if not _convex(quad):
             continue
-        sure = float(candidates[list(four), 2].mean())
         drawn = (_along(lines, quad) + _beyond(lines, quad)) / 2
         score = sure * drawn
-        if sure >= tuning.min_crossing and drawn >= tuning.min_line and score > best_score:
+        if drawn >= tuning.min_line and score > best_score:
             best, best_score = quad, score
     return None if best is None else (best, best_score)
 

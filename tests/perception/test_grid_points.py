@@ -14,6 +14,7 @@ from oxbot.errors import ModelFileError
 from oxbot.perception.grid_model import INPUT_SIDE, STRIDE
 from oxbot.perception.grid_points import (
     LearnedGridFinder,
+    best_crossings,
     lattice_from,
     order_crossings,
     peaks,
@@ -114,3 +115,17 @@ def test_a_tiny_training_run_writes_a_checked_model_its_metrics_and_curve(tmp_pa
     damaged.write_bytes(bytes(data))
     with pytest.raises(ModelFileError, match=r"damaged\.pt is corrupt"):
         LearnedGridFinder.load(damaged)
+
+
+def test_a_crossing_the_net_missed_is_completed_when_the_lines_vouch_for_it():
+    truth = grid_lattice(15.0, centre=(128.0, 128.0), cell=60.0)
+    heat = (truth + 0.5) / STRIDE - 0.5
+    lines = np.zeros((64, 64), np.float32)
+    for k in (1, 2):  # the four drawn lines, end to end
+        for a, b in ((heat[0, k], heat[3, k]), (heat[k, 0], heat[k, 3])):
+            cv2.line(lines, tuple(np.round(a).astype(int)), tuple(np.round(b).astype(int)), 1.0)
+    three = np.array([[*heat[1, 1], 0.9], [*heat[1, 2], 0.8], [*heat[2, 1], 0.85]])
+    crossings, sure = best_crossings(three, lines)
+    assert np.abs(crossings[2] - heat[2, 2]).max() < 0.5 and 0 < sure < 0.7
+    # without the lines there is nothing to vouch for a fourth corner
+    assert best_crossings(three, np.zeros_like(lines)) is None
