@@ -35,7 +35,6 @@ from oxbot.atomic import save_figure, write_text_atomic
 from oxbot.config import GridModelConfig
 from oxbot.perception.grid_model import (
     CROSSINGS,
-    HEATMAPS,
     INPUT_SIDE,
     LINES,
     OUTER,
@@ -90,7 +89,7 @@ def render(seeds: list[int], processes: int, show_progress: bool, what: str) -> 
 
     results = []
     with Progress(disable=not show_progress, transient=True) as progress:
-        task = progress.add_task(f"rendering {what}", total=len(seeds))
+        task = progress.add_task(f"rendering the {what}", total=len(seeds))
         if processes > 1:
             context = multiprocessing.get_context("forkserver")
             with context.Pool(processes) as pool:
@@ -226,14 +225,13 @@ def train_reader(
     out.parent.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.threads)
     torch.manual_seed(config.seed)
-    seeds = np.random.SeedSequence(config.seed).generate_state(
+    states = np.random.SeedSequence(config.seed).generate_state(
         config.scenes + config.validation_scenes
     )
     tick = time.perf_counter()
-    train = render([int(s) for s in seeds[: config.scenes]], config.threads, show_progress, "")
-    valid = render(
-        [int(s) for s in seeds[config.scenes :]], config.threads, show_progress, "validation"
-    )
+    seeds = [int(s) for s in states]
+    train = render(seeds[: config.scenes], config.threads, show_progress, "training renders")
+    valid = render(seeds[config.scenes :], config.threads, show_progress, "validation renders")
     render_seconds = time.perf_counter() - tick
     net = GridPointNet(config.width)
     steps_per_epoch = math.ceil(config.scenes / config.batch_size)
@@ -320,4 +318,4 @@ def plot_curve(curve: list[dict[str, float]], path: Path) -> Path:
     return save_figure(fig, path)
 
 
-__all__ = ["HEATMAPS", "TrainedReader", "measure", "render", "train_reader"]
+__all__ = ["TrainedReader", "measure", "render", "train_reader"]
