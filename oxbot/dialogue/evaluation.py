@@ -6,6 +6,7 @@ once; 10,000 games per condition take seconds, not minutes.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -16,6 +17,7 @@ from oxbot.config import OxbotConfig, with_overrides
 from oxbot.dialogue.action_model import action_mask
 from oxbot.dialogue.domain import (
     ACCEPT,
+    ASK_AGAIN,
     GAME_MOVE_TEMPLATE,
     GREETING,
     INTRODUCTION,
@@ -83,6 +85,10 @@ class EvaluationResult:
     policy_faults: int = 0
     """Ill-formed dialogues that are the policy's own mistakes (`wellformed.blame`); the others
     went wrong only because the robot misheard."""
+    reward_std: float = 0.0
+    """Standard deviation of the dialogues' rewards (for confidence intervals)."""
+    asked_again: float = 0.0
+    """Times per dialogue the robot asked the person to say it again (Request(repeat))."""
     transcripts: list[list[Turn]] = field(default_factory=list)
 
     @property
@@ -118,6 +124,8 @@ class _Tally:
     successes: int = 0
     truncated: int = 0
     total_reward: float = 0.0
+    total_squared_reward: float = 0.0
+    total_asked_again: int = 0
     total_turns: int = 0
     good: int = 0
     problems: dict[str, int] = field(default_factory=dict)
@@ -132,8 +140,12 @@ class _Tally:
         else:
             self.truncated += 1
         self.total_reward += episode_return
+        self.total_squared_reward += episode_return**2
         transcript = info["transcript"]
         self.total_turns += len(transcript)
+        self.total_asked_again += sum(
+            turn["speaker"] == "sys" and turn["act"] == ASK_AGAIN for turn in transcript
+        )
         understood, scores = info.get("understood"), info.get("understood_scores")
         problem = (
             check_dialogue(transcript, result, understood, scores) if terminated else "truncated"
@@ -169,6 +181,10 @@ class _Tally:
             problems=self.problems,
             policy_faults=self.policy_faults,
             transcripts=self.kept,
+            reward_std=math.sqrt(
+                max(0.0, self.total_squared_reward / n - (self.total_reward / n) ** 2)
+            ),
+            asked_again=self.total_asked_again / n,
         )
 
 

@@ -539,3 +539,18 @@ def test_misread_wills_catches_a_script_that_asks_again_after_no_thanks():
 
     config = load_config()
     assert misread_wills(scripted_policy(build_dialogue_model(config)), config, 50) > 0
+
+
+def test_the_times_asked_again_and_the_rewards_spread_are_counted_per_dialogue():
+    from oxbot.dialogue.baselines import load_manager
+
+    config = load_config(None, ["dialogue.asr_noise=0.6"])
+    manager = load_manager("rules", config)
+    result = evaluate(manager.act_batch, "random", True, 60, config, seed=3, keep_transcripts=60)
+    asked = [
+        sum(t["speaker"] == "sys" and t["act"] == "Request(repeat)" for t in transcript)
+        for transcript in result.transcripts
+    ]
+    assert len(asked) == 60 and sum(asked) > 0  # at this much mishearing it does ask again
+    assert result.asked_again == pytest.approx(sum(asked) / 60)
+    assert result.reward_std > 0
