@@ -89,6 +89,31 @@ def answer(page: Page, text: str) -> int:
     return before
 
 
+def answer_until_understood(page: Page, text: str, act: str, tries: int = 3) -> int:
+    """Say `text` until the robot understands it as `act` (the person's), saying it again when
+    the robot asks, as a person would: whether an answer heard at 0.73 is sure enough depends on
+    where the hands-free listener cut the stream, which depends on the machine's load. The
+    log's length before the answer understood."""
+    for _ in range(tries):
+        before = answer(page, text)
+        wait_for_either(page, [(act, "usr"), ("Request(repeat)", "sys")], before)
+        items = log_items(page)[before:]
+        if any(s == "usr" and a.startswith(act) for s, a, _ in items):
+            return before
+    raise AssertionError(f"{text!r} was never understood as {act} in {tries} tries")
+
+
+def wait_for_either(page: Page, acts: list[tuple[str, str]], after: int) -> None:
+    page.wait_for_function(
+        """([acts, after]) =>
+             [...document.querySelectorAll('[data-testid=log] li[data-act]')].slice(after)
+               .some(li => acts.some(([act, speaker]) =>
+                 li.dataset.act.startsWith(act) && li.dataset.speaker === speaker))""",
+        arg=[acts, after],
+        timeout=40_000,
+    )
+
+
 def test_a_whole_game_by_voice_then_no_thanks_to_another(page: Page):
     try:
         play_by_voice(page)
@@ -108,8 +133,7 @@ def play_by_voice(page: Page) -> None:
     before = answer(page, "hello")
     wait_for(page, "Salutation(greeting)", "usr", before)
     wait_for(page, "Request(playGame)", after=before)
-    before = answer(page, "yes let's play")
-    wait_for(page, "Confirm(playGame=yes)", "usr", before)
+    before = answer_until_understood(page, "yes let's play", "Confirm(playGame=yes)")
     # what the robot heard is shown, with its confidence
     assert "yes" in page.get_by_test_id("heard").inner_text().lower()
 
@@ -148,8 +172,7 @@ def play_by_voice(page: Page) -> None:
     wait_for(page, "Salutation(greeting)", after=before)  # another dialogue begins
     before = answer(page, "hello")
     wait_for(page, "Request(playGame)", after=before, timeout=60_000)
-    before = answer(page, "no thanks")
-    wait_for(page, "Reject(playGame=no)", "usr", before)
+    before = answer_until_understood(page, "no thanks", "Reject(playGame=no)")
     wait_for(page, "Salutation(closing)", after=before)
     items = log_items(page)
     assert items[-1][:2] == ("sys", "Salutation(closing)")
