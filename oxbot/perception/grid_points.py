@@ -1,14 +1,14 @@
 """The learned grid finder: the network's heatmaps turned into the grid's lattice.
 
 `LearnedGridFinder.find(frame)` does what `grid.find_grid` does, by learning instead of line
-grouping: the frame is shrunk to `INPUT_SIDE` on its long side, `GridPointNet` predicts where
-the 4 inner crossings and the 12 outer points lie, the crossings' peaks are located to a
-fraction of a heatmap pixel and ordered by where they lie (clockwise from the one nearest the
-picture's upper left, with the grid's turn taken within ±45 degrees), and a homography from
-them places the 4x4 lattice. Each outer point is then moved to the net's own peak near where
-the homography put it, so that a hand-drawn grid's uneven spacing is kept, as the classical
-finder keeps it by extending along the lines. No peak near it (a line cut by the frame, a line
-stopped short), the homography's point stays.
+grouping: the frame is shrunk to `INPUT_SIDE` on its long side and `GridPointNet` predicts
+heatmaps of the grid's crossings, outer points and lines. The crossings' peaks are located to
+a fraction of a heatmap pixel; among them the likeliest middle cell is chosen, its sides and the
+lines past its corners checked against the line heatmap (a corner the net missed may be
+completed from the other three), and ordered by where its corners lie (clockwise from the upper
+left, the grid's turn within ±45 degrees). Each drawn line is extended past its crossings by the
+middle cell's side, as the classical finder extends along its lines, and a line's end moves to
+the outer heatmap's peak where the net is sure of one (a line drawn longer or bent).
 
 The shipped weights (`data/models/grid_points.pt`) carry their checksum, the config and seed
 they were trained from, and their figures; `oxbot train reader` makes them from nothing.
@@ -16,7 +16,7 @@ they were trained from, and their figures; `oxbot train reader` makes them from 
 
 from __future__ import annotations
 
-import dataclasses
+import functools
 import importlib.resources
 import itertools
 import math
@@ -26,9 +26,10 @@ from typing import Any
 
 import cv2
 import numpy as np
+import torch
 
 from oxbot import artifacts
-from oxbot.errors import ModelFileError, NoGridFound
+from oxbot.errors import NoGridFound
 from oxbot.game.board import SIZE
 from oxbot.perception.frame import as_image
 from oxbot.perception.grid import Grid, cells_in_view
@@ -37,33 +38,27 @@ from oxbot.perception.grid_model import CROSSINGS, INPUT_SIDE, LINES, OUTER, STR
 KIND, VERSION = "grid_points", 1
 REMEDY = "train one with `oxbot train reader`, or reinstall oxbot for the shipped one"
 MULTIPLE = 32
-MIN_CROP = 64
-"""The closer look's cut is at least this wide and high (the smallest frame oxbot reads)."""
 """The network halves its picture 5 times: each side a multiple of this."""
+PEAK_FLOOR = 0.05
+"""A heatmap's local maximum weaker than this (sigmoid) is no peak."""
 
 
 @dataclass(frozen=True)
 class PeakTuning:
     """How heatmap peaks become points."""
 
-    min_candidate: float = 0.04
-    """A crossing peak weaker than this (sigmoid) is no candidate."""
     candidates: int = 8
     """The strongest peaks among which the middle cell's 4 corners are sought."""
     min_crossing: float = 0.2
     """The middle cell's 4 corners must be at least this sure on average."""
     min_line: float = 0.6
     """At least this share of the middle cell's sides must lie on drawn lines."""
-    zoom: bool = False
-    """Look again, closer, at a grid found small in the frame."""
-    zoom_margin: float = 0.6
-    """How far beyond the lattice the closer look reaches, in cells."""
     max_side_ratio: float = 2.5
     """A middle cell whose longest side is more than this times its shortest is a sliver."""
     min_outer: float = 0.6
-    """An outer point's peak, at least this sure, moves the homography's point to it."""
+    """An outer point's peak, at least this sure, moves the extended line's end to it."""
     outer_reach: float = 0.35
-    """How far from the homography's point an outer peak is looked for, in cells."""
+    """How far from the extended line's end an outer peak is looked for, in cells."""
     min_presence: float = 0.5
     """Below this "board present" probability the frame holds no grid."""
     min_side: float = 2.0
@@ -107,7 +102,7 @@ def peaks(heat: np.ndarray, count: int) -> list[tuple[float, float, float]]:
     (x, y, value), x and y to a fraction of a pixel: the top of a parabola through the log of
     the peak and its two neighbours each way (exact for a Gaussian peak)."""
     dilated = cv2.dilate(heat, np.ones((3, 3), np.uint8))
-    ys, xs = np.nonzero((heat >= dilated) & (heat > 0.05))
+    ys, xs = np.nonzero((heat >= dilated) & (heat > PEAK_FLOOR))
     order = np.argsort(-heat[ys, xs])[:count]
     logs = np.log(np.clip(heat, 1e-6, None))
     found = []
@@ -195,7 +190,7 @@ def best_crossings(
     must be high along them and past its corners (the net learns lines faster and surer than
     points). A corner the net missed may be completed from the other three (a parallelogram),
     counted as not sure at all: the lines must then vouch for it."""
-    candidates = found[found[:, 2] >= tuning.min_candidate][: tuning.candidates]
+    candidates = found[: tuning.candidates]
     quads = []
     for four in itertools.combinations(range(len(candidates)), 4):
         quads.append((candidates[list(four), :2], float(candidates[list(four), 2].mean())))
@@ -289,12 +284,9 @@ class LearnedGridFinder:
     """Finds the grid with `GridPointNet`: `find(frame)` gives a `Grid`, as `find_grid` does."""
 
     def __init__(self, net: GridPointNet, tuning: PeakTuning = PEAKS, info: Any = None) -> None:
-        import torch
-
         self.net = net.eval()
         self.tuning = tuning
         self.info = info or {}
-        self._torch = torch
 
     @classmethod
     def load(cls, path: str | Path | None = None) -> LearnedGridFinder:
@@ -310,43 +302,14 @@ class LearnedGridFinder:
 
     def look(self, frame: np.ndarray) -> GridPoints:
         """The network's view of `frame`: heatmaps, crossing peaks, and the grid if one is
-        found (None if not). A grid found small in the frame is looked at again, closer: the
-        frame cut round it (`zoom_margin` cells beyond the lattice) fills the network's picture,
-        and the lattice found there replaces the first if one is."""
-        points = self._look_at(frame)
-        grid = points.grid
-        if grid is None or not self.tuning.zoom:
-            return points
-        h, w = frame.shape[:2]
-        reach = self.tuning.zoom_margin * grid.cell_size()
-        low = np.floor(grid.lattice.reshape(-1, 2).min(axis=0) - reach).astype(int)
-        high = np.ceil(grid.lattice.reshape(-1, 2).max(axis=0) + reach).astype(int)
-        middle, half = (low + high) / 2, np.maximum((high - low) / 2, MIN_CROP / 2)
-        x0, y0 = (max(0, int(v)) for v in middle - half)
-        x1, y1 = min(w, int(middle[0] + half[0]) + 1), min(h, int(middle[1] + half[1]) + 1)
-        if min(x1 - x0, y1 - y0) < MIN_CROP:
-            return points
-        if max(x1 - x0, y1 - y0) > 0.8 * max(h, w):
-            return points  # already seen at nearly full size
-        closer = self._look_at(frame[y0:y1, x0:x1]).grid
-        if closer is None or closer.cell_size() < 0.5 * grid.cell_size() * max(h, w) / max(
-            x1 - x0, y1 - y0
-        ):
-            return points
-        lattice = closer.lattice + np.array([x0, y0], np.float64)
-        if np.abs(lattice[1:3, 1:3] - grid.lattice[1:3, 1:3]).max() > 0.3 * grid.cell_size():
-            return points  # another grid than the first look's: keep the first
-        zoomed = Grid(lattice=lattice, support=closer.support, in_view=cells_in_view(lattice, w, h))
-        return dataclasses.replace(points, grid=zoomed)
-
-    def _look_at(self, frame: np.ndarray) -> GridPoints:
+        found (None if not)."""
         picture, scale = picture_of(frame)
-        torch = self._torch
         with torch.inference_mode():
             heat, presence = self.net(torch.from_numpy(picture)[None])
         heatmaps = torch.sigmoid(heat[0]).numpy()
         present = float(torch.sigmoid(presence[0]))
-        found = np.array(peaks(heatmaps[CROSSINGS], PEAKS.candidates), np.float64).reshape(-1, 3)
+        found = peaks(heatmaps[CROSSINGS], self.tuning.candidates)
+        found = np.array(found, np.float64).reshape(-1, 3)
         to_frame = scale * STRIDE
         shown = found.copy()
         shown[:, :2] = (shown[:, :2] + 0.5) * to_frame - 0.5
@@ -392,14 +355,7 @@ def _convex(quad: np.ndarray) -> bool:
     return bool(np.all(turns > 0) or np.all(turns < 0))
 
 
-_LOADED: dict[str, LearnedGridFinder] = {}
-
-
+@functools.cache
 def shipped_finder() -> LearnedGridFinder:
     """The shipped finder, loaded once per process."""
-    key = str(shipped_path())
-    if key not in _LOADED:
-        if not Path(key).exists():
-            raise ModelFileError(f"the grid-point model {key} is missing; {REMEDY}")
-        _LOADED[key] = LearnedGridFinder.load(key)
-    return _LOADED[key]
+    return LearnedGridFinder.load(shipped_path())

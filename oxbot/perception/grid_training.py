@@ -42,6 +42,7 @@ from oxbot.perception.grid_model import (
     GridPointNet,
 )
 from oxbot.perception.grid_points import KIND, VERSION, LearnedGridFinder
+from oxbot.perception.grid_scenes import random_grid_scene
 
 log = logging.getLogger(__name__)
 
@@ -66,8 +67,6 @@ class Renders:
 
 
 def _render_one(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool, tuple[int, int]]:
-    from oxbot.perception.grid_scenes import random_grid_scene
-
     rng = np.random.default_rng(seed)
     width, height = SHAPES[int(rng.integers(len(SHAPES)))]
     scene = random_grid_scene(rng, (width, height))
@@ -207,6 +206,8 @@ def measure(finder: LearnedGridFinder, renders: Renders) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class TrainedReader:
+    """What `train_reader` wrote, and its figures."""
+
     model_path: Path
     metrics_path: Path
     curve_path: Path

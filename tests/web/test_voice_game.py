@@ -70,13 +70,7 @@ def page() -> Iterator[Page]:
 
 
 def wait_for(page: Page, act: str, speaker: str = "sys", after: int = 0, timeout=40_000) -> None:
-    page.wait_for_function(
-        """([act, speaker, after]) =>
-             [...document.querySelectorAll('[data-testid=log] li[data-act]')].slice(after)
-               .some(li => li.dataset.act.startsWith(act) && li.dataset.speaker === speaker)""",
-        arg=[act, speaker, after],
-        timeout=timeout,
-    )
+    wait_for_either(page, [(act, speaker)], after, timeout)
 
 
 def answer(page: Page, text: str) -> int:
@@ -103,14 +97,17 @@ def answer_until_understood(page: Page, text: str, act: str, tries: int = 3) -> 
     raise AssertionError(f"{text!r} was never understood as {act} in {tries} tries")
 
 
-def wait_for_either(page: Page, acts: list[tuple[str, str]], after: int) -> None:
+def wait_for_either(
+    page: Page, acts: list[tuple[str, str]], after: int, timeout: int = 40_000
+) -> None:
+    """Wait until the log shows, after its first `after` entries, one of `acts` (act, speaker)."""
     page.wait_for_function(
         """([acts, after]) =>
              [...document.querySelectorAll('[data-testid=log] li[data-act]')].slice(after)
                .some(li => acts.some(([act, speaker]) =>
                  li.dataset.act.startsWith(act) && li.dataset.speaker === speaker))""",
         arg=[acts, after],
-        timeout=40_000,
+        timeout=timeout,
     )
 
 
