@@ -266,11 +266,17 @@ class AgentConfig:
     """oxbot: experiences between greedy evaluations that keep the best policy; 0 never."""
     eval_games: int = 300
     """oxbot: games per opponent and who-starts condition in each of those evaluations."""
+    n_envs: int = 1
+    """oxbot: dialogues stepped together (Gymnasium's vector API), their acts chosen in one
+    batched forward pass; 1 is the paper's one dialogue at a time."""
+    eval_in_background: bool = False
+    """oxbot: judge checkpoints in a second process while training goes on (the other core);
+    the kept policy is the same either way."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "replay_size", "learning_rate", "batch_size")
         _require_positive(self, "target_update_interval", "total_steps", "train_frequency")
-        _require_positive(self, "eval_games")
+        _require_positive(self, "eval_games", "n_envs")
         _require_at_least(self, 0, "learning_starts", "eval_every", "seed")
         _require_range(self, "misheard_words", "[0, 1]")
         _require_range(self, "exploration_fraction", "(0, 1]")

@@ -26,7 +26,7 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 import torch
@@ -35,22 +35,22 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from oxbot import artifacts
 from oxbot.atomic import save_figure, write_text_atomic
-from oxbot.config import AgentConfig, OxbotConfig, opponent_mix, who_starts
-from oxbot.dialogue.agent import DQNPolicy, QNetwork, greedy_batch_policy, masked_argmax
-from oxbot.dialogue.domain import N_ACTIONS
-from oxbot.dialogue.env import InteractiveGameEnv
-from oxbot.dialogue.evaluation import (
-    CONDITIONS,
-    Policy,
-    condition_key,
-    evaluate,
-    losing_positions,
-    misread_wills,
-    wins_against_random,
+from oxbot.config import AgentConfig, OxbotConfig
+from oxbot.dialogue.agent import DQNPolicy, QNetwork, masked_argmax
+from oxbot.dialogue.checkpoint_evaluation import (
+    Checkpoint,
+    CheckpointJudge,
+    Judged,
+    evaluate_checkpoint,
+    evaluation_score,
 )
+from oxbot.dialogue.env import InteractiveGameEnv
+from oxbot.dialogue.replay import Batch, BatchAugmenter, ReplayBuffer
+from oxbot.dialogue.vector_env import training_envs
 from oxbot.errors import ModelFileError, TrainingInterrupted
-from oxbot.game.opponents import make_opponent
 from oxbot.interrupt import deferred_interrupt
+
+__all__ = ["TrainingResult", "evaluate_checkpoint", "evaluation_score", "train_agent"]
 
 log = logging.getLogger(__name__)
 
@@ -58,58 +58,6 @@ CHECKPOINT_FORMAT = "oxbot-dqn-checkpoint/1"
 CHECKPOINT_KIND = "agent-checkpoint"
 CHECKPOINT_VERSION = 2
 """2: behind `oxbot.artifacts`' checksummed header; 1 had none."""
-TREE_NOISE_VARIANTS = (10, 40)
-"""Noisy hearings of each utterance per board in the game-tree check: always, for candidates."""
-
-
-class Batch(NamedTuple):
-    """A minibatch of experiences (s, a, r, s', offered in s', terminal), one row each."""
-
-    states: np.ndarray
-    actions: np.ndarray
-    rewards: np.ndarray
-    next_states: np.ndarray
-    next_masks: np.ndarray
-    dones: np.ndarray
-
-
-class ReplayBuffer:
-    """The experience replay memory D: a ring of (s, a, r, s', offered in s', terminal)."""
-
-    def __init__(self, capacity: int, n_features: int, n_actions: int = N_ACTIONS) -> None:
-        self.capacity = capacity
-        self.states = np.zeros((capacity, n_features), dtype=np.float32)
-        self.actions = np.zeros(capacity, dtype=np.int64)
-        self.rewards = np.zeros(capacity, dtype=np.float32)
-        self.next_states = np.zeros((capacity, n_features), dtype=np.float32)
-        self.next_masks = np.zeros((capacity, n_actions), dtype=bool)
-        self.dones = np.zeros(capacity, dtype=np.float32)
-        self.size = 0
-        self.position = 0
-
-    def add(self, s: np.ndarray, a: int, r: float, s2: np.ndarray, m2: np.ndarray, done: bool):
-        i = self.position
-        self.states[i], self.actions[i], self.rewards[i] = s, a, r
-        self.next_states[i], self.next_masks[i], self.dones[i] = s2, m2, done
-        self.position = (i + 1) % self.capacity
-        self.size = min(self.size + 1, self.capacity)
-
-    def sample(self, batch_size: int, rng: np.random.Generator) -> Batch:
-        """A minibatch drawn uniformly at random, MB ~ U(D)."""
-        i = rng.integers(self.size, size=batch_size)
-        return Batch(*(getattr(self, name)[i] for name in Batch._fields))
-
-    def state_dict(self) -> dict[str, Any]:
-        n = self.size
-        arrays = {name: torch.from_numpy(getattr(self, name)[:n].copy()) for name in Batch._fields}
-        return {**arrays, "position": self.position}
-
-    def load_state_dict(self, data: dict[str, Any]) -> None:
-        n = len(data["actions"])
-        for name in Batch._fields:
-            getattr(self, name)[:n] = data[name].numpy()
-        self.size = n
-        self.position = int(data["position"])
 
 
 @dataclass
@@ -133,8 +81,9 @@ class TrainingState:
     best_step: int | None = None
     best_state_dict: dict[str, Any] | None = None
     """The weights of the best evaluated policy so far."""
-    evaluation_pending: bool = False
-    """Ctrl-C stopped the evaluation due at `step`; a resumed run does it first."""
+    waiting_evaluations: list[dict[str, Any]] = field(default_factory=list)
+    """Checkpoints made but not yet judged when the run stopped (`Checkpoint.as_dict`); a
+    resumed run judges them first."""
 
 
 @dataclass
@@ -162,50 +111,6 @@ def epsilon_at(step: int, config: OxbotConfig) -> float:
     a = config.agent
     span = max(1, int(a.exploration_fraction * a.total_steps))
     return max(a.epsilon_min, a.epsilon_start + (a.epsilon_min - a.epsilon_start) * step / span)
-
-
-def add_misheard_words(
-    states: np.ndarray, share: float, n_words: int, below: float, rng: np.random.Generator
-) -> np.ndarray:
-    """A copy of `states` where a `share` of rows hear one more absent word, with confidence
-    in [0.1, `below`).
-
-    Below the action model's threshold such a word changes neither the offered acts nor the
-    DR reward, and what the person says next does not depend on how the robot heard them: the
-    experience is exactly as valid for the altered state. It teaches the network to ignore the
-    recogniser's low-confidence guesses, which otherwise tip a close choice between moves.
-    """
-    states = states.copy()
-    chosen = np.flatnonzero(rng.random(len(states)) < share)
-    if len(chosen):
-        words = rng.integers(n_words, size=len(chosen))
-        absent = states[chosen, words] == 0
-        states[chosen[absent], words[absent]] = rng.uniform(0.1, below, size=int(absent.sum()))
-    return states
-
-
-class BatchAugmenter:
-    """What `agent.symmetries` and `agent.misheard_words` do to each sampled minibatch."""
-
-    def __init__(self, env: InteractiveGameEnv, config: OxbotConfig) -> None:
-        self.config = config.agent
-        self.feature_perm, self.action_perm = env.layout.symmetry_permutations()
-        self.mask_perm = np.argsort(self.action_perm, axis=1)  # new_mask = old_mask[mask_perm[k]]
-        self.rows = np.arange(self.config.batch_size)[:, None]
-        self.n_words = env.layout.n_words
-        self.binarize = config.dialogue.nb_binarize
-
-    def __call__(self, batch: Batch, rng: np.random.Generator) -> Batch:
-        s, a, r, s2, m2, done = batch
-        if self.config.symmetries:  # the same experience seen rotated or mirrored
-            k = rng.integers(len(self.feature_perm), size=self.config.batch_size)
-            s = s[self.rows, self.feature_perm[k]]
-            s2 = s2[self.rows, self.feature_perm[k]]
-            a = self.action_perm[k, a]
-            m2 = m2[self.rows, self.mask_perm[k]]
-        if self.config.misheard_words:  # a word heard with low confidence changes nothing
-            s = add_misheard_words(s, self.config.misheard_words, self.n_words, self.binarize, rng)
-        return Batch(s, a, r, s2, m2, done)
 
 
 def td_target(batch: Batch, learner: _Learner, config: AgentConfig) -> torch.Tensor:
@@ -237,26 +142,6 @@ def learn_from(batch: Batch, learner: _Learner, step: int, config: AgentConfig) 
     learner.optimizer.step()
 
 
-def evaluation_score(results: dict[str, Any]) -> tuple[float, ...]:
-    """Order policies: fewest losing boards (a person who finds one beats the robot every
-    time), then fewest people, heard cleanly, whose no, "later" or stop it got wrong
-    (`misread_wills`), then most wins against random people counted exactly on the game tree
-    (`wins_against_random`; checkpoints often tie there, at the optimum), then fewest lost or
-    badly formed dialogues under noise, then most wins in the sampled games. Those measured
-    without noise come first because they are sure: 300 sampled games a condition tell
-    neither a policy that gives away a point of wins (one board of the tree, docs/dialogue.md)
-    nor faults a few dialogues apart."""
-    faults = sum(
-        round(r["games"] * (r["loss_rate"] + 1 - r["well_formed"]))
-        for r in results.values()
-        if isinstance(r, dict)
-    )
-    # absent when evaluate_checkpoint asks about the losing boards alone, before measuring them
-    exact = round(sum(results.get("wins_against_random", [])), 9)
-    wins = sum(r["win_rate"] for k, r in results.items() if k.startswith("random"))
-    return (-results["losing_positions"], -results.get("misread_wills", 0), exact, -faults, wins)
-
-
 def train_agent(
     config: OxbotConfig,
     out_dir: str | Path,
@@ -273,74 +158,91 @@ def train_agent(
     of the same architecture, starts the networks from its weights (a fine-tune, as
     `oxbot learn agent` does).
     """
-    # The paper's algorithm as one loop read top to bottom, as CleanRL's dqn.py.
+    # The paper's algorithm as one loop read top to bottom, as CleanRL's dqn.py, over `n_envs`
+    # dialogues at once: each pass adds n_envs experiences, and learns once per
+    # `train_frequency` of them, as one dialogue at a time would.
     out_dir = Path(out_dir)
     cfg = config.agent
-    torch.set_num_threads(1)  # a 60-unit MLP trains fastest on one thread
+    torch.set_num_threads(1)  # a 128-unit MLP trains fastest on one thread
     # the same seed gives the same weights here; on another CPU, BLAS kernels may still sum in
     # another order (docs/dialogue.md says what differs)
     torch.use_deterministic_algorithms(True)
     clock = _Clock()
 
-    # --- set-up: environment, networks, replay memory, opponents -------------------------------
-    env = InteractiveGameEnv(config=config)
+    # --- set-up: environments, networks, replay memory, the judge of checkpoints ---------------
+    envs = training_envs(config, cfg.n_envs)
+    env: InteractiveGameEnv = envs.envs[0].unwrapped
     learner = _new_learner(env, cfg, init_from)
     rng = learner.rng
     augment = BatchAugmenter(env, config)
-    next_episode = _episode_options(cfg, rng)
     checkpoint_path = out_dir / "checkpoint.pt"
     run = TrainingState()
     if resume and checkpoint_path.exists():
         run = _load_checkpoint(checkpoint_path, config, learner)
         log.info("resumed from %s at step %d", checkpoint_path, run.step)
-    saver = _Saver(checkpoint_path, config, learner, run, clock)
+    judge = CheckpointJudge(config, learner.q_network, background=cfg.eval_in_background)
+    for waiting in run.waiting_evaluations:
+        judge.submit(Checkpoint(**waiting))
+    saver = _Saver(checkpoint_path, config, learner, run, clock, judge)
     recent_rewards: deque[float] = deque(maxlen=log_every)
     recent_outcomes: deque[str] = deque(run.outcomes[-500:], maxlen=500)
 
-    obs, info = env.reset(seed=cfg.seed + run.step, options=next_episode())
+    obs, info = envs.reset(seed=cfg.seed + run.step)
+    masks = info["action_mask"]
     progress, task = _progress(show_progress, cfg.total_steps, run.step)
-    with progress, deferred_interrupt() as stop:
-        log.info("training from experience %d of %d", run.step, cfg.total_steps)
-        if run.evaluation_pending:
-            saver.evaluate_at(run.step, stop)
-        for step in range(run.step, cfg.total_steps):
-            # 1. act: epsilon-greedy among the offered acts
-            epsilon = epsilon_at(step, config)
-            action = _epsilon_greedy(learner.q_network, obs, info["action_mask"], epsilon, rng)
+    try:
+        with progress, deferred_interrupt() as stop:
+            log.info("training from experience %d of %d", run.step, cfg.total_steps)
+            step = run.step
+            while step < cfg.total_steps:
+                n = min(cfg.n_envs, cfg.total_steps - step)  # the last pass may keep fewer
+                # 1. act: epsilon-greedy among the offered acts, one batched forward pass
+                epsilon = epsilon_at(step, config)
+                actions = _epsilon_greedy(learner.q_network, obs, masks, epsilon, rng)
 
-            # 2. step the dialogue and store the experience
-            next_obs, reward, terminated, truncated, info = env.step(action)
-            learner.replay.add(obs, action, reward, next_obs, info["action_mask"], terminated)
-            recent_rewards.append(reward)
-            obs = next_obs
-            if terminated or truncated:
-                result = info["outcome"] if terminated and info["outcome"] else "unfinished"
-                _count_outcome(run, recent_outcomes, result)
-                obs, info = env.reset(options=next_episode())
+                # 2. step the dialogues and store the experiences
+                next_obs, rewards, terminated, truncated, info = envs.step(actions)
+                ended = terminated | truncated
+                last_obs, last_masks = _last_observations(next_obs, info, ended)
+                learner.replay.add_batch(
+                    obs[:n], actions[:n], rewards[:n], last_obs[:n], last_masks[:n], terminated[:n]
+                )
+                recent_rewards.extend(rewards[:n].tolist())
+                for i in np.flatnonzero(ended[:n]):
+                    outcome = info["final_info"]["outcome"][i]
+                    result = outcome if terminated[i] and outcome else "unfinished"
+                    _count_outcome(run, recent_outcomes, result)
+                obs, masks = next_obs, info["action_mask"]
 
-            # 3. learn from a minibatch
-            if step >= cfg.learning_starts and step % cfg.train_frequency == 0:
-                batch = augment(learner.replay.sample(cfg.batch_size, rng), rng)
-                learn_from(batch, learner, step, cfg)
-                run.updates += 1
+                # 3. learn from minibatches
+                for k in _due(step, n, cfg.train_frequency, cfg.learning_starts):
+                    batch = augment(learner.replay.sample(cfg.batch_size, rng), rng)
+                    learn_from(batch, learner, k, cfg)
+                    run.updates += 1
 
-            # 4. sync the target network every C steps
-            if step % cfg.target_update_interval == 0:
-                learner.target_network.load_state_dict(learner.q_network.state_dict())
+                # 4. sync the target network every C steps
+                if _due(step, n, cfg.target_update_interval):
+                    learner.target_network.load_state_dict(learner.q_network.state_dict())
 
-            # 5. log, evaluate, checkpoint
-            done_steps = step + 1
-            if done_steps % log_every == 0:
-                run.reward_curve.append([done_steps, float(np.mean(recent_rewards))])
-                stats = _stats(run, recent_outcomes, recent_rewards, epsilon)
-                progress.update(task, completed=done_steps, stats=stats)
-            if cfg.eval_every and done_steps % cfg.eval_every == 0:
-                saver.evaluate_at(done_steps, stop)
-            if checkpoint_every and done_steps % checkpoint_every == 0:
-                saver.save(done_steps)
-            if stop.requested:  # Ctrl-C: this step is whole, save it and stop
-                raise saver.interrupted(done_steps)
-        progress.update(task, completed=cfg.total_steps)
+                # 5. log, evaluate, checkpoint
+                done_steps = step + n
+                if _due(step + 1, n, log_every):
+                    run.reward_curve.append([done_steps, float(np.mean(recent_rewards))])
+                    stats = _stats(run, recent_outcomes, recent_rewards, epsilon)
+                    progress.update(task, completed=done_steps, stats=stats)
+                if cfg.eval_every and _due(step + 1, n, cfg.eval_every):
+                    saver.evaluate_at(done_steps)
+                saver.keep_judged(stop, done_steps)
+                if checkpoint_every and _due(step + 1, n, checkpoint_every):
+                    saver.save(done_steps)
+                step = done_steps
+                if stop.requested:  # Ctrl-C: these steps are whole, save them and stop
+                    raise saver.interrupted(done_steps)
+            saver.keep_judged(stop, step, wait=True)
+            progress.update(task, completed=cfg.total_steps)
+    finally:
+        judge.close()
+        envs.close()
 
     # --- the result: the best evaluated network (or the last), its metrics and curves ----------
     run.step = cfg.total_steps
@@ -348,19 +250,38 @@ def train_agent(
     return _finish(config, env, learner, run, out_dir, checkpoint_path, init_from)
 
 
+def _due(start: int, n: int, every: int, first: int = 0) -> list[int]:
+    """The steps of `start`, ..., `start + n - 1` that are multiples of `every` and >= `first`."""
+    return [k for k in range(max(start, first), start + n) if k % every == 0]
+
+
+def _last_observations(
+    obs: np.ndarray, info: dict[str, Any], ended: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """What each dialogue's step led to: its next observation and offered acts, or, for a
+    dialogue that just ended (and was reset at once), its last ones."""
+    last_obs, last_masks = obs.copy(), info["action_mask"].copy()
+    for i in np.flatnonzero(ended):
+        last_obs[i] = info["final_obs"][i]
+        last_masks[i] = info["final_info"]["action_mask"][i]
+    return last_obs, last_masks
+
+
 def _epsilon_greedy(
     q_network: QNetwork,
     obs: np.ndarray,
-    mask: np.ndarray,
+    masks: np.ndarray,
     epsilon: float,
     rng: np.random.Generator,
-) -> int:
-    """A random offered act with probability `epsilon`, else the greedy one."""
-    if rng.random() < epsilon:
-        return int(rng.choice(np.flatnonzero(mask)))
+) -> np.ndarray:
+    """For each row, a random offered act with probability `epsilon`, else the greedy one."""
     with torch.inference_mode():
-        q = q_network(torch.from_numpy(obs[None])).numpy()[0]
-    return int(masked_argmax(q, mask))
+        q = q_network(torch.from_numpy(obs)).numpy()
+    actions = masked_argmax(q, masks)
+    explore = rng.random(len(obs)) < epsilon
+    # uniform among the offered acts: the largest of one uniform draw per offered act
+    random_acts = np.argmax(np.where(masks, rng.random(masks.shape), -1.0), axis=1)
+    return np.where(explore, random_acts, actions)
 
 
 class _Clock:
@@ -382,18 +303,20 @@ class _Clock:
 
 @dataclass
 class _Saver:
-    """Where a run is saved, and the evaluations that keep its best policy."""
+    """Where a run is saved, and the judged checkpoints that keep its best policy."""
 
     path: Path
     config: OxbotConfig
     learner: _Learner
     run: TrainingState
     clock: _Clock
+    judge: CheckpointJudge
 
     def save(self, step: int) -> None:
         """Write the checkpoint as training stands after `step` experiences."""
         self.run.step = step
         self.run.elapsed_s += self.clock.lap()
+        self.run.waiting_evaluations = [c.as_dict() for c, _job in self.judge.waiting]
         _save_checkpoint(self.path, self.config, self.learner, self.run)
 
     def interrupted(self, step: int) -> TrainingInterrupted:
@@ -406,18 +329,21 @@ class _Saver:
             step,
         )
 
-    def evaluate_at(self, step: int, stop: Any) -> None:
-        """The greedy evaluation due after `step` experiences; Ctrl-C stops it at once."""
-        elapsed = self.run.elapsed_s + self.clock.peek()
+    def evaluate_at(self, step: int) -> None:
+        """Hand the weights after `step` experiences to the judge."""
+        elapsed = round(self.run.elapsed_s + self.clock.peek(), 1)
+        weights = copy.deepcopy(self.learner.q_network.state_dict())
+        self.judge.submit(Checkpoint(step, self.run.episodes, elapsed, weights))
+
+    def keep_judged(self, stop: Any, step: int, wait: bool = False) -> None:
+        """Record what the judge has finished, keeping the best policy; with `wait`, all of it.
+        Ctrl-C while judging here stops at once, what is still waiting saved."""
         try:
             with stop.immediately():
-                _evaluate_and_keep_best(
-                    self.config, self.learner.q_network, self.run, step, elapsed
-                )
+                for judged in self.judge.judged(wait=wait):
+                    _keep_if_best(self.run, judged)
         except KeyboardInterrupt:
-            self.run.evaluation_pending = True
             raise self.interrupted(step) from None
-        self.run.evaluation_pending = False
 
 
 def _new_learner(
@@ -443,21 +369,6 @@ def _new_learner(
         learner.q_network.load_state_dict(init_from.q_network.state_dict())
         learner.target_network.load_state_dict(init_from.q_network.state_dict())
     return learner
-
-
-def _episode_options(cfg: AgentConfig, rng: np.random.Generator):
-    """Who the next training dialogue is with: an opponent from the mix, who starts."""
-    mix = opponent_mix(cfg.opponents)
-    names = list(mix)
-    weights = np.array([mix[n] for n in names])
-    opponents = {name: make_opponent(name, rng) for name in names}
-    starts = who_starts(cfg.robot_starts, "agent.robot_starts")
-
-    def next_episode() -> dict[str, Any]:
-        name = names[rng.choice(len(names), p=weights)]
-        return {"opponent": opponents[name], "robot_starts": bool(rng.choice(starts))}
-
-    return next_episode
 
 
 def _count_outcome(run: TrainingState, recent: deque[str], result: str) -> None:
@@ -517,58 +428,22 @@ def _finish(
     return TrainingResult(policy, metrics, out_dir)
 
 
-def evaluate_checkpoint(
-    config: OxbotConfig, policy: Policy, step: int
-) -> tuple[dict[str, Any], tuple[float, float]]:
-    """How a checkpoint of any learner is judged while it trains (the same for every learner):
-    `eval_games` dialogues per opponent and who-starts condition, and the game-tree check,
-    looked at harder when nothing else was wrong. The record for the metrics, and the score
-    checkpoints are ranked by (`evaluation_score`)."""
-    cfg = config.agent
-    results: dict[str, Any] = {
-        condition_key(name, robot_starts): evaluate(
-            policy, name, robot_starts, cfg.eval_games, config, seed=10_000 + step, n_envs=100
-        ).summary()
-        for name, robot_starts in CONDITIONS
-    }
-    results["losing_positions"] = sum(
-        losing_positions(policy, robot_starts, config, noisy_variants=TREE_NOISE_VARIANTS[0])
-        for robot_starts in (True, False)
-    )
-    if evaluation_score(results)[0] == 0:  # a candidate: look harder for a noisy mistake
-        results["losing_positions"] += sum(
-            losing_positions(policy, s, config, noisy_variants=TREE_NOISE_VARIANTS[1], seed=step)
-            for s in (True, False)
-        )
-    results["wins_against_random"] = [
-        wins_against_random(policy, robot_starts, config) for robot_starts in (True, False)
-    ]
-    results["misread_wills"] = misread_wills(policy, config, cfg.eval_games, seed=step)
-    games = {k: r for k, r in results.items() if isinstance(r, dict)}
-    record = {
-        "step": step,
-        "losing_positions": results["losing_positions"],
-        "wins_against_random": [round(w, 6) for w in results["wins_against_random"]],
-        "misread_wills": results["misread_wills"],
-        **{k: [r["win_rate"], r["draw_rate"], r["loss_rate"]] for k, r in games.items()},
-        "well_formed": min(r["well_formed"] for r in games.values()),
-        "task_success": min(r["task_success"] for r in games.values()),
-    }
-    return record, evaluation_score(results)
-
-
-def _evaluate_and_keep_best(
-    config: OxbotConfig, q_network: QNetwork, run: TrainingState, step: int, elapsed: float
-) -> None:
-    record, score = evaluate_checkpoint(config, greedy_batch_policy(q_network), step)
+def _keep_if_best(run: TrainingState, judged: Judged) -> None:
+    """Record a judged checkpoint; keep its weights if it ranks at least as high as the best."""
+    checkpoint = judged.checkpoint
     run.evaluations.append(
-        {"step": step, "episodes": run.episodes, "elapsed_s": round(elapsed, 1), **record}
+        {
+            "step": checkpoint.step,
+            "episodes": checkpoint.episodes,
+            "elapsed_s": checkpoint.elapsed_s,
+            **judged.record,
+        }
     )
-    if run.best_score is None or tuple(score) >= tuple(run.best_score):
-        run.best_score = list(score)
-        run.best_step = step
-        run.best_state_dict = copy.deepcopy(q_network.state_dict())
-    log.info("evaluation at step %d: %s", step, score)
+    if run.best_score is None or tuple(judged.score) >= tuple(run.best_score):
+        run.best_score = list(judged.score)
+        run.best_step = checkpoint.step
+        run.best_state_dict = checkpoint.weights
+    log.info("evaluation at step %d: %s", checkpoint.step, judged.score)
 
 
 def _metrics(config: OxbotConfig, run: TrainingState) -> dict[str, Any]:
@@ -659,7 +534,9 @@ def _load_checkpoint(path: Path, config: OxbotConfig, learner: _Learner) -> Trai
     with artifacts.checked(path, "checkpoint (does not match this run)", remedy):
         learner.q_network.load_state_dict(payload["q_network"])
         learner.target_network.load_state_dict(payload["target_network"])
-        run = TrainingState(**payload["state"])
+        state = dict(payload["state"])
+        state.pop("evaluation_pending", None)  # older runs judged in this process only
+        run = TrainingState(**state)
         learner.optimizer.load_state_dict(payload["optimizer"])
         learner.replay.load_state_dict(payload["replay"])
         learner.rng.bit_generator.state = payload["rng"]

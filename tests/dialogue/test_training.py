@@ -77,7 +77,7 @@ def test_misheard_words_are_absent_words_below_the_action_models_threshold():
     import numpy as np
 
     from oxbot.dialogue.model import shipped_dialogue_model
-    from oxbot.dialogue.training import add_misheard_words
+    from oxbot.dialogue.replay import add_misheard_words
 
     m = shipped_dialogue_model()
     layout, model = m.layout, m.action_model
@@ -113,3 +113,71 @@ def test_checkpoints_are_ranked_by_what_is_sure_before_what_is_sampled():
     ]
     scores = [evaluation_score(r) for r in order]
     assert scores == sorted(scores)
+
+
+MANY_AT_ONCE = [
+    "agent.total_steps=900",
+    "agent.learning_starts=200",
+    "agent.n_envs=8",
+    "agent.opponents=random:2,minimax:1",
+    "agent.robot_starts=both",
+    "agent.eval_every=900",
+    "agent.eval_games=4",
+]
+
+
+def test_many_dialogues_at_once_judged_beside_training_keep_the_policy_judged_here(tmp_path):
+    import torch
+
+    runs = {}
+    for background in (True, False):
+        config = load_config(None, [*MANY_AT_ONCE, f"agent.eval_in_background={background}"])
+        out = tmp_path / str(background)
+        runs[background] = train_agent(config, out, show_progress=False, checkpoint_every=0)
+    beside, here = runs[True].metrics, runs[False].metrics
+    assert beside["experiences"] == 900 and beside["updates"] == 700  # one per experience
+    assert beside["games"] == here["games"] > 8  # dialogues reset as they end
+    assert [e["step"] for e in beside["evaluations"]] == [900]
+    drop = ("elapsed_s",)
+    assert [{k: v for k, v in e.items() if k not in drop} for e in beside["evaluations"]] == [
+        {k: v for k, v in e.items() if k not in drop} for e in here["evaluations"]
+    ]
+    weights = [r.policy.q_network.state_dict() for r in runs.values()]
+    assert all(torch.equal(weights[0][k], weights[1][k]) for k in weights[0])
+
+
+def test_each_training_dialogue_meets_the_next_person_of_the_mix():
+    from oxbot.dialogue.vector_env import training_envs
+
+    config = load_config(None, ["agent.opponents=random:1,minimax:1", "agent.robot_starts=both"])
+    envs = training_envs(config, 2)
+    starts, opponents = set(), set()
+    for seed in range(12):
+        envs.reset(seed=seed)
+        for person in envs.envs:
+            game = person.unwrapped
+            starts.add(game.state.robot_starts)
+            opponents.add(game._simulator.opponent.__name__)
+    assert starts == {True, False} and len(opponents) == 2
+    first = envs.reset(seed=3)[0].copy()
+    assert (envs.reset(seed=3)[0] == first).all()  # seeded: the same people again
+
+
+def test_the_replay_memory_stores_rows_in_order_and_wraps_around():
+    import numpy as np
+
+    from oxbot.dialogue.replay import ReplayBuffer
+
+    replay = ReplayBuffer(capacity=5, n_features=2, n_actions=3)
+    for first in (0, 3):  # 3 rows, then 3 more: the oldest one is overwritten
+        rows = np.arange(first, first + 3)
+        replay.add_batch(
+            np.stack([rows, rows], axis=1).astype(np.float32),
+            rows,
+            rows.astype(np.float32),
+            np.zeros((3, 2), np.float32),
+            np.ones((3, 3), bool),
+            np.zeros(3, bool),
+        )
+    assert replay.size == 5 and replay.position == 1
+    assert replay.actions.tolist() == [5, 1, 2, 3, 4]
