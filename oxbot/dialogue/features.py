@@ -36,6 +36,7 @@ agreed, refused or asked to stop (see docs/deviations.md).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from typing import Protocol
 
@@ -204,16 +205,10 @@ class FeatureLayout:
 
     def encode_game(self, state: np.ndarray, board: Board, robot_starts: bool) -> None:
         """Write the game-move features of `board` into `state` in place."""
-        cells = np.asarray(board)
-        state[self.robot_cells] = cells == ROBOT
-        state[self.person_cells] = cells == USER
-        w = winner(board)
-        full = EMPTY not in board
-        flags = state[self.flags]
-        flags[0] = w == EMPTY and not full and to_move(board, robot_starts) == ROBOT
-        flags[1] = w == ROBOT
-        flags[2] = w == USER
-        flags[3] = w == EMPTY and full
+        robot, person, flags = _game_features(tuple(board), bool(robot_starts))
+        state[self.robot_cells] = robot
+        state[self.person_cells] = person
+        state[self.flags][:4] = flags
 
     def symmetry_permutations(self) -> tuple[np.ndarray, np.ndarray]:
         """(8, n_features) feature and (8, N_ACTIONS) action permutations for the symmetries.
@@ -230,3 +225,19 @@ class FeatureLayout:
             inverse = np.argsort(perm)  # old cell c moves to position inverse[c]
             actions[k, :N_CELLS] = inverse  # the GameMoves are the first acts, one per cell
         return features, actions
+
+
+@functools.lru_cache(maxsize=1 << 14)  # 3^9 boards x who starts, at most; asked every turn
+def _game_features(board: Board, robot_starts: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The robot's cells, the person's cells and the game flags of `board`: the robot to move,
+    the robot won, the person won, a draw."""
+    cells = np.asarray(board)
+    w = winner(board)
+    full = EMPTY not in board
+    flags = [
+        w == EMPTY and not full and to_move(board, robot_starts) == ROBOT,
+        w == ROBOT,
+        w == USER,
+        w == EMPTY and full,
+    ]
+    return cells == ROBOT, cells == USER, np.array(flags, dtype=np.float32)

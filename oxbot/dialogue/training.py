@@ -22,6 +22,7 @@ import copy
 import dataclasses
 import json
 import logging
+import os
 import time
 from collections import deque
 from dataclasses import dataclass, field
@@ -70,6 +71,8 @@ class TrainingState:
     updates: int = 0
     elapsed_s: float = 0.0
     """Wall-clock seconds of training before the current session (resumes add up)."""
+    cpu_s: float = 0.0
+    """CPU seconds of the same, this process's and the checkpoint judge's."""
     outcomes: list[str] = field(default_factory=list)
     """Every finished training dialogue's outcome ("unfinished" when truncated)."""
     reward_curve: list[list[float]] = field(default_factory=list)
@@ -246,8 +249,14 @@ def train_agent(
 
     # --- the result: the best evaluated network (or the last), its metrics and curves ----------
     run.step = cfg.total_steps
-    run.elapsed_s += clock.lap()
+    _add_laps(run, clock)
     return _finish(config, env, learner, run, out_dir, checkpoint_path, init_from)
+
+
+def _add_laps(run: TrainingState, clock: _Clock) -> None:
+    wall, cpu = clock.lap()
+    run.elapsed_s += wall
+    run.cpu_s += cpu
 
 
 def _due(start: int, n: int, every: int, first: int = 0) -> list[int]:
@@ -285,20 +294,28 @@ def _epsilon_greedy(
 
 
 class _Clock:
-    """Wall-clock seconds of this session of training, read in laps."""
+    """Wall-clock and CPU seconds of this session of training, read in laps. CPU counts this
+    process and its finished children (the judge's process, once closed)."""
 
     def __init__(self) -> None:
         self._since = time.perf_counter()
+        self._cpu_since = _cpu_seconds()
 
     def peek(self) -> float:
         """Seconds since the last lap, without starting a new one."""
         return time.perf_counter() - self._since
 
-    def lap(self) -> float:
-        """Seconds since the last lap; a new lap starts."""
-        now = time.perf_counter()
-        seconds, self._since = now - self._since, now
-        return seconds
+    def lap(self) -> tuple[float, float]:
+        """Wall-clock and CPU seconds since the last lap; a new lap starts."""
+        now, cpu = time.perf_counter(), _cpu_seconds()
+        laps = (now - self._since, cpu - self._cpu_since)
+        self._since, self._cpu_since = now, cpu
+        return laps
+
+
+def _cpu_seconds() -> float:
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
 
 
 @dataclass
@@ -315,7 +332,7 @@ class _Saver:
     def save(self, step: int) -> None:
         """Write the checkpoint as training stands after `step` experiences."""
         self.run.step = step
-        self.run.elapsed_s += self.clock.lap()
+        _add_laps(self.run, self.clock)
         self.run.waiting_evaluations = [c.as_dict() for c, _job in self.judge.waiting]
         _save_checkpoint(self.path, self.config, self.learner, self.run)
 
@@ -455,6 +472,7 @@ def _metrics(config: OxbotConfig, run: TrainingState) -> dict[str, Any]:
         "updates": run.updates,
         "games": run.episodes,
         "wall_clock_s": round(run.elapsed_s, 1),
+        "cpu_s": round(run.cpu_s, 1),
         "training_outcomes": {o: outcomes.count(o) for o in sorted(set(outcomes))},
         "reward_curve": run.reward_curve,
         "win_draw_curve": run.win_draw_curve,
