@@ -11,6 +11,7 @@ from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
 from oxbot.config import OxbotConfig
+from oxbot.errors import ConfigError
 from oxbot.study.conditions import Design
 from oxbot.study.instruments import score
 from oxbot.study.page import add_routes
@@ -170,3 +171,11 @@ def test_the_pages_means_match_a_recomputation_from_the_csv(client, study):
     assert by_hand == [85.0, 50.0, 100.0]
     both = fmean(by_hand)
     assert all(m["sus"]["mean"] == pytest.approx(both) for m in summary.values())
+
+
+def test_a_study_carried_on_must_keep_its_design(tmp_path):
+    folder = tmp_path / "study"
+    Study(folder, Design(vary=("manager",))).enrol()
+    Study(folder, Design(vary=("manager",)))  # the same design: carries on
+    with pytest.raises(ConfigError, match="same --vary"):
+        Study(folder, Design(vary=("input",)))
