@@ -4,7 +4,8 @@
 study session's robot (`Robot(..., joining=[...])`), collects them, and hands the metrics on when
 the robot says goodbye (or stops first: the participant left). The metrics, as exported:
 
-- `status`: "ended" (the robot said goodbye) or "left" (the session stopped before);
+- `status`: "ended" (the robot said goodbye) or "left" (the session stopped before); one game
+  per session: what follows the goodbye is not measured;
 - `outcome`: the robot's side: win, draw, loss, or declined / stopped, none when left;
 - `success`: 1 when a game was played to its end (win, draw or loss), the paper's task success;
 - `turns`: dialogue acts said by either side; `moves`: the person's moves;
@@ -92,7 +93,10 @@ def measure(messages: Sequence[Message], status: str = "ended") -> dict[str, Any
 
 class GameWatcher(Component):
     """Collects a study session's game and hands its metrics to `on_game` at the goodbye, or
-    when the robot stops first (the participant left after at least one act)."""
+    when the robot stops first (the participant left after the robot's first act).
+
+    One game per session: what follows the goodbye (a "new game" said to the robot while the
+    study page moves on) is not measured, so that it can never count as another game."""
 
     listens_to = (DialogueAct, SpeechHypotheses, DialogueEnded)
     part = "study notes"
@@ -104,12 +108,15 @@ class GameWatcher(Component):
         super().__init__(bus, name)
         self.on_game = on_game
         self.messages: list[Message] = []
+        self.done = False
 
     def take_over(self, old: Component) -> None:
         assert isinstance(old, GameWatcher)
-        self.messages = list(old.messages)
+        self.messages, self.done = list(old.messages), old.done
 
     def handle(self, message: Message) -> None:
+        if self.done:
+            return
         self.messages.append(message)
         if isinstance(message, DialogueEnded):
             self._hand_on("ended")
@@ -120,11 +127,11 @@ class GameWatcher(Component):
             return
         for message in self.waiting():  # a goodbye published just before the robot stopped
             self.handle(message)
-        if any(isinstance(m, DialogueAct) for m in self.messages):
+        if not self.done and any(isinstance(m, DialogueAct) for m in self.messages):
             self._hand_on("left")
 
     def _hand_on(self, status: str) -> None:
-        messages, self.messages = self.messages, []
+        messages, self.messages, self.done = self.messages, [], True
         try:
             self.on_game(measure(messages, status))
         except Exception:  # the game goes on; the experimenter sees the log

@@ -78,18 +78,31 @@ def test_a_polite_decline_is_well_formed_and_no_success():
     assert m["corrected"] == 0 and m["time_per_move"] is None and m["confidence"] is None
 
 
-def test_the_watcher_hands_on_each_game_at_the_goodbye_and_a_left_one_at_stop():
-    bus, games = LocalBus(), []
-    watcher = GameWatcher(bus, games.append).start()
+def watch(*games: list) -> list[dict]:
+    """The metrics a GameWatcher hands on for these messages, then stopped."""
+    bus, kept = LocalBus(), []
+    watcher = GameWatcher(bus, kept.append).start()
+    messages = [m for game in games for m in game]
     try:
-        for message in declined_once_then_played():
+        for message in messages:
             bus.publish(message)
-        bus.publish(act("sys", GREETING, "Hello again!", 40.0))
         deadline = time.monotonic() + 5
-        while not games and time.monotonic() < deadline:
+        # at the goodbye, or every message handled; stop() hands on whatever is left
+        while not watcher.done and len(watcher.messages) < len(messages):
+            assert time.monotonic() < deadline
             time.sleep(0.01)
     finally:
         watcher.stop()
-    assert [g["status"] for g in games] == ["ended", "left"]
-    assert games[0]["turns"] == 10 and games[1]["turns"] == 1
-    assert games[1]["problem"] == "left before the end"
+    return kept
+
+
+def test_the_watcher_keeps_one_game_a_session_at_its_goodbye():
+    after = [act("sys", GREETING, "Hello again!", 40.0), act("usr", ACCEPT, "yes", 41.0)]
+    games = watch(declined_once_then_played(), after)
+    assert [(g["status"], g["turns"]) for g in games] == [("ended", 10)]
+
+
+def test_the_watcher_keeps_a_game_left_before_its_goodbye():
+    games = watch(declined_once_then_played()[:5])
+    assert [(g["status"], g["turns"]) for g in games] == [("left", 4)]
+    assert games[0]["problem"] == "left before the end" and games[0]["well_formed"] == 0
