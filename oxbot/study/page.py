@@ -12,7 +12,8 @@ For participants:
 - `GET /study/game?participant=ID&block=B`: the game page set up for the block's condition
   (static/game.js hides what the condition does not allow and the manager's Q-values);
 - `WS /study/ws?participant=ID&block=B`: the block's game, its robot built for its condition,
-  its metrics kept when the robot says goodbye (or the tab closes first).
+  its metrics kept when the robot says goodbye (or the tab closes first); refused (1008) for
+  an unknown participant or block, or a block whose games are all played.
 
 For the experimenter, with the token printed at start (`?token=` or an `X-Study-Token` header;
 403 without it): `GET /study/experimenter` (the page), `/study/results` (JSON: participants so
@@ -149,9 +150,14 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
         conditions = _conditions(study, pid) or []
         block_text = websocket.query_params.get("block", "")
         block = int(block_text) if block_text.isdigit() else 0
+        refusal = ""
         if not 1 <= block <= len(conditions):
+            refusal = "no such participant and block in this study"
+        elif sum(g["block"] == block for g in study.store().games(pid)) >= study.design.games:
+            refusal = "this part's games are all played"
+        if refusal:
             await websocket.accept()
-            await websocket.close(1008, "no such participant and block in this study")
+            await websocket.close(1008, refusal)
             return
         condition = conditions[block - 1]
         made = condition_config(config, condition)

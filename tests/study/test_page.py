@@ -138,11 +138,23 @@ def test_the_game_page_is_the_robots_with_the_studys_script(client):
     assert "socketPath" in client.get("/study/static/game.js").text
 
 
-def test_a_game_socket_for_no_participant_is_closed(client):
-    url = "/study/ws?participant=nobody&block=1"
+def refusal(client, url: str) -> tuple[int, str]:
     with pytest.raises(WebSocketDisconnect) as closed, client.websocket_connect(url) as ws:
         ws.receive_text()
-    assert closed.value.code == 1008
+    return closed.value.code, closed.value.reason
+
+
+def test_a_game_socket_for_no_participant_or_a_finished_block_is_closed(client, study):
+    assert refusal(client, "/study/ws?participant=nobody&block=1")[0] == 1008
+    p = enrol(client)
+    pid = p["participant"]
+    assert refusal(client, f"/study/ws?participant={pid}&block=3")[0] == 1008
+    for _ in range(2):  # the design's 2 games
+        study.store().add_game(pid, 1, p["conditions"][0], metrics("win", 10))
+    assert refusal(client, f"/study/ws?participant={pid}&block=1") == (
+        1008,
+        "this part's games are all played",
+    )
 
 
 def test_the_pages_means_match_a_recomputation_from_the_csv(client, study):
