@@ -132,7 +132,11 @@ def forget_command(
     participant: Annotated[str, typer.Argument(help="The participant's code (oxbot study list).")],
     data_dir: DataDir = None,
 ) -> None:
-    """Delete everything of one participant; no byte of it stays in the database file."""
-    with open_store(data_dir) as store:
-        store.forget(participant)
+    """Delete everything of one participant, their recorded games too; no byte of it stays in
+    the database files."""
+    from oxbot.study.withdrawal import forget_participant
+
+    open_store(data_dir).close()  # a DataError if there is no study there
+    for path in forget_participant(study_folder(data_dir), participant):
+        typer.echo(f"deleted {path} (made from their recorded games)")
     typer.echo(f"forgot {participant}; exports written before this still hold it: delete them")

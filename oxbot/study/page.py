@@ -4,8 +4,10 @@ For participants:
 - `GET /study`: the participant's page (static/study.html): consent, the questions about them,
   each condition's games (the game page in a frame) and the questionnaires after it;
 - `GET /study/setup`: the consent text, the instruments and the design, for that page;
-- `POST /study/consent` `{"consent": true}`: enrols a participant (their random id and
-  conditions); a no writes nothing and returns `{"kept": false}`;
+- `POST /study/consent` `{"consent": true, "recordings": false}`: enrols a participant (their
+  random id and conditions; with `"recordings": true` their games are recorded too, to learn
+  from, into `recordings.sqlite3` beside the study's file); a no writes nothing and returns
+  `{"kept": false}`;
 - `POST /study/answer` `{participant, instrument, block, item, value}`: one answer, kept in its
   own transaction;
 - `GET /study/progress/{id}`: the games kept so far in each block;
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import secrets
+from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
@@ -32,6 +35,7 @@ from fastapi import FastAPI, Request, WebSocket
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
 from oxbot.config import OxbotConfig, with_overrides
+from oxbot.recording.recorder import joining as recorder
 from oxbot.study.conditions import FACTORS, label
 from oxbot.study.export import DICTIONARY, to_csv
 from oxbot.study.instruments import AFTER_CONDITION, PRE, check_answer
@@ -39,6 +43,7 @@ from oxbot.study.metrics import GameWatcher
 from oxbot.study.plots import PLOTS, plot_png
 from oxbot.study.results import block_rows, summary
 from oxbot.study.session import Study
+from oxbot.study.withdrawal import recording_mode
 from oxbot.web.server import game_socket
 
 STATIC = {
@@ -104,7 +109,7 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
         body = await _json(request)
         if body.get("consent") is not True:
             return JSONResponse({"kept": False})  # nothing written, not even the folder
-        p = study.enrol()
+        p = study.enrol(keep_recordings=body.get("recordings") is True)
         return JSONResponse({"kept": True, "participant": p["id"], "conditions": p["conditions"]})
 
     @app.post("/study/answer")
@@ -161,6 +166,9 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
             return
         condition = conditions[block - 1]
         made = condition_config(config, condition)
+        joining: list[Callable[[Any], Any]] = [lambda bus: GameWatcher(bus, keep)]
+        if study.store().participant(pid)["keep_recordings"]:  # they said yes to this too
+            joining.append(recorder(study.recordings, recording_mode(pid)))
 
         def keep(metrics: dict[str, Any]) -> None:
             study.store().add_game(pid, block, condition, metrics)
@@ -168,7 +176,7 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
         def make_robot() -> Any:
             from oxbot.robot.session import Robot
 
-            return Robot(made, joining=[lambda bus: GameWatcher(bus, keep)])
+            return Robot(made, joining=joining)
 
         await game_socket(websocket, app, make_robot)
 

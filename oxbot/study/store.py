@@ -9,7 +9,8 @@ files the database file's permissions), so only the experimenter's account reads
   participant) and how many participants were enrolled, so a restarted server carries the
   rotation on;
 - `participants`: a random id (`secrets`, never a name), when they consented, their row of
-  the counterbalancing and the conditions in their order (JSON);
+  the counterbalancing, the conditions in their order (JSON), and whether they also agreed to
+  keep their games' recordings (`keep_recordings`, from version 2);
 - `answers`: one row per questionnaire item answered (instrument, block, item, value, when);
 - `games`: one row per game played, with its condition and the metrics measured on it
   (oxbot.study.metrics), the transcript as JSON.
@@ -84,7 +85,11 @@ CREATE TABLE games (
     PRIMARY KEY (participant_id, block, game)
 );
 """
-MIGRATIONS: list[str] = [MIGRATION_1]
+MIGRATION_2 = """
+ALTER TABLE participants ADD COLUMN keep_recordings INTEGER NOT NULL DEFAULT 0;
+"""
+"""Version 2: whether the participant also agreed to keep what the robot saw and heard."""
+MIGRATIONS: list[str] = [MIGRATION_1, MIGRATION_2]
 """Migration k (1-based) takes the database from version k-1 to k; append, never edit."""
 
 GAME_COLUMNS = (
@@ -226,7 +231,9 @@ class StudyStore:
 
     # --- participants ---
 
-    def enrol(self, conditions_for: Callable[[int], list[dict[str, str]]]) -> dict[str, Any]:
+    def enrol(
+        self, conditions_for: Callable[[int], list[dict[str, str]]], keep_recordings: bool = False
+    ) -> dict[str, Any]:
         """A new participant, who has just consented: a fresh random id, the next row of the
         counterbalancing and `conditions_for(row)`, in one transaction. Their row as a dict."""
         with self.transaction() as db:
@@ -238,9 +245,9 @@ class StudyStore:
                 if not db.execute("SELECT 1 FROM participants WHERE id = ?", (pid,)).fetchone():
                     break
             db.execute(
-                "INSERT INTO participants (id, consented_at, order_row, conditions) "
-                "VALUES (?,?,?,?)",
-                (pid, time.time(), row, json.dumps(conditions)),
+                "INSERT INTO participants (id, consented_at, order_row, conditions, "
+                "keep_recordings) VALUES (?,?,?,?,?)",
+                (pid, time.time(), row, json.dumps(conditions), int(keep_recordings)),
             )
             db.execute(
                 "INSERT OR REPLACE INTO design (key, value) VALUES ('enrolled', ?)", (str(row + 1),)

@@ -96,6 +96,10 @@ def test_a_yes_enrols_a_participant_with_their_conditions(client, study):
     assert [c["manager"] for c in first["conditions"]] == ["dqn", "rules"]
     assert [c["manager"] for c in second["conditions"]] == ["rules", "dqn"]
     assert (study.folder / "study.sqlite3").exists()
+    assert study.store().participant(first["participant"])["keep_recordings"] == 0
+    third = client.post("/study/consent", json={"consent": True, "recordings": True}).json()
+    assert study.store().participant(third["participant"])["keep_recordings"] == 1
+    assert not (study.folder / "recordings.sqlite3").exists()  # made at their first game
 
 
 def test_answers_are_checked_and_kept(client, study):

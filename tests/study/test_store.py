@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import sqlite3
 import stat
 
@@ -37,7 +38,7 @@ def metrics(**changes):
 
 def test_a_new_file_is_migrated_to_the_latest_version(tmp_path):
     with StudyStore(tmp_path) as store:
-        assert store.version == len(MIGRATIONS) == 1
+        assert store.version == len(MIGRATIONS) == 2
         tables = {r["name"] for r in store.query("SELECT name FROM sqlite_master")}
     assert {"schema_version", "design", "participants", "answers", "games"} <= tables
 
@@ -45,20 +46,29 @@ def test_a_new_file_is_migrated_to_the_latest_version(tmp_path):
 def test_an_empty_sqlite_file_is_migrated(tmp_path):
     sqlite3.connect(tmp_path / DB_NAME).close()  # a file with no tables, version 0
     with StudyStore(tmp_path) as store:
-        assert store.version == 1
+        assert store.version == 2
         assert store.participants() == []
 
 
-def test_an_older_database_keeps_its_data_through_a_migration(tmp_path):
-    with StudyStore(tmp_path) as store:  # a version-1 study with a participant
-        pid = store.enrol(lambda row: [CONDITION])["id"]
+def test_a_version_1_study_keeps_its_data_through_the_migration_to_2(tmp_path):
+    with StudyStore(tmp_path, migrations=MIGRATIONS[:1]) as store:  # as the first release made it
+        assert store.version == 1
+        pid = "p0123abcd"
+        with store.transaction() as db:  # the first release's enrolment
+            db.execute(
+                "INSERT INTO participants (id, consented_at, order_row, conditions) "
+                "VALUES (?, 0, 0, ?)",
+                (pid, json.dumps([CONDITION])),
+            )
         store.answer(pid, "sus", 1, "sus1", "4")
-    later = [*MIGRATIONS, "ALTER TABLE participants ADD COLUMN site TEXT DEFAULT 'lab'"]
-    with StudyStore(tmp_path, migrations=later) as store:
+        store.add_game(pid, 1, CONDITION, metrics())
+    with StudyStore(tmp_path) as store:
         assert store.version == 2
-        assert store.query("SELECT site FROM participants") == [{"site": "lab"}]
+        assert store.participant(pid)["keep_recordings"] == 0  # nobody was asked then
         assert store.answers(pid)[0]["value"] == "4"
+        assert store.games(pid)[0]["outcome"] == "win"
         assert [r["version"] for r in store.query("SELECT version FROM schema_version")] == [1, 2]
+        assert store.enrol(lambda row: [CONDITION], keep_recordings=True)["keep_recordings"] == 1
 
 
 def test_a_failed_migration_leaves_the_older_version(tmp_path):
@@ -67,9 +77,9 @@ def test_a_failed_migration_leaves_the_older_version(tmp_path):
     with pytest.raises(DataError):
         StudyStore(tmp_path, migrations=broken)
     db = sqlite3.connect(tmp_path / DB_NAME)
-    assert schema_version(db) == 1
+    assert schema_version(db) == 2
     assert not db.execute("SELECT 1 FROM sqlite_master WHERE name = 'extra'").fetchone()
-    assert migrate(db) == 1  # and a sound oxbot opens it as before
+    assert migrate(db) == 2  # and a sound oxbot opens it as before
 
 
 def test_a_newer_database_is_refused_with_what_to_do(tmp_path):

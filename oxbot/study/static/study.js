@@ -39,7 +39,8 @@ $("consent-no").addEventListener("click", async () => {
 
 $("consent-yes").addEventListener("click", async () => {
   $("consent-yes").disabled = true;
-  const r = await post("/study/consent", { consent: true });
+  const r = await post("/study/consent",
+    { consent: true, recordings: $("consent-recordings").checked });
   me = { participant: r.participant, conditions: r.conditions, step: "pre" };
   save(); go();
 });
