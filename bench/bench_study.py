@@ -138,7 +138,8 @@ def over_the_socket(client: httpx.Client, url: str, args, rng) -> None:
     """Every participant over HTTP and the study's WebSocket (the scripted player)."""
     ws_base = url.replace("http://", "ws://")
     for k in range(args.participants):
-        p = client.post("/study/consent", json={"consent": True}).json()
+        p = client.post("/study/consent", json={"consent": True, "recordings": args.recordings})
+        p = p.json()
         pid, lean = p["participant"], float(rng.uniform(2.5, 4.5))
         answer_all(client, pid, PRE, 0, lean, rng)
         for block, condition in enumerate(p["conditions"], start=1):
@@ -187,6 +188,10 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=None, help="where to export (default: temp)")
     parser.add_argument("--browser", action="store_true", help="each participant in Chromium")
+    parser.add_argument(
+        "--recordings", action="store_true", help="participants agree to keep the recordings"
+    )
+    parser.add_argument("--folder", type=Path, default=None, help="the study's folder")
     args = parser.parse_args()
     config = load_config(
         None,
@@ -195,7 +200,7 @@ def main() -> int:
     rng = np.random.default_rng(args.seed)
     folder = Path(tempfile.mkdtemp(prefix="oxbot-study-"))
     design = Design(tuple(args.vary.split(",")), args.games, args.blocks)
-    study = Study(folder / "study", design)
+    study = Study(args.folder or folder / "study", design)
     app = create_app(config)
     add_routes(app, study, config)
     started = time.monotonic()

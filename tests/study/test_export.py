@@ -8,7 +8,7 @@ import json
 from typer.testing import CliRunner
 
 from oxbot.cli import app
-from oxbot.errors import DataError
+from oxbot.errors import ConfigError, DataError
 from oxbot.study.export import DICTIONARY
 from oxbot.study.store import StudyStore
 
@@ -79,3 +79,11 @@ def test_reading_a_study_that_never_began_creates_nothing(tmp_path):
     reply = CliRunner().invoke(app, ["study", "list", "--data-dir", str(tmp_path / "none")])
     assert isinstance(reply.exception, DataError)
     assert not (tmp_path / "none").exists()
+
+
+def test_a_study_with_an_unknown_factor_is_refused_before_anything_is_made(tmp_path):
+    reply = CliRunner().invoke(
+        app, ["study", "--vary", "colour", "--data-dir", str(tmp_path / "study")]
+    )
+    assert isinstance(reply.exception, ConfigError) and "no factor colour" in str(reply.exception)
+    assert not (tmp_path / "study").exists()
