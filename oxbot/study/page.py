@@ -17,6 +17,9 @@ For participants:
   its metrics kept when the robot says goodbye (or the tab closes first); refused (1008) for
   an unknown participant or block, or a block whose games are all played.
 
+The two writes refuse (403) a request whose Host or Origin the game socket would refuse
+(oxbot.web.admission: another site's page, DNS rebinding) and (415) a body not sent as JSON.
+
 For the experimenter, with the token printed at start (`?token=` or an `X-Study-Token` header;
 403 without it): `GET /study/experimenter` (the page), `/study/results` (JSON: participants so
 far, per-condition means with 95% intervals), `/study/plot/{measure}.png` and
@@ -84,6 +87,17 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
     def bad(message: str, status: int = 400) -> JSONResponse:
         return JSONResponse({"error": message}, status_code=status)
 
+    def cross_site(request: Request) -> Response | None:
+        """A refusal of a write that another site's page may have sent (the game socket's Host
+        and Origin checks), or of a body that is not declared JSON (which a page elsewhere
+        could post without the browser asking this server first)."""
+        refusal = app.state.origins.refusal(request)
+        if refusal is not None:
+            return bad(refusal, 403)
+        if request.headers.get("content-type", "").split(";")[0].strip() != "application/json":
+            return bad("send the body as application/json", 415)
+        return None
+
     @app.get("/study", response_class=HTMLResponse)
     def participant_page() -> HTMLResponse:
         return HTMLResponse(_static("study.html"))
@@ -106,6 +120,8 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
 
     @app.post("/study/consent")
     async def consent(request: Request) -> Response:
+        if (no := cross_site(request)) is not None:
+            return no
         body = await _json(request)
         if body.get("consent") is not True:
             return JSONResponse({"kept": False})  # nothing written, not even the folder
@@ -114,6 +130,8 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
 
     @app.post("/study/answer")
     async def answer(request: Request) -> Response:
+        if (no := cross_site(request)) is not None:
+            return no
         body = await _json(request)
         try:
             pid, instrument, block, item, value = (

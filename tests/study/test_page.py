@@ -51,7 +51,8 @@ def client(study) -> TestClient:
     config = OxbotConfig()
     app = create_app(config)
     add_routes(app, study, config)
-    return TestClient(app)  # no lifespan: no robot models loaded
+    # no lifespan: no robot models loaded; a Host the server takes for its own
+    return TestClient(app, base_url="http://127.0.0.1:8000")
 
 
 def enrol(client: TestClient) -> dict:
@@ -76,7 +77,7 @@ def answer(client, pid, instrument, block, item, value):
 def test_without_a_yes_nothing_is_written(client, study, tmp_path):
     assert "Nothing at all is kept" in client.get("/study/setup").json()["consent"]
     assert client.post("/study/consent", json={"consent": False}).json() == {"kept": False}
-    assert client.post("/study/consent", content=b"yes").json() == {"kept": False}
+    assert client.post("/study/consent", content=b"yes").status_code == 415
     assert answer(client, "p00000000", "sus", 1, "sus1", "3").status_code == 404
     assert client.get(f"/study/results?token={study.token}").json()["participants"] == []
     assert client.get(f"/study/plot/sus.png?token={study.token}").status_code == 200
@@ -195,3 +196,17 @@ def test_a_study_carried_on_must_keep_its_design(tmp_path):
     Study(folder, Design(vary=("manager",)))  # the same design: carries on
     with pytest.raises(ConfigError, match="same --vary"):
         Study(folder, Design(vary=("input",)))
+
+
+def test_another_sites_page_cannot_enrol_or_answer(client, tmp_path):
+    evil = {"Origin": "http://evil.example"}
+    assert client.post("/study/consent", json={"consent": True}, headers=evil).status_code == 403
+    # a form or no-cors post sends no JSON content type: refused before it is read
+    plain = {"Content-Type": "text/plain"}
+    reply = client.post("/study/consent", content=b'{"consent": true}', headers=plain)
+    assert reply.status_code == 415
+    rebound = {"Host": "attacker.example:8000"}
+    assert client.post("/study/consent", json={"consent": True}, headers=rebound).status_code == 403
+    assert list(tmp_path.iterdir()) == []
+    own = {"Origin": "http://127.0.0.1:8000"}
+    assert client.post("/study/consent", json={"consent": True}, headers=own).json()["kept"]
