@@ -88,10 +88,12 @@ class Design:
 
     @property
     def conditions(self) -> list[dict[str, str]]:
+        """Every condition of the design, in `conditions`' order."""
         return conditions(self.vary)
 
     @property
     def per_participant(self) -> int:
+        """How many conditions each participant plays."""
         return self.blocks or len(self.conditions)
 
     def order(self, row: int) -> list[dict[str, str]]:
@@ -101,10 +103,12 @@ class Design:
         return [self.conditions[c] for c in chosen]
 
     def to_dict(self) -> dict:
+        """The design as the database and the export keep it."""
         return {"vary": list(self.vary), "games": self.games, "blocks": self.per_participant}
 
     @classmethod
     def from_dict(cls, data: dict) -> Design:
+        """The design `to_dict` wrote."""
         return cls(tuple(data["vary"]), int(data["games"]), int(data["blocks"]))
 
 

@@ -74,29 +74,37 @@ def condition_config(config: OxbotConfig, condition: dict[str, str]) -> OxbotCon
 
 def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
     """The study's routes (see the module docstring) on the game page's FastAPI `app`."""
+    _participant_routes(app, study)
+    _game_routes(app, study, config)
+    _experimenter_routes(app, study)
 
-    def refused(request: Request) -> Response | None:
-        given = request.query_params.get("token") or request.headers.get("x-study-token") or ""
-        if secrets.compare_digest(given.encode(), study.token.encode()):
-            return None
-        return JSONResponse(
-            {"error": "the experimenter's page needs the token `oxbot study` printed"},
-            status_code=403,
-        )
 
-    def bad(message: str, status: int = 400) -> JSONResponse:
-        return JSONResponse({"error": message}, status_code=status)
+def _bad(message: str, status: int = 400) -> JSONResponse:
+    return JSONResponse({"error": message}, status_code=status)
 
-    def cross_site(request: Request) -> Response | None:
-        """A refusal of a write that another site's page may have sent (the game socket's Host
-        and Origin checks), or of a body that is not declared JSON (which a page elsewhere
-        could post without the browser asking this server first)."""
-        refusal = app.state.origins.refusal(request)
-        if refusal is not None:
-            return bad(refusal, 403)
-        if request.headers.get("content-type", "").split(";")[0].strip() != "application/json":
-            return bad("send the body as application/json", 415)
+
+def _without_token(request: Request, study: Study) -> Response | None:
+    """The 403 of an experimenter's request without the study's token, or None."""
+    given = request.query_params.get("token") or request.headers.get("x-study-token") or ""
+    if secrets.compare_digest(given.encode(), study.token.encode()):
         return None
+    return _bad("the experimenter's page needs the token `oxbot study` printed", 403)
+
+
+def _cross_site(request: Request) -> Response | None:
+    """A refusal of a write that another site's page may have sent (the game socket's Host and
+    Origin checks), or of a body that is not declared JSON (which a page elsewhere could post
+    without the browser asking this server first); None for a write to take."""
+    refusal = request.app.state.origins.refusal(request)
+    if refusal is not None:
+        return _bad(refusal, 403)
+    if request.headers.get("content-type", "").split(";")[0].strip() != "application/json":
+        return _bad("send the body as application/json", 415)
+    return None
+
+
+def _participant_routes(app: FastAPI, study: Study) -> None:
+    """The participant's page, its setup, consent, answers and progress."""
 
     @app.get("/study", response_class=HTMLResponse)
     def participant_page() -> HTMLResponse:
@@ -105,7 +113,7 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
     @app.get("/study/static/{name}")
     def static(name: str) -> Response:
         if name not in STATIC:
-            return bad(f"no such file: {name}", 404)
+            return _bad(f"no such file: {name}", 404)
         return Response(_static(name), media_type=STATIC[name])
 
     @app.get("/study/setup")
@@ -120,7 +128,7 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
 
     @app.post("/study/consent")
     async def consent(request: Request) -> Response:
-        if (no := cross_site(request)) is not None:
+        if (no := _cross_site(request)) is not None:
             return no
         body = await _json(request)
         if body.get("consent") is not True:
@@ -130,7 +138,7 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
 
     @app.post("/study/answer")
     async def answer(request: Request) -> Response:
-        if (no := cross_site(request)) is not None:
+        if (no := _cross_site(request)) is not None:
             return no
         body = await _json(request)
         try:
@@ -143,12 +151,12 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
             )
             check_answer(instrument, item, value)
         except (KeyError, TypeError, ValueError) as exc:
-            return bad(f"an answer is {{participant, instrument, block, item, value}}: {exc}")
+            return _bad(f"an answer is {{participant, instrument, block, item, value}}: {exc}")
         conditions = _conditions(study, pid)
         if conditions is None:
-            return bad(f"no participant {pid} in this study", 404)
+            return _bad(f"no participant {pid} in this study", 404)
         if not (block == 0 if instrument == PRE.name else 1 <= block <= len(conditions)):
-            return bad(f"{instrument} is not asked in block {block}")
+            return _bad(f"{instrument} is not asked in block {block}")
         study.store().answer(pid, instrument, block, item, value)
         return JSONResponse({"kept": True})
 
@@ -156,10 +164,14 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
     def progress(pid: str) -> Response:
         conditions = _conditions(study, pid)
         if conditions is None:
-            return bad(f"no participant {pid} in this study", 404)
+            return _bad(f"no participant {pid} in this study", 404)
         games = study.store().games(pid)
         done = {b: sum(g["block"] == b for g in games) for b in range(1, len(conditions) + 1)}
         return JSONResponse({"games": done})
+
+
+def _game_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
+    """The game page in the study's frame and its socket, a robot per game in its condition."""
 
     @app.get("/study/game", response_class=HTMLResponse)
     def game_page() -> HTMLResponse:
@@ -198,28 +210,30 @@ def add_routes(app: FastAPI, study: Study, config: OxbotConfig) -> None:
 
         await game_socket(websocket, app, make_robot)
 
-    # --- the experimenter's ---
+
+def _experimenter_routes(app: FastAPI, study: Study) -> None:
+    """The experimenter's page, results, plots and CSV, behind the study's token."""
 
     @app.get("/study/experimenter", response_class=HTMLResponse)
     def experimenter(request: Request) -> Response:
-        return refused(request) or HTMLResponse(_static("experimenter.html"))
+        return _without_token(request, study) or HTMLResponse(_static("experimenter.html"))
 
     @app.get("/study/results")
     def results(request: Request) -> Response:
-        return refused(request) or JSONResponse(study_results(study))
+        return _without_token(request, study) or JSONResponse(study_results(study))
 
     @app.get("/study/plot/{measure}.png")
     def plot(measure: str, request: Request) -> Response:
-        if (no := refused(request)) is not None:
+        if (no := _without_token(request, study)) is not None:
             return no
         if measure not in PLOTS:
-            return bad(f"no plot of {measure}; plots: {', '.join(PLOTS)}", 404)
+            return _bad(f"no plot of {measure}; plots: {', '.join(PLOTS)}", 404)
         rows = block_rows(study.store()) if study.exists() else []
         return Response(plot_png(measure, summary(rows)), media_type="image/png")
 
     @app.get("/study/export.csv")
     def export_csv(request: Request) -> Response:
-        if (no := refused(request)) is not None:
+        if (no := _without_token(request, study)) is not None:
             return no
         rows = block_rows(study.store()) if study.exists() else []
         return Response(

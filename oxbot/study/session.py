@@ -83,6 +83,7 @@ class Study:
             return self._store
 
     def consent_text(self) -> str:
+        """The consent text as the participant reads it, the retention filled in."""
         return self.consent.replace("{retention}", self.retention)
 
     def enrol(self, keep_recordings: bool = False) -> dict[str, Any]:
@@ -101,6 +102,7 @@ class Study:
             return self._recordings
 
     def close(self) -> None:
+        """Close the databases, if they were opened."""
         with self._lock:
             if self._store is not None:
                 self._store.close()

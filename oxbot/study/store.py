@@ -206,6 +206,7 @@ class StudyStore:
             return [dict(zip(names, row, strict=True)) for row in cursor.fetchall()]
 
     def close(self) -> None:
+        """Close the connection (the file stays)."""
         with self._lock:
             self._db.close()
 
@@ -223,6 +224,7 @@ class StudyStore:
         return json.loads(rows[0]["value"]) if rows else None
 
     def save_design(self, design: dict[str, Any]) -> None:
+        """Keep the study's design, so that a restarted study can be checked against it."""
         with self.transaction() as db:
             db.execute(
                 "INSERT OR REPLACE INTO design (key, value) VALUES ('design', ?)",
@@ -282,6 +284,7 @@ class StudyStore:
             )
 
     def answers(self, pid: str | None = None) -> list[dict[str, Any]]:
+        """Every answer kept (or one participant's), by participant, block, instrument, item."""
         where, args = ("WHERE participant_id = ?", [pid]) if pid is not None else ("", [])
         return self.query(
             f"SELECT * FROM answers {where} ORDER BY participant_id, block, instrument, item", args
@@ -314,6 +317,7 @@ class StudyStore:
         return count + 1
 
     def games(self, pid: str | None = None) -> list[dict[str, Any]]:
+        """Every game kept (or one participant's), by participant, block and game."""
         where, args = ("WHERE participant_id = ?", [pid]) if pid is not None else ("", [])
         return self.query(f"SELECT * FROM games {where} ORDER BY participant_id, block, game", args)
 
