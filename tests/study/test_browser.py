@@ -1,4 +1,5 @@
-"""The participant's page in Chromium: a no keeps nothing; a yes, then each answer, is kept."""
+"""The participant's page in Chromium: a no keeps nothing; a yes, then each answer, is kept;
+the game's frame shows only the condition's way to answer."""
 
 from __future__ import annotations
 
@@ -44,6 +45,18 @@ def test_the_consent_page_keeps_nothing_without_a_yes_and_each_answer_after_it(t
             page.get_by_test_id(PRE[2]).check()
             page.wait_for_selector("[data-testid=questions-next]:not([disabled])")
             answers = study.store().answers(code)
+
+            # the game page in the frame shows only the condition's way to answer, and never
+            # the manager's Q-values (participants are blind to the manager)
+            shown = {}
+            for way in ("voice", "typing"):
+                game = browser.new_page()
+                game.goto(f"{url}/study/game?participant={code}&block=1&input={way}")
+                game.get_by_test_id("board").wait_for()
+                shown[way] = {
+                    part: game.get_by_test_id(part).is_visible()
+                    for part in ("say", "talk", "hands-free", "decision", "record")
+                }
         finally:
             browser.close()
     assert sorted((a["item"], a["value"]) for a in answers) == [
@@ -51,3 +64,17 @@ def test_the_consent_page_keeps_nothing_without_a_yes_and_each_answer_after_it(t
         ("game_experience", "often"),
         ("robot_experience", "never"),
     ]
+    assert shown["voice"] == {
+        "say": False,
+        "talk": True,
+        "hands-free": True,
+        "decision": False,
+        "record": False,
+    }
+    assert shown["typing"] == {
+        "say": True,
+        "talk": False,
+        "hands-free": False,
+        "decision": False,
+        "record": False,
+    }
