@@ -8,6 +8,7 @@ delete what the participants left.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Annotated
 
@@ -89,14 +90,22 @@ def run_study(
     )
     err_console.print(
         f"Study: {len(design.conditions)} conditions ({vary}), {design.per_participant} per "
-        f"participant, {games} game(s) each; data in {study.folder}\n"
-        f"Experimenter's page: /study/experimenter?token={study.token} (same address; "
-        "keep the token to yourself)",
+        f"participant, {games} game(s) each; data in {study.folder}",
         highlight=False,
     )
+
+    def announce(text: str) -> None:
+        typer.echo(text.replace("in a browser to play", "for the participant"))
+        page = re.search(r"https?://\S+", text)
+        if page is not None:  # the experimenter's page is at the same address
+            typer.echo(
+                "The experimenter's page (keep its token to yourself): "
+                f"{page.group(0)}/experimenter?token={study.token}"
+            )
+
     serve(
         config,
-        announce=typer.echo,
+        announce=announce,
         add_routes=lambda app: add_routes(app, study, config),
         page="study",
     )
