@@ -1,5 +1,5 @@
 """The `oxbot` command. Subcommands mirror the package: play, game, see, perceive, train,
-evaluate, reproduce, config.
+evaluate, reproduce, config, data, learn, study.
 
 Every command reads the configuration from `--config FILE` and `--set section.field=value`
 given before the subcommand, e.g. `oxbot --set game.opponent=blocker game`; a command's own
@@ -19,6 +19,7 @@ from rich.markup import escape
 from oxbot.cli import dialogue, perception, play, reproduce, robot, speech
 from oxbot.cli.context import err_console, main_options, show_config
 from oxbot.cli.data import data_app, learn_app
+from oxbot.cli.study import study_app
 from oxbot.errors import OxbotError
 
 app = typer.Typer(
@@ -59,6 +60,7 @@ app.add_typer(train_app, name="train")
 app.add_typer(evaluate_app, name="evaluate")
 app.add_typer(data_app, name="data")
 app.add_typer(learn_app, name="learn")
+app.add_typer(study_app, name="study")
 
 
 def main() -> None:

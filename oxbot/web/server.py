@@ -106,6 +106,7 @@ def create_app(
     app.state.limits = limits
     app.state.listening = config.speech.listening
     app.state.fingerprint = certificate.fingerprint if certificate is not None else ""
+    app.state.ready = ready
 
     @app.get("/", response_class=HTMLResponse)
     def page() -> HTMLResponse:
@@ -137,6 +138,14 @@ def create_app(
     app.state.robot_starts = robot_starts
     app.state.stable_readings = config.tracker.stable_readings
     return app
+
+
+async def game_socket(
+    websocket: WebSocket, app: FastAPI, make_robot: Callable[[], RobotLike]
+) -> None:
+    """A tab's game on `websocket` with its robot from `make_robot`, admitted, limited and
+    closed as `/ws`'s are: for routes that choose each tab's robot (oxbot.study)."""
+    await _game_session(websocket, app, make_robot, app.state.ready)
 
 
 async def _game_session(
@@ -282,6 +291,8 @@ def serve(
     record: bool = False,
     data_dir: Any = None,
     record_audio: bool = False,
+    add_routes: Callable[[FastAPI], None] | None = None,
+    page: str = "",
 ) -> None:
     """Run the page's server until interrupted (`oxbot play`), on `[web]` host and port
     (localhost by default), over HTTPS when `[web] https` says so (see `uses_https`).
@@ -290,7 +301,8 @@ def serve(
     of it for a phone and the certificate's fingerprint). Each tab's robot comes from
     `robot_factory` when given (a robot whose components run elsewhere: `oxbot robot --web`).
     With `record`, the page's record toggle starts on and games are kept in the recordings in
-    `data_dir`, to learn from."""
+    `data_dir`, to learn from. `add_routes` adds more routes to the app (`oxbot study`'s), and
+    the URLs announced open `page` (a path such as "study")."""
     import uvicorn
 
     from oxbot.speech.recognition import recognizer_factory
@@ -311,6 +323,9 @@ def serve(
     if record:
         log.warning("recording is on: %s", recording.notice())
     app = create_app(config, robot_factory, certificate=certificate, recording=recording)
+    if add_routes is not None:
+        add_routes(app)
+    urls = [url + page for url in urls]
     lines = [f"oxbot: open {urls[0]} in a browser to play"]
     lines += [f"        or {url}" for url in urls[1:]]
     if certificate is not None:
@@ -400,6 +415,7 @@ __all__ = [
     "decode_image",
     "decode_pcm",
     "default_robot_factory",
+    "game_socket",
     "pcm_to_wav",
     "serve",
     "serving_in_background",

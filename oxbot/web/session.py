@@ -305,7 +305,8 @@ def hello(session: Session, app: FastAPI) -> dict:
     from oxbot.dialogue.domain import GAME_MOVES, MOVE_REQUEST, PROBLEM, SYSTEM_ACTS
     from oxbot.game.board import CELL_NAMES, ROBOT, SIZE, USER, symbol_of
 
-    starts = app.state.robot_starts
+    # a robot may be made to start otherwise than the server's default (a study's condition)
+    starts = getattr(session.robot, "robot_starts", app.state.robot_starts)
     return {
         "session": session.id,
         "robot_starts": starts,

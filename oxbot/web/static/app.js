@@ -172,7 +172,7 @@ function send(message) {
 
 function connect() {
   const query = window.recordingQuery ? window.recordingQuery() : "";   // record.js's toggle
-  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws${query}`);
+  const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}${window.socketPath || "/ws"}${query}`);
   state.ws = ws;
   setStatus("Connecting…");
   ws.onopen = () => { setStatus("Connected."); };
