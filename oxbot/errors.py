@@ -29,6 +29,10 @@ class DataError(OxbotError, ValueError):
     """Shipped or user data (images, dialogues, templates) is missing or malformed."""
 
 
+class DatabaseBusy(DataError):
+    """The recordings database stayed locked by another connection for longer than allowed."""
+
+
 class InvalidInputError(OxbotError, ValueError):
     """An array, image or audio clip handed to oxbot has the wrong shape, type or content."""
 

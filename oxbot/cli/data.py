@@ -37,9 +37,13 @@ def _when(stamp: float | None) -> str:
 @data_app.command("list")
 def list_command(data_dir: DataDir = None) -> None:
     """One line per recorded session (one dialogue): when, outcome, turns, crops."""
-    from oxbot.recording.store import RecordingStore
+    from oxbot.recording.store import DB_NAME, RecordingStore, default_data_dir
 
-    with RecordingStore(data_dir) as store:
+    folder = data_dir if data_dir is not None else default_data_dir()
+    if not (folder / DB_NAME).exists():  # listing makes nothing, not even the folder
+        typer.echo(f"0 sessions: nothing kept in {folder} (oxbot play --record keeps games)")
+        return
+    with RecordingStore(folder, create=False) as store:
         sessions = store.sessions()
         typer.echo(f"{len(sessions)} sessions in {store.path}")
         for s in sessions:
@@ -59,7 +63,7 @@ def show_command(
     """A session's transcript, the answers heard and what was kept of it."""
     from oxbot.recording.store import RecordingStore
 
-    with RecordingStore(data_dir) as store:
+    with RecordingStore(data_dir, create=False) as store:
         record = store.session(session)
     if as_json:
         typer.echo(json.dumps(record, indent=2))
@@ -92,10 +96,11 @@ def export_command(
     data_dir: DataDir = None,
 ) -> None:
     """Write the recordings as Parquet files, one per table."""
+    from oxbot.recording.export import export
     from oxbot.recording.store import RecordingStore
 
-    with RecordingStore(data_dir) as store:
-        written = store.export(out, session or None)
+    with RecordingStore(data_dir, create=False) as store:
+        written = export(store, out, session or None)
     typer.echo("wrote " + ", ".join(str(p) for p in written))
 
 
@@ -107,14 +112,20 @@ def forget_command(
     """Delete a session, everything recorded in it and every file made from it."""
     from oxbot.recording.store import RecordingStore
 
-    with RecordingStore(data_dir) as store:
-        deleted = store.forget(session)
+    with RecordingStore(data_dir, create=False) as store:
+        forgotten = store.forget(session)
+    deleted = forgotten.deleted
     typer.echo(
         f"forgot session {session}"
         + (f"; deleted {len(deleted)} files made from it" if deleted else "")
     )
     for path in deleted:
         typer.echo(f"  {path}")
+    for name in forgotten.refused:
+        typer.echo(
+            f"  not touched: {name} (outside the data folder and not made by this one; "
+            "delete it yourself if it is yours)"
+        )
 
 
 @learn_app.command("perceiver")
@@ -140,7 +151,7 @@ def learn_perceiver_command(
     from oxbot.recording.perceiver import LearnPerceiverConfig, learn_perceiver
     from oxbot.recording.store import RecordingStore
 
-    with RecordingStore(data_dir) as store:
+    with RecordingStore(data_dir, create=False) as store:
         target = out if out is not None else store.data_dir / "learned" / "perceiver.pt"
         try:
             result = learn_perceiver(
@@ -202,7 +213,7 @@ def learn_agent_command(
     config = LearnAgentConfig(
         seed=seed, steps=steps, eval_games=games, chunks=chunks, select_games=select_games
     )
-    with RecordingStore(data_dir) as store:
+    with RecordingStore(data_dir, create=False) as store:
         target = out if out is not None else store.data_dir / "learned"
         try:
             result = learn_agent(store, target, config, session, not quiet)
@@ -218,11 +229,12 @@ def _print_agent(metrics: dict) -> None:
     fitted = ", ".join(f"{k} {v:.3f}" for k, v in person["probabilities"].items())
     typer.echo(f"fitted on {person['dialogues']} recorded dialogues: {fitted}")
     kept = metrics["kept"]
-    typer.echo(
-        f"kept the policy after {kept} of {metrics['config']['steps']} steps"
-        if kept
-        else "no piece of the fine-tune did better than the shipped policy"
-    )
+    if metrics.get("refused"):  # never "kept" for a run that is then refused
+        typer.echo("refused: " + ", ".join(map(str, metrics["refused"])))
+    elif kept:
+        typer.echo(f"kept the policy after {kept} of {metrics['config']['steps']} steps")
+    else:
+        typer.echo("no piece of the fine-tune did better than the shipped policy")
     for key, name in (
         ("repeated_questions_per_dialogue", "repeated questions per dialogue"),
         ("ill_formed", "ill-formed dialogues"),

@@ -23,7 +23,9 @@ and measures both policies in the same run against the same fitted people: repea
 per dialogue (the robot asking again, `Request(repeat)`, or asking the same question twice in a
 row), well-formed dialogues, losses and task success. A policy with more ill-formed dialogues
 or more losses than before, or no piece better than the shipped policy, is refused
-(`LearningRefused`); otherwise written with its config, seed and figures.
+(`LearningRefused`), its figures written to `learn_agent.refused.json` (the kept policy's
+`learn_agent.json` stays); otherwise written with its config, seed and figures. Each file is
+registered as derived from the sessions before it is written.
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ from oxbot.dialogue.domain import (
 from oxbot.dialogue.evaluation import evaluate
 from oxbot.dialogue.state import Turn
 from oxbot.errors import DataError, LearningRefused
+from oxbot.recording.derived import make_private
 from oxbot.recording.store import RecordingStore
 
 log = logging.getLogger(__name__)
@@ -315,6 +318,7 @@ def learn_agent(
     simulator and measure both (see the module docstring). Nothing is written when `out_dir` is
     None."""
     config = config if config is not None else LearnAgentConfig()
+    store.check_integrity()  # never learn from a damaged file
     dialogues = [d for d in store.dialogues(session_ids) if d["turns"]]
     if len(dialogues) < config.min_dialogues:
         raise DataError(
@@ -354,14 +358,15 @@ def learn_agent(
     policy_path = metrics_path = None
     if out_dir is not None:
         out_dir = Path(out_dir)
-        metrics_path = out_dir / "learn_agent.json"
+        # a refused policy's figures go beside the kept policy's, never over them
+        metrics_path = out_dir / ("learn_agent.refused.json" if worse else "learn_agent.json")
+        written = [metrics_path] + ([] if worse else [out_dir / "agent.pt"])
+        store.register_derived(written, sessions, "agent")  # before: nothing unregistered
         write_text_atomic(metrics_path, json.dumps(metrics, indent=2) + "\n")
-        written = [metrics_path]
         if not worse:
             policy_path = out_dir / "agent.pt"
             policy.save(policy_path)
-            written.append(policy_path)
-        store.register_derived(written, sessions, "agent")
+        make_private(written)
     result = LearnAgentResult(policy, person, metrics, policy_path, metrics_path)
     if worse:
         raise LearningRefused(

@@ -13,7 +13,9 @@ sets (1,000 generated images, SPEC §1; the handwriting-font set); it is refused
 (`LearningRefused`) if any test set is worse than before (by more than `tolerance`) or the
 person's own held-back crops are not better read. Written beside `out`: the model (with its
 config, seed and metrics), `.metrics.json` and `.before_after.png`; each is registered as
-derived from the sessions used, so forgetting one of them deletes them.
+derived from the sessions used before it is written, so forgetting one of them deletes them. A
+refused model's metrics and plot are `.refused.metrics.json` and `.refused.before_after.png`:
+the kept model's stay as they were.
 """
 
 from __future__ import annotations
@@ -33,7 +35,8 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from torch import nn
 
 from oxbot.atomic import save_figure, write_text_atomic
-from oxbot.errors import DataError, LearningRefused
+from oxbot.errors import DataError, InvalidInputError, LearningRefused
+from oxbot.image_size import check_pixels
 from oxbot.perception.augment import generate
 from oxbot.perception.classifier import (
     SymbolClassifier,
@@ -46,10 +49,13 @@ from oxbot.perception.classifier import (
 from oxbot.perception.evaluation import TRAIN_STREAM, evaluate, evaluate_fonts, evaluate_generated
 from oxbot.perception.seeds import load_seeds
 from oxbot.perception.training import calibrate
+from oxbot.recording.derived import make_private
 from oxbot.recording.store import RecordingStore
 
 log = logging.getLogger(__name__)
 
+CROP_SIZE = 40
+"""The recorded crops' side in pixels (the classifier's input)."""
 LEARN_STREAM = 18
 """The replayed generated images come from `default_rng([seed, TRAIN_STREAM, LEARN_STREAM])`."""
 
@@ -98,11 +104,28 @@ class LearnPerceiverResult:
     plot_path: Path | None
 
 
-def decode_crops(rows: list[dict[str, Any]]) -> np.ndarray:
-    """The recorded crops' PNGs as uint8 (N, 40, 40) gray."""
-    images = [cv2.imdecode(np.frombuffer(r["image"], np.uint8), cv2.IMREAD_GRAYSCALE) for r in rows]
-    if any(i is None for i in images):
-        raise DataError("a recorded crop is not a readable PNG; the database is damaged")
+def decode_crops(rows: list[dict[str, Any]], size: int = CROP_SIZE) -> np.ndarray:
+    """The recorded crops' PNGs as uint8 (N, size, size) gray; a DataError for one that is not
+    such a PNG (its header is read before it is decoded, so a huge one costs nothing)."""
+    images = []
+    for r in rows:
+        data = r["image"]
+        what = f"the crop of cell {r.get('cell', '?')} in session {r.get('session_id', '?')}"
+        try:
+            found = check_pixels(data, what, size * size) if isinstance(data, bytes) else None
+        except InvalidInputError as exc:
+            raise DataError(f"{exc}; the recordings database is damaged") from None
+        image = None
+        if found == (size, size):
+            image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_GRAYSCALE)
+        if image is None or image.shape != (size, size):
+            raise DataError(
+                f"{what} is not a readable {size}x{size} PNG; the recordings database is damaged: "
+                f"forget that session (oxbot data forget {r.get('session_id', '?')})"
+            )
+        images.append(image)
+    if not images:
+        return np.zeros((0, size, size), np.uint8)
     return np.stack(images)
 
 
@@ -136,6 +159,7 @@ def learn_perceiver(
     """Fine-tune the classifier at `base` (the shipped one) on the recorded crops; measure,
     refuse or write (see the module docstring). Nothing is written when `out` is None."""
     config = config if config is not None else LearnPerceiverConfig()
+    store.check_integrity()  # never learn from a damaged file
     rows = store.labelled_crops(session_ids)
     if not rows:
         raise DataError(
@@ -194,11 +218,14 @@ def learn_perceiver(
     model_path = metrics_path = plot_path = None
     if out is not None:
         out = Path(out)
-        metrics_path = out.with_suffix(".metrics.json")
-        plot_path = out.with_suffix(".before_after.png")
+        # a refused model's figures go beside the kept model's, never over them
+        refused = ".refused" if worse else ""
+        metrics_path = out.with_suffix(f"{refused}.metrics.json")
+        plot_path = out.with_suffix(f"{refused}.before_after.png")
+        written = [metrics_path, plot_path] + ([] if worse else [out])
+        store.register_derived(written, sessions, "perceiver")  # before: nothing unregistered
         write_text_atomic(metrics_path, json.dumps(metrics, indent=2) + "\n")
         plot_before_after(metrics, plot_path)
-        written = [metrics_path, plot_path]
         if not worse:
             model_path = after.save(
                 out,
@@ -208,8 +235,7 @@ def learn_perceiver(
                     k: acc(metrics_after, k) for k in ("held_back", "generated", "fonts")
                 },
             )
-            written.append(model_path)
-        store.register_derived(written, sessions, "perceiver")
+        make_private(written)
     result = LearnPerceiverResult(after, metrics, model_path, metrics_path, plot_path)
     if worse:
         raise LearningRefused(

@@ -9,7 +9,10 @@ tracker read; SpeechHypotheses what was heard (SpeechAudio its recording, kept o
 `keep_audio`); DialogueAct the transcript; DialogueEnded closes the session.
 
 Writes are buffered and committed one transaction per turn (each DialogueAct, and the
-goodbye), so a crash loses at most the turn under way.
+goodbye), so a crash loses at most the turn under way. When another connection holds the
+database's lock, a turn waits at most `BUSY_WAIT` seconds (well under the robot's hang deadline),
+then stays buffered, session and all, and is written with the next turn that gets the lock:
+recording resumes, nothing is dropped. Stopping waits the store's whole `busy_timeout` once.
 
 Labels come from the finished game, never from the classifier: when the dialogue ends, a crop
 of a cell still empty at the end gets "nothing", and a crop of a cell the person played gets
@@ -36,6 +39,7 @@ import cv2
 import numpy as np
 
 from oxbot.dialogue.domain import ASK_AGAIN
+from oxbot.errors import DatabaseBusy
 from oxbot.game.board import EMPTY, EMPTY_BOARD, USER, Board, symbol_of
 from oxbot.recording.store import RecordingStore
 from oxbot.robot.bus import Bus, Component
@@ -59,6 +63,8 @@ NOTICE = (
 """The one-line notice shown wherever recording is on."""
 
 
+BUSY_WAIT = 0.5
+"""Seconds a turn waits for a locked database before it stays buffered for the next turn."""
 INK_LEVELS = 64
 """Grey levels by which a pixel must differ to count as ink added or removed."""
 SAME_INK = 0.01
@@ -83,9 +89,11 @@ def notice(store: RecordingStore, keep_audio: bool = False) -> str:
 class _Open:
     """The session being recorded and what waits for the next turn's transaction."""
 
-    id: int
+    id: int | None
+    """None until the session's row is written (the database may be busy at first)."""
     start: float
     robot_starts: bool
+    started_at: float = 0.0
     board: Board = EMPTY_BOARD
     turn: int = 0
     reading: int = 0
@@ -93,6 +101,11 @@ class _Open:
     last_sys_act: str = ""
     crops: list[tuple[Any, ...]] = field(default_factory=list)
     answers: list[dict[str, Any]] = field(default_factory=list)
+    turns: list[tuple[Any, ...]] = field(default_factory=list)
+    repeats: list[str] = field(default_factory=list)
+    """The robot acts said since the last write, each telling whether it asked again."""
+    closing: tuple[str, str | None] | None = None
+    """(status, outcome) once the session is closed but not yet written."""
 
 
 class Recorder(Component):
@@ -125,6 +138,8 @@ class Recorder(Component):
         self.keep_audio = keep_audio
         self.enabled = enabled
         self.current: _Open | None = None
+        self.unwritten: list[_Open] = []
+        """Closed sessions whose last rows wait for the database (it was busy)."""
         self._game: tuple[bool, Board] | None = None  # who started, the board: no one's data
         self._audio: bytes | None = None
         self.sessions: list[int] = []
@@ -140,6 +155,7 @@ class Recorder(Component):
     def take_over(self, old: Component) -> None:
         assert isinstance(old, Recorder)
         self.current = copy.deepcopy(old.current)
+        self.unwritten = copy.deepcopy(old.unwritten)
         self.sessions, self.enabled, self._game = list(old.sessions), old.enabled, old._game
 
     def handle(self, message: Message) -> None:
@@ -175,6 +191,10 @@ class Recorder(Component):
             self.handle(message)
         if self.current is not None:  # the robot stops before the goodbye: the person left
             self._close(self.current, "left", None)
+        if self.unwritten:  # the last chance: wait the store's whole busy timeout once
+            self._write_waiting(self.store.busy_timeout)
+        for session in self.unwritten:
+            log.error("recording: session %s was not written: the database stayed busy", session.id)
 
     # --- the session ---
 
@@ -197,12 +217,8 @@ class Recorder(Component):
             self.current.board = message.board
 
     def _open(self, robot_starts: bool, board: Board, stamp: float) -> None:
-        store = self.store
-        with store.transaction() as db:
-            sid = store.new_session(db, robot_starts, self.mode, self.keep_audio)
-        self.current = _Open(sid, stamp, robot_starts, board)
-        self.sessions.append(sid)
-        log.info("recording session %d", sid)
+        self.current = _Open(None, stamp, robot_starts, time.time(), board)
+        self._write(self.current)
 
     def _seen(self, current: _Open, message: BoardSeen) -> None:
         if len(message.cells) != len(message.labels) or not message.cells:
@@ -215,9 +231,7 @@ class Recorder(Component):
             zip(message.cells, readings, confidences, strict=True)
         ):
             state = current.board[cell]
-            current.crops.append(
-                (current.id, current.reading, cell, t, image, read_as, confidence, state)
-            )
+            current.crops.append((current.reading, cell, t, image, read_as, confidence, state))
 
     def _heard(self, current: _Open, message: SpeechHypotheses) -> None:
         current.answer += 1
@@ -239,46 +253,74 @@ class Recorder(Component):
 
     def _turn(self, current: _Open, message: DialogueAct) -> None:
         current.turn += 1
-        repeated_after = None
         if message.speaker == "usr":
             for answer in current.answers:
                 if answer["understood"] is None and answer["text"] == message.text:
                     answer["understood"] = message.act
         else:
-            repeated_after = message.act
+            current.repeats.append(message.act)
             current.last_sys_act = message.act
-        with self.store.transaction() as db:
-            db.execute(
-                "INSERT INTO turns (session_id, seq, t, speaker, act, text) VALUES (?,?,?,?,?,?)",
-                (
-                    current.id,
-                    current.turn,
-                    message.stamp - current.start,
-                    message.speaker,
-                    message.act,
-                    message.text,
-                ),
-            )
-            self._write_pending(db, current)
-            if repeated_after is not None:  # the robot's next act says if it had to ask again
-                db.execute(
-                    "UPDATE answers SET repeated = (? = ? OR ? = after_act) "
-                    "WHERE session_id = ? AND repeated IS NULL",
-                    (repeated_after, ASK_AGAIN, repeated_after, current.id),
-                )
+        t = message.stamp - current.start
+        current.turns.append((current.turn, t, message.speaker, message.act, message.text))
+        self._write_waiting(BUSY_WAIT)
+        self._write(current)
+
+    def _write(self, session: _Open, wait: float = BUSY_WAIT) -> bool:
+        """Write what `session` buffered in one transaction (its row first, if not yet written;
+        its closing, if closed); False, everything kept for the next try, if the database
+        stayed busy for `wait` seconds."""
+        new = session.id is None
+        try:
+            with self.store.transaction(timeout=wait) as db:
+                if new:
+                    session.id = self.store.new_session(
+                        db, session.robot_starts, self.mode, self.keep_audio, session.started_at
+                    )
+                self._write_pending(db, session)
+                if session.closing is not None:
+                    self._write_closing(db, session)
+        except BaseException as exc:
+            if new:  # rolled back: the row is not there
+                session.id = None
+            if not isinstance(exc, DatabaseBusy):
+                raise
+            if session not in self.unwritten and session is not self.current:
+                self.unwritten.append(session)
+            log.warning("recording: %s; keeping the turn to write it with the next", exc)
+            return False
+        if new:
+            self.sessions.append(session.id)
+            log.info("recording session %d", session.id)
+        self._written(session)
+        if session.closing is not None:
+            log.info("session %d %s (%s)", session.id, *session.closing)
+            if session in self.unwritten:
+                self.unwritten.remove(session)
+        return True
+
+    def _write_waiting(self, wait: float) -> None:
+        """Write the closed sessions the database was too busy for, oldest first."""
+        for session in list(self.unwritten):
+            if not self._write(session, wait):
+                return
 
     def _write_pending(self, db: Any, current: _Open) -> None:
+        sid = current.id
+        db.executemany(
+            "INSERT INTO turns (session_id, seq, t, speaker, act, text) VALUES (?,?,?,?,?,?)",
+            [(sid, *turn) for turn in current.turns],
+        )
         db.executemany(
             "INSERT OR REPLACE INTO crops (session_id, reading, cell, t, image, read_as, "
             "confidence, cell_state) VALUES (?,?,?,?,?,?,?,?)",
-            current.crops,
+            [(sid, *crop) for crop in current.crops],
         )
         db.executemany(
             "INSERT OR REPLACE INTO answers (session_id, seq, t, source, nbest, words, "
             "understood, after_act, audio) VALUES (?,?,?,?,?,?,?,?,?)",
             [
                 (
-                    current.id,
+                    sid,
                     a["seq"],
                     a["t"],
                     a["source"],
@@ -291,13 +333,19 @@ class Recorder(Component):
                 for a in current.answers
             ],
         )
-        current.crops = []
+        for act in current.repeats:  # the robot's next act says if it had to ask again
+            db.execute(
+                "UPDATE answers SET repeated = (? = ? OR ? = after_act) "
+                "WHERE session_id = ? AND repeated IS NULL",
+                (act, ASK_AGAIN, act, sid),
+            )
+
+    @staticmethod
+    def _written(current: _Open) -> None:
+        """Empty the buffers of what a committed transaction wrote."""
+        current.turns, current.crops, current.repeats = [], [], []
         # answers stay until understood, then are rewritten once more (INSERT OR REPLACE)
         current.answers = [a for a in current.answers if a["understood"] is None]
-
-    def _flush(self, current: _Open) -> None:
-        with self.store.transaction() as db:
-            self._write_pending(db, current)
 
     @staticmethod
     def _label_drawing(db: Any, session_id: int, cell: int, person: str) -> None:
@@ -321,26 +369,31 @@ class Recorder(Component):
         )
 
     def _close(self, current: _Open, status: str, outcome: str | None) -> None:
-        """Write what is left, the outcome and final board, and the labels the game confirms."""
+        """Close the session: write what is left, the outcome and final board, and the labels
+        the game confirms (now, or with the next turn if the database is busy)."""
+        current.closing = (status, outcome)
+        self.current = None
+        self._write(current)  # a busy database keeps it in `unwritten`
+
+    def _write_closing(self, db: Any, current: _Open) -> None:
+        """The outcome, final board and labels of a closed session (inside its transaction)."""
+        assert current.closing is not None
+        status, outcome = current.closing
         board = current.board
         person = symbol_of(USER, current.robot_starts)
         person_cells = [i for i, v in enumerate(board) if v == USER]
         empty_cells = [i for i, v in enumerate(board) if v == EMPTY] if status == "ended" else []
-        with self.store.transaction() as db:
-            self._write_pending(db, current)
-            db.executemany(
-                "UPDATE crops SET label = ? WHERE session_id = ? AND cell = ? AND cell_state = ?",
-                [("nothing", current.id, cell, EMPTY) for cell in empty_cells],
-            )
-            for cell in person_cells:
-                self._label_drawing(db, current.id, cell, person)
-            db.execute(
-                "UPDATE sessions SET ended_at = ?, status = ?, outcome = ?, final_board = ? "
-                "WHERE id = ?",
-                (time.time(), status, outcome, ",".join(map(str, board)), current.id),
-            )
-        log.info("session %d %s (%s)", current.id, status, outcome)
-        self.current = None
+        db.executemany(
+            "UPDATE crops SET label = ? WHERE session_id = ? AND cell = ? AND cell_state = ?",
+            [("nothing", current.id, cell, EMPTY) for cell in empty_cells],
+        )
+        for cell in person_cells:
+            self._label_drawing(db, current.id, cell, person)
+        db.execute(
+            "UPDATE sessions SET ended_at = ?, status = ?, outcome = ?, final_board = ? "
+            "WHERE id = ?",
+            (time.time(), status, outcome, ",".join(map(str, board)), current.id),
+        )
 
 
 def joining(

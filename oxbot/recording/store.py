@@ -16,17 +16,21 @@ It holds:
 - `derived`: files made from sessions (learnt models, exports), so that forgetting a session
   deletes them too.
 
-The file uses WAL journaling, and `Recorder` writes one transaction per turn, so a crash loses
-at most the turn under way. `forget` deletes a session's rows with `secure_delete` on (freed
-pages are zeroed), deletes its derived files, then VACUUMs and truncates the WAL: the file keeps
-no byte of it. The schema's version is SQLite's `user_version`.
+The file (0600, in a 0700 folder when oxbot makes it) uses WAL journaling, and `Recorder`
+writes one transaction per turn, so a crash loses at most the turn under way; a lock held by
+another connection is waited for (`busy_timeout`), then reported (`DatabaseBusy`), never
+left half done. What is read is checked (`oxbot.recording.rows`): a damaged or foreign file is
+a `DataError`. Derived files are registered before they are written (oxbot.recording.derived).
+`forget` deletes a session's rows with `secure_delete` on (freed pages are zeroed), deletes its
+derived files inside the data folder, or sealed by it, with their temporary files, then VACUUMs
+and truncates the WAL: the file keeps no byte of it. The schema's version is `user_version`.
 """
 
 from __future__ import annotations
 
 import contextlib
-import json
 import logging
+import os
 import sqlite3
 import threading
 import time
@@ -34,13 +38,21 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
-from oxbot.errors import DataError
+from oxbot.errors import DatabaseBusy, DataError
+from oxbot.recording.derived import PRIVATE_FILE, DerivedFiles, make_private, private_dir
+from oxbot.recording.rows import checked, in_sessions
 
 log = logging.getLogger(__name__)
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+"""1: the first; 2: derived files carry a seal (oxbot.recording.derived)."""
 DB_NAME = "recordings.sqlite3"
+DB_FILES = (DB_NAME, DB_NAME + "-wal", DB_NAME + "-shm", DB_NAME + "-journal")
+"""The database's files: never deleted as a session's derived file."""
+BUSY_TIMEOUT = 10.0
+"""Seconds a command waits for another connection's lock before saying so."""
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS sessions (
@@ -92,11 +104,18 @@ CREATE TABLE IF NOT EXISTS derived (
     path TEXT NOT NULL,
     session_id INTEGER NOT NULL REFERENCES sessions(id) ON DELETE CASCADE,
     kind TEXT NOT NULL,
+    seal TEXT NOT NULL DEFAULT '',
     PRIMARY KEY (path, session_id)
 );
 """
-TABLES = ("sessions", "turns", "answers", "crops")
-"""The tables `export` writes, one Parquet file each."""
+EXPECTED_COLUMNS = {
+    "sessions": {"id", "started_at", "ended_at", "mode", "robot_starts", "outcome", "status"},
+    "turns": {"session_id", "seq", "t", "speaker", "act", "text"},
+    "answers": {"session_id", "seq", "t", "source", "nbest", "words", "understood", "repeated"},
+    "crops": {"session_id", "reading", "cell", "t", "image", "read_as", "confidence", "label"},
+    "derived": {"path", "session_id", "kind", "seal"},
+}
+"""The columns oxbot reads from each table: a file without them is not oxbot's."""
 
 
 def default_data_dir() -> Path:
@@ -124,52 +143,164 @@ class SessionSummary:
     labelled: int
 
 
-class RecordingStore:
-    """The recordings database in `data_dir` (created on first use); thread-safe.
+@dataclass(frozen=True)
+class Forgotten:
+    """What `forget` did with the files made from a session."""
 
-    Use as a context manager or call `close`. Every method that writes runs in one transaction.
+    deleted: list[Path]
+    """The files deleted (temporary files left by a crash included)."""
+    refused: list[str]
+    """Files the database named that were not touched: outside the data folder and not sealed
+    by it (a copied folder's, or a crafted database's)."""
+
+
+class RecordingStore:
+    """The recordings database in `data_dir`; thread-safe.
+
+    With `create` the folder (0700) and the file (0600) are made on first use; without, a
+    missing database is a `DataError`. A write waits up to `busy_timeout` seconds for another
+    connection's lock, then raises `DatabaseBusy`. Use as a context manager or call `close`.
+    Every method that writes runs in one transaction.
     """
 
-    def __init__(self, data_dir: str | Path | None = None) -> None:
+    def __init__(
+        self,
+        data_dir: str | Path | None = None,
+        create: bool = True,
+        busy_timeout: float = BUSY_TIMEOUT,
+    ) -> None:
         self.data_dir = Path(data_dir) if data_dir is not None else default_data_dir()
         self.path = self.data_dir / DB_NAME
+        self.busy_timeout = busy_timeout
+        self._lock = threading.RLock()
+        self._db = self._connect(create)
         try:
-            self.data_dir.mkdir(parents=True, exist_ok=True)
-            self._db = sqlite3.connect(self.path, check_same_thread=False, isolation_level=None)
-            self._db.execute("PRAGMA journal_mode=WAL")
-            self._db.execute("PRAGMA synchronous=NORMAL")  # WAL: durable at each checkpoint
-            self._db.execute("PRAGMA foreign_keys=ON")
-            self._db.execute("PRAGMA secure_delete=ON")  # forgotten rows are zeroed, not freed
-            version = self._db.execute("PRAGMA user_version").fetchone()[0]
+            version = self._prepare()
+        except BaseException:
+            self._db.close()
+            raise
+        self.derived_files = DerivedFiles(self.data_dir, DB_FILES)
+        log.debug("opened %s (schema %d)", self.path, version)
+
+    def _connect(self, create: bool) -> sqlite3.Connection:
+        """The connection to the file, made (private) when `create`; refusing what is not a
+        database file."""
+        if self.data_dir.exists() and not self.data_dir.is_dir():
+            raise DataError(f"{self.data_dir} is not a folder; choose another with --data-dir")
+        if not self.path.exists():
+            if not create:
+                raise DataError(
+                    f"no recordings in {self.data_dir}: nothing was kept there yet "
+                    "(oxbot play --record), or choose the folder with --data-dir"
+                )
+            try:
+                private_dir(self.data_dir)
+                os.close(os.open(self.path, os.O_WRONLY | os.O_CREAT, PRIVATE_FILE))
+            except OSError as exc:
+                raise DataError(
+                    f"cannot create {self.path}: {exc}; choose another --data-dir"
+                ) from None
+        if not self.path.is_file():  # /dev/zero, a fifo, a folder: SQLite would hang or fail
+            raise DataError(
+                f"{self.path} is not a regular file; move it away or choose another --data-dir"
+            )
+        uri = f"file:{quote(str(self.path.absolute()))}?mode=rw"
+        try:
+            return sqlite3.connect(
+                uri, uri=True, check_same_thread=False, isolation_level=None, timeout=0
+            )
         except sqlite3.Error as exc:
             raise DataError(
                 f"the recordings database {self.path} cannot be opened ({exc}); "
                 "choose another folder with --data-dir"
             ) from None
-        except OSError as exc:
-            raise DataError(f"cannot create the data folder {self.data_dir}: {exc}") from None
+
+    def _prepare(self) -> int:
+        """Set the connection up, make or upgrade the schema, check it; its version."""
+        db = self._db
+        try:  # what the file is, before anything changes it
+            db.execute(f"PRAGMA busy_timeout={int(self.busy_timeout * 1000)}")
+            version = db.execute("PRAGMA user_version").fetchone()[0]
+            tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master")}
+        except sqlite3.Error as exc:
+            raise self._error(exc) from None
         if version > SCHEMA_VERSION:
             raise DataError(
                 f"the recordings database {self.path} has schema version {version}; this oxbot "
                 f"reads version {SCHEMA_VERSION}: update oxbot"
             )
-        self._lock = threading.RLock()
-        if version == 0:  # a new file: the tables and the version in one transaction
-            self._db.executescript(f"BEGIN; {SCHEMA} PRAGMA user_version={SCHEMA_VERSION}; COMMIT;")
+        if version == 0 and tables:
+            raise DataError(
+                f"{self.path} is another program's SQLite file, not oxbot's recordings; move it "
+                "away or choose another --data-dir"
+            )
+        make_private([self.path, *(self.path.with_name(DB_NAME + s) for s in ("-wal", "-shm"))])
+        try:
+            db.execute("PRAGMA journal_mode=WAL")
+            db.execute("PRAGMA synchronous=NORMAL")  # WAL: durable at each checkpoint
+            db.execute("PRAGMA foreign_keys=ON")
+            db.execute("PRAGMA secure_delete=ON")  # forgotten rows are zeroed, not freed
+        except sqlite3.Error as exc:
+            raise self._error(exc) from None
+        with self.transaction() as tx:
+            if version == 0:  # a new file: the tables and the version in one transaction
+                for statement in SCHEMA.split(";"):  # executescript would commit first
+                    if statement.strip():
+                        tx.execute(statement)
+            elif version == 1:  # derived files gained their seal
+                tx.execute("ALTER TABLE derived ADD COLUMN seal TEXT NOT NULL DEFAULT ''")
+            if version < SCHEMA_VERSION:
+                tx.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
+        for table, columns in EXPECTED_COLUMNS.items():
+            found = {r["name"] for r in self.query(f"PRAGMA table_info({table})")}
+            if not columns <= found:
+                raise DataError(
+                    f"{self.path} lacks the columns {sorted(columns - found)} of table "
+                    f"{table!r}: it is not an oxbot recordings file, or it is damaged; move it "
+                    "away or choose another --data-dir"
+                )
+        return SCHEMA_VERSION
 
     # --- plumbing ---
 
+    def _error(self, exc: sqlite3.Error) -> DataError:
+        """A SQLite error as the DataError a person can act on."""
+        text = str(exc)
+        if "locked" in text or "busy" in text:
+            return DatabaseBusy(
+                f"the recordings database {self.path} stayed locked by another program for "
+                f"{self.busy_timeout:g} s ({text}); close the other oxbot command and try again"
+            )
+        return DataError(
+            f"the recordings database {self.path} is damaged or not oxbot's ({text}); restore "
+            "it from a backup, or move it away to start a new one"
+        )
+
     @contextlib.contextmanager
-    def transaction(self) -> Iterator[sqlite3.Connection]:
-        """One transaction: committed when the block ends, rolled back if it raises."""
+    def transaction(self, timeout: float | None = None) -> Iterator[sqlite3.Connection]:
+        """One transaction: committed when the block ends, rolled back if it raises. Waits up
+        to `timeout` seconds (default `busy_timeout`) for a lock, then raises `DatabaseBusy`;
+        any other SQLite failure is a DataError."""
         with self._lock:
-            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                if timeout is not None:
+                    self._db.execute(f"PRAGMA busy_timeout={int(timeout * 1000)}")
+                try:
+                    self._db.execute("BEGIN IMMEDIATE")
+                finally:
+                    if timeout is not None:
+                        self._db.execute(f"PRAGMA busy_timeout={int(self.busy_timeout * 1000)}")
+            except sqlite3.Error as exc:
+                raise self._error(exc) from None
             try:
                 yield self._db
-            except BaseException:
-                self._db.execute("ROLLBACK")
+                self._db.execute("COMMIT")
+            except BaseException as exc:
+                if self._db.in_transaction:  # COMMIT itself may fail (busy): never left open
+                    self._db.execute("ROLLBACK")
+                if isinstance(exc, sqlite3.Error):
+                    raise self._error(exc) from None
                 raise
-            self._db.execute("COMMIT")
 
     def close(self) -> None:
         with self._lock:
@@ -182,11 +313,25 @@ class RecordingStore:
         self.close()
 
     def query(self, sql: str, args: Sequence[Any] = ()) -> list[dict[str, Any]]:
-        """Rows of a read-only query, as dicts by column name."""
+        """Rows of a read-only query, as dicts by column name; a DataError if the file is
+        damaged or locked."""
         with self._lock:
-            cursor = self._db.execute(sql, args)
-            names = [d[0] for d in cursor.description]
-            return [dict(zip(names, row, strict=True)) for row in cursor.fetchall()]
+            try:
+                cursor = self._db.execute(sql, args)
+                names = [d[0] for d in cursor.description]
+                return [dict(zip(names, row, strict=True)) for row in cursor.fetchall()]
+            except sqlite3.Error as exc:
+                raise self._error(exc) from None
+
+    def check_integrity(self) -> None:
+        """A DataError unless SQLite's `integrity_check` finds the file whole."""
+        problems = [r["integrity_check"] for r in self.query("PRAGMA integrity_check")]
+        if problems != ["ok"]:
+            raise DataError(
+                f"the recordings database {self.path} fails SQLite's integrity check "
+                f"({'; '.join(map(str, problems[:3]))}); nothing was learned or written from "
+                "it: restore it from a backup, or forget the damaged sessions"
+            )
 
     # --- writing (the Recorder's side) ---
 
@@ -196,11 +341,18 @@ class RecordingStore:
         robot_starts: bool,
         mode: str = "",
         keep_audio: bool = False,
+        started_at: float | None = None,
     ) -> int:
-        """A new session's row (inside the caller's transaction); its id."""
+        """A new session's row (inside the caller's transaction); its id. `started_at` is the
+        wall clock's time (default: now)."""
         cursor = db.execute(
             "INSERT INTO sessions (started_at, mode, robot_starts, keep_audio) VALUES (?,?,?,?)",
-            (time.time(), mode, int(robot_starts), int(keep_audio)),
+            (
+                time.time() if started_at is None else started_at,
+                mode,
+                int(robot_starts),
+                int(keep_audio),
+            ),
         )
         return int(cursor.lastrowid)  # type: ignore[arg-type]
 
@@ -208,7 +360,8 @@ class RecordingStore:
 
     def sessions(self) -> list[SessionSummary]:
         """Every session, oldest first, with its counts."""
-        rows = self.query(
+        rows = self.rows(
+            "sessions",
             """SELECT s.*,
                 (SELECT COUNT(*) FROM turns t WHERE t.session_id = s.id) AS n_turns,
                 (SELECT COUNT(*) FROM answers a WHERE a.session_id = s.id) AS n_answers,
@@ -217,7 +370,7 @@ class RecordingStore:
                 (SELECT COUNT(*) FROM crops c WHERE c.session_id = s.id) AS n_crops,
                 (SELECT COUNT(*) FROM crops c WHERE c.session_id = s.id AND c.label IS NOT NULL)
                     AS n_labelled
-               FROM sessions s ORDER BY s.id"""
+               FROM sessions s ORDER BY s.id""",
         )
         return [
             SessionSummary(
@@ -239,25 +392,25 @@ class RecordingStore:
 
     def session(self, session_id: int) -> dict[str, Any]:
         """One session: its row, transcript, answers (without audio) and crop counts."""
-        rows = self.query("SELECT * FROM sessions WHERE id = ?", (session_id,))
-        if not rows:
-            known = ", ".join(str(s.id) for s in self.sessions()) or "none recorded yet"
-            raise DataError(f"no recorded session {session_id} (sessions: {known})")
-        answers = self.query(
-            "SELECT seq, t, source, nbest, words, understood, after_act, repeated, "
+        self.session_exists(session_id)
+        rows = self.rows("sessions", "SELECT * FROM sessions WHERE id = ?", (session_id,))
+        answers = self.rows(
+            "answers",
+            "SELECT session_id, seq, t, source, nbest, words, understood, after_act, repeated, "
             "audio IS NOT NULL AS has_audio FROM answers WHERE session_id = ? ORDER BY seq",
             (session_id,),
         )
-        for a in answers:
-            a["nbest"], a["words"] = json.loads(a["nbest"]), json.loads(a["words"])
         return {
             **rows[0],
-            "turns": self.query(
-                "SELECT seq, t, speaker, act, text FROM turns WHERE session_id = ? ORDER BY seq",
+            "turns": self.rows(
+                "turns",
+                "SELECT session_id, seq, t, speaker, act, text FROM turns WHERE session_id = ? "
+                "ORDER BY seq",
                 (session_id,),
             ),
             "answers": answers,
-            "crops": self.query(
+            "crops": self.rows(
+                "crops",
                 "SELECT label, COUNT(*) AS n FROM crops WHERE session_id = ? GROUP BY label",
                 (session_id,),
             ),
@@ -267,14 +420,25 @@ class RecordingStore:
             ],
         }
 
+    def session_exists(self, session_id: int) -> None:
+        """A DataError naming the sessions there are if there is no session `session_id`."""
+        if not self.query("SELECT 1 FROM sessions WHERE id = ?", (session_id,)):
+            known = ", ".join(map(str, self.session_ids())) or "none recorded yet"
+            raise DataError(f"no recorded session {session_id} (sessions: {known})")
+
+    def rows(self, table: str, sql: str, args: Sequence[Any] = ()) -> list[dict[str, Any]]:
+        """A query's rows from `table`, their values checked (oxbot.recording.rows)."""
+        return checked(table, self.query(sql, args))
+
     def session_ids(self) -> list[int]:
-        return [r["id"] for r in self.query("SELECT id FROM sessions ORDER BY id")]
+        return [r["id"] for r in self.rows("sessions", "SELECT id FROM sessions ORDER BY id")]
 
     def labelled_crops(self, session_ids: Sequence[int] | None = None) -> list[dict[str, Any]]:
         """Crops with a confirmed label: session_id, reading, cell, t, image (PNG bytes),
         read_as, confidence, label; oldest first."""
-        where, args = _in_sessions(session_ids)
-        return self.query(
+        where, args = in_sessions(session_ids)
+        return self.rows(
+            "crops",
             "SELECT session_id, reading, cell, t, image, read_as, confidence, label FROM crops "
             f"WHERE label IS NOT NULL {where} ORDER BY session_id, reading, cell",
             args,
@@ -283,21 +447,23 @@ class RecordingStore:
     def dialogues(self, session_ids: Sequence[int] | None = None) -> list[dict[str, Any]]:
         """Each finished or interrupted session with its turns and answers, for fitting the
         simulated person."""
-        where, args = _in_sessions(session_ids, "id")
+        where, args = in_sessions(session_ids, "id")
         out = []
-        for row in self.query(f"SELECT * FROM sessions WHERE 1 {where} ORDER BY id", args):
+        sql = f"SELECT * FROM sessions WHERE 1 {where} ORDER BY id"
+        for row in self.rows("sessions", sql, args):
             sid = row["id"]
-            turns = self.query(
-                "SELECT seq, speaker, act, text FROM turns WHERE session_id = ? ORDER BY seq",
+            turns = self.rows(
+                "turns",
+                "SELECT session_id, seq, speaker, act, text FROM turns WHERE session_id = ? "
+                "ORDER BY seq",
                 (sid,),
             )
-            answers = self.query(
-                "SELECT seq, source, nbest, words, understood, after_act, repeated "
+            answers = self.rows(
+                "answers",
+                "SELECT session_id, seq, source, nbest, words, understood, after_act, repeated "
                 "FROM answers WHERE session_id = ? ORDER BY seq",
                 (sid,),
             )
-            for a in answers:
-                a["nbest"], a["words"] = json.loads(a["nbest"]), json.loads(a["words"])
             out.append({**row, "turns": turns, "answers": answers})
         return out
 
@@ -306,81 +472,64 @@ class RecordingStore:
     def register_derived(
         self, paths: Sequence[Path], session_ids: Sequence[int], kind: str
     ) -> None:
-        """Note that `paths` were made from `session_ids` (forgetting one deletes them)."""
+        """Note that `paths` are made from `session_ids`, so that forgetting one deletes them.
+
+        Call it *before* writing them (then write each to a temporary file and rename it): a
+        crash in between leaves a registered name, never an unregistered file. Folders made
+        for them inside the data folder are private (0700)."""
+        rows = []
+        for sid in session_ids:
+            for p in paths:
+                name, seal = self.derived_files.name(Path(p), int(sid), kind)
+                rows.append((name, int(sid), kind, seal))
         with self.transaction() as db:
             db.executemany(
-                "INSERT OR IGNORE INTO derived (path, session_id, kind) VALUES (?,?,?)",
-                [(str(Path(p).resolve()), sid, kind) for p in paths for sid in session_ids],
+                "INSERT OR REPLACE INTO derived (path, session_id, kind, seal) VALUES (?,?,?,?)",
+                rows,
             )
 
-    def forget(self, session_id: int) -> list[Path]:
-        """Delete a session, everything recorded in it and every file derived from it; leave
-        no byte of it in the database file. The files deleted."""
-        self.session(session_id)  # a DataError naming the sessions if there is no such one
-        paths = [
-            Path(r["path"])
-            for r in self.query(
-                "SELECT DISTINCT path FROM derived WHERE session_id = ?", (session_id,)
-            )
-        ]
-        deleted = []
-        for path in paths:
-            with contextlib.suppress(FileNotFoundError):
-                path.unlink()
-                deleted.append(path)
+    def forget(self, session_id: int) -> Forgotten:
+        """Delete a session, everything recorded in it and every file derived from it (inside
+        the data folder, or sealed by it: oxbot.recording.derived), temporary files included;
+        leave no byte of it in the database file. Works on damaged rows."""
+        self.session_exists(session_id)
+        named = self.query(
+            "SELECT DISTINCT path, session_id, kind, seal FROM derived WHERE session_id = ?",
+            (session_id,),
+        )
+        deleted: list[Path] = []
+        refused: list[str] = []
+        for row in named:
+            target = None
+            if all(isinstance(row[k], str) for k in ("path", "kind", "seal")):
+                target = self.derived_files.target(
+                    row["path"], session_id, row["kind"], row["seal"]
+                )
+            if target is None:
+                log.warning(
+                    "%r is named as made from session %d but lies outside %s: not touched",
+                    row["path"],
+                    session_id,
+                    self.data_dir,
+                )
+                refused.append(str(row["path"]))
+                continue
+            deleted += self.derived_files.delete(target)
         with self.transaction() as db:
-            placeholders = ",".join("?" * len(paths))
             # a derived file mixes sessions: gone for all of them
-            db.execute(
-                f"DELETE FROM derived WHERE path IN ({placeholders})", [str(p) for p in paths]
-            )
-            for table in ("turns", "answers", "crops"):
+            db.executemany("DELETE FROM derived WHERE path = ?", [(r["path"],) for r in named])
+            for table in ("turns", "answers", "crops", "derived"):
                 db.execute(f"DELETE FROM {table} WHERE session_id = ?", (session_id,))
             db.execute("DELETE FROM sessions WHERE id = ?", (session_id,))
         self.compact()
-        return deleted
+        return Forgotten(deleted, refused)
 
     def compact(self) -> None:
         """Rewrite the file without free pages and empty the WAL (after `forget`)."""
         with self._lock:
-            self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-            self._db.execute("VACUUM")
-            self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-
-    def export(self, folder: str | Path, session_ids: Sequence[int] | None = None) -> list[Path]:
-        """Write sessions, turns, answers and crops as Parquet files in `folder` (each written
-        to a temporary file, then renamed); the files written."""
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-
-        from oxbot.atomic import atomic_write
-
-        folder = Path(folder)
-        ids = list(session_ids) if session_ids is not None else self.session_ids()
-        for sid in ids:
-            self.session(sid)
-        written = []
-        for table in TABLES:
-            key = "id" if table == "sessions" else "session_id"
-            where, args = _in_sessions(ids, key)
-            rows = self.query(f"SELECT * FROM {table} WHERE 1 {where}", args)
-            columns = [r[1] for r in self._db.execute(f"PRAGMA table_info({table})")]
-            data = (
-                pa.table({c: [r[c] for r in rows] for c in columns})
-                if rows
-                else pa.table({c: pa.array([], type=pa.null()) for c in columns})
-            )
-            path = folder / f"{table}.parquet"
-            with atomic_write(path) as handle:
-                pq.write_table(data, handle)
-            written.append(path)
-        if ids:
-            self.register_derived(written, ids, "export")
-        return written
-
-
-def _in_sessions(session_ids: Sequence[int] | None, column: str = "session_id") -> tuple[str, list]:
-    if session_ids is None:
-        return "", []
-    ids = [int(s) for s in session_ids]
-    return f"AND {column} IN ({','.join('?' * len(ids)) or 'NULL'})", ids
+            try:
+                self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+                self._db.execute("VACUUM")
+                self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+            except sqlite3.Error as exc:
+                raise self._error(exc) from None

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sqlite3
+
 import cv2
 import numpy as np
 
@@ -146,3 +148,24 @@ def test_a_drawing_is_labelled_from_when_it_was_whole_a_typed_blank_cell_never(t
     assert [labels[(k, 0)] for k in range(1, 7)] == [None, None, *["cross"] * 4]
     assert {labels[(k, 4)] for k in range(1, 7)} == {None}
     assert {labels[(k, 8)] for k in range(1, 7)} == {"nothing"}
+
+
+def test_a_busy_database_is_waited_for_and_recording_resumes(tmp_path, monkeypatch):
+    monkeypatch.setattr("oxbot.recording.recorder.BUSY_WAIT", 0.05)
+    with RecordingStore(tmp_path, busy_timeout=0.05) as store:
+        recorder = Recorder(LocalBus(), store)
+        other = sqlite3.connect(tmp_path / "recordings.sqlite3", timeout=0)
+        other.execute("BEGIN IMMEDIATE")  # another program holds the lock from the start
+        play(recorder, GameState(board=EMPTY_BOARD, robot_starts=True), ASK, HEARD, YES)
+        play(recorder, ASK, DialogueEnded(outcome="win"))  # closed while still busy
+        play(recorder, GameState(board=EMPTY_BOARD, robot_starts=False), ASK)
+        assert recorder.unwritten and recorder.sessions == []
+        other.rollback()  # the lock goes: the next turn writes everything kept
+        play(recorder, HEARD, YES)
+        sessions = store.sessions()
+        turns = store.query("SELECT session_id, seq, act FROM turns ORDER BY session_id, seq")
+    assert [(s.status, s.outcome, s.turns, s.answers) for s in sessions] == [
+        ("ended", "win", 3, 1),
+        ("playing", None, 2, 1),
+    ]
+    assert [t["seq"] for t in turns] == [1, 2, 3, 1, 2] and not recorder.unwritten

@@ -11,6 +11,7 @@ import pytest
 from oxbot.errors import DataError
 from oxbot.game.board import EMPTY, USER
 from oxbot.recording import RecordingStore
+from oxbot.recording.export import export
 from oxbot.recording.store import SCHEMA_VERSION
 
 
@@ -73,7 +74,7 @@ def test_a_newer_schema_is_refused_with_a_clear_error(tmp_path):
 def test_export_writes_one_parquet_file_per_table(recordings, tmp_path):
     folder, _ = recordings
     with RecordingStore(folder) as store:
-        written = store.export(tmp_path / "export")
+        written = export(store, tmp_path / "export")
         n_crops = len(store.query("SELECT cell FROM crops"))
     names = sorted(p.name for p in written)
     assert names == ["answers.parquet", "crops.parquet", "sessions.parquet", "turns.parquet"]
@@ -88,10 +89,10 @@ def test_forget_leaves_no_trace_of_the_session(recordings, tmp_path):
     with RecordingStore(folder) as store:
         (sid,) = store.session_ids()
         crop = store.query("SELECT image FROM crops WHERE label = 'cross' LIMIT 1")[0]["image"]
-        exported = store.export(tmp_path / "export")
+        exported = export(store, tmp_path / "export")
         store.register_derived([tmp_path / "model.pt"], [sid], "perceiver")
         (tmp_path / "model.pt").write_bytes(b"weights")
-        deleted = store.forget(sid)
+        deleted = store.forget(sid).deleted
         assert store.sessions() == []
         with pytest.raises(DataError, match="no recorded session"):
             store.session(sid)
