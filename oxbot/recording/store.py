@@ -414,8 +414,8 @@ class RecordingStore:
                 "SELECT label, COUNT(*) AS n FROM crops WHERE session_id = ? GROUP BY label",
                 (session_id,),
             ),
-            "derived": [
-                r["path"]
+            "derived": [  # files inside the data folder are named relative to it
+                str(self.data_dir / r["path"])
                 for r in self.query("SELECT path FROM derived WHERE session_id = ?", (session_id,))
             ],
         }

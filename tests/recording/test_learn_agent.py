@@ -66,14 +66,20 @@ def test_learn_agent_measures_before_and_after_and_writes_the_policy(dialogues, 
             "--quiet",
         ],
     )  # fmt: skip
-    metrics = json.loads((out / "learn_agent.json").read_text())
+    refused = (out / "learn_agent.refused.json").exists()
+    assert refused != (out / "learn_agent.json").exists()  # one or the other, never over it
+    metrics = json.loads(
+        (out / ("learn_agent.refused.json" if refused else "learn_agent.json")).read_text()
+    )
     assert metrics["before"]["dialogues"] == metrics["after"]["dialogues"] == 80
     assert metrics["trained_config"]["dialogue"]["asr_noise"] == pytest.approx(0.4, abs=0.05)
     assert metrics["trained_config"]["agent"]["total_steps"] == 300
     assert "repeated questions per dialogue" in result.output
     assert [p["steps"] for p in metrics["pieces"]] == [150, 300]
+    assert bool(metrics["refused"]) == refused
     if metrics["refused"]:  # a 300-step fine-tune may be worse: then nothing is shipped
         assert result.exit_code != 0 and not (out / "agent.pt").exists()
+        assert "kept the policy" not in result.output and "refused" in result.output
     else:
         assert result.exit_code == 0, result.output
         policy = load_policy(out / "agent.pt")
@@ -105,3 +111,20 @@ def test_the_fitted_phrasings_are_the_ones_heard_and_the_person_says_them_so_oft
     )
     said = [simulator._say(ACCEPT, "Request(playGame)").text for _ in range(300)]
     assert said.count(favourite) / 300 > 50 / (50 + n) - 0.1
+
+
+def test_a_refused_run_is_never_reported_as_kept(capsys):
+    from oxbot.cli.data import _print_agent
+
+    figures = {"repeated_questions_per_dialogue": 0.1, "ill_formed": 2, "losses": 3}
+    metrics = {
+        "person": {"dialogues": 20, "probabilities": {"asr_noise": 0.4}},
+        "kept": 150,  # the best piece of the fine-tune, then worse in the final measurement
+        "refused": ["losses"],
+        "config": {"steps": 300},
+        "before": {**figures, "task_success": 0.9},
+        "after": {**figures, "losses": 5, "task_success": 0.8, "dialogues": 80},
+    }
+    _print_agent(metrics)
+    printed = capsys.readouterr().out
+    assert "kept the policy" not in printed and "refused: losses" in printed

@@ -59,10 +59,15 @@ def test_a_model_worse_on_the_test_sets_is_refused_and_not_written(recordings, t
         replay_images=0, epochs=3, learning_rate=0.5, font_images=150, person_repeats=1
     )
     out = tmp_path / "perceiver.pt"
+    kept = {out.with_suffix(s): b"the kept model's" for s in (".metrics.json", ".before_after.png")}
+    for path, content in kept.items():
+        path.write_bytes(content)
     with RecordingStore(folder) as store, pytest.raises(LearningRefused, match="refused"):
         learn_perceiver(store, out, reckless, show_progress=False)
     assert not out.exists()
-    assert json.loads(out.with_suffix(".metrics.json").read_text())["refused"]
+    assert json.loads(out.with_suffix(".refused.metrics.json").read_text())["refused"]
+    assert out.with_suffix(".refused.before_after.png").exists()
+    assert {p: p.read_bytes() for p in kept} == kept  # the kept model's figures stay
 
 
 def test_the_learn_perceiver_command(recordings, tmp_path):
@@ -78,4 +83,5 @@ def test_the_learn_perceiver_command(recordings, tmp_path):
     assert result.exit_code == 0 or refused, result.output
     assert "generated test images" in result.output and "->" in result.output
     assert (folder / "learned" / "perceiver.pt").exists() != refused
-    assert (folder / "learned" / "perceiver.metrics.json").exists()
+    metrics = "perceiver.refused.metrics.json" if refused else "perceiver.metrics.json"
+    assert (folder / "learned" / metrics).exists()
