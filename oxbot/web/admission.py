@@ -1,12 +1,13 @@
-"""Who may open a game session: the Host and Origin checks against DNS rebinding and other
-sites' pages, and the sessions' slots (at most `web.max_sessions` at once)."""
+"""Who may open a game session, or read any route: the Host and Origin checks against DNS
+rebinding and other sites' pages (on the socket and every HTTP route alike), and the sessions'
+slots (at most `web.max_sessions` at once)."""
 
 from __future__ import annotations
 
 import ipaddress
 import urllib.parse
 
-from fastapi import WebSocket
+from starlette.requests import HTTPConnection
 
 from oxbot.config import WebConfig
 from oxbot.web.inbound import excerpt
@@ -46,10 +47,11 @@ class Origins:
         if limits.host not in ("0.0.0.0", "::", ""):
             self.hosts.add(limits.host.lower())
 
-    def refusal(self, websocket: WebSocket) -> str | None:
-        """Why this socket is refused (for its close reason and the log), or None."""
+    def refusal(self, websocket: HTTPConnection) -> str | None:
+        """Why this socket or HTTP request is refused (for its close reason, its 403 and the
+        log), or None."""
         host = websocket.headers.get("host", "")
-        default_port = 443 if websocket.url.scheme == "wss" else 80
+        default_port = 443 if websocket.url.scheme in ("wss", "https") else 80
         served = _host_key(host, default_port)
         if served is None or not (served[0] in self.hosts or _is_ip(served[0])):
             return (

@@ -15,13 +15,20 @@ from __future__ import annotations
 
 import base64
 import functools
+import logging
 import threading
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from oxbot.errors import DataError, OxbotError
+from oxbot.recording.rows import MAX_CROP_BYTES
 from oxbot.recording.store import DB_NAME, RecordingStore, default_data_dir
+
+log = logging.getLogger(__name__)
 
 SCRIPTS = {"record.js": "text/javascript", "learned.js": "text/javascript"}
 MAX_CROPS = 60
@@ -73,10 +80,14 @@ def add_routes(app: Any, setup: RecordingSetup) -> None:
         return {"on_by_default": setup.on_by_default, "notice": setup.notice()}
 
     @app.get("/recording/learned")
-    def learned_data() -> dict:
+    def learned_data() -> Any:
         if not (setup.folder / DB_NAME).exists():  # nothing recorded: no file made for it
             return {"sessions": [], "crops": [], "answers": [], "model": "", "notice": ""}
-        return what_i_learned(setup.store())
+        try:
+            return what_i_learned(setup.store())
+        except OxbotError as exc:  # a damaged database: say so, no traceback
+            log.warning("the learned page: %s", exc)
+            return JSONResponse({"error": str(exc)}, status_code=500)
 
     @app.get("/recording/{name}")
     def recording_script(name: str) -> Response:
@@ -121,20 +132,28 @@ def what_i_learned(store: RecordingStore) -> dict[str, Any]:
         }
         for s in store.sessions()
     ]
+    # a crop bigger than any real one is left in the file, unread (a damaged or crafted row)
     rows = store.query(
         "SELECT session_id, reading, cell, image, read_as, confidence, label FROM crops "
-        "WHERE label IS NOT NULL AND read_as != label ORDER BY session_id DESC, reading"
+        "WHERE label IS NOT NULL AND read_as != label AND length(image) <= ? "
+        "ORDER BY session_id DESC, reading",
+        (MAX_CROP_BYTES,),
     )
-    wrong, drawings = [], set()
+    wrong, images, drawings = [], [], set()
     for row in rows:  # a drawing is read many times: its first wrong reading stands for it
         if (row["session_id"], row["cell"]) not in drawings and len(wrong) < MAX_CROPS:
+            try:
+                images.append(decode_crops([row])[0])  # its header checked before decoding
+            except DataError as exc:
+                log.warning("the learned page skips a crop: %s", exc)
+                continue
             drawings.add((row["session_id"], row["cell"]))
             wrong.append(row)
     model = learned_model(store)
     crops = []
     if wrong:
         clf = _classifier(str(model or ""), model.stat().st_mtime if model else 0.0)
-        now = clf.predict(decode_crops(wrong))
+        now = clf.predict(np.stack(images))
         for row, reads_now in zip(wrong, now, strict=True):
             crops.append(
                 {

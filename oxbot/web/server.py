@@ -19,7 +19,7 @@ from collections.abc import Callable
 from importlib import resources
 from typing import Any
 
-from fastapi import FastAPI, WebSocket, WebSocketDisconnect
+from fastapi import FastAPI, Request, WebSocket, WebSocketDisconnect
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
 from oxbot.config import OxbotConfig, WebConfig
@@ -107,6 +107,15 @@ def create_app(
     app.state.listening = config.speech.listening
     app.state.fingerprint = certificate.fingerprint if certificate is not None else ""
     app.state.ready = ready
+
+    @app.middleware("http")
+    async def same_checks_as_the_socket(request: Request, call_next: Any) -> Response:
+        # a DNS-rebinding page would read the person's answers and crops from any route
+        refusal = app.state.origins.refusal(request)
+        if refusal is not None:
+            log.warning("refused %s %s: %s", request.method, request.url.path, refusal)
+            return JSONResponse({"error": refusal}, status_code=403)
+        return await call_next(request)
 
     @app.get("/", response_class=HTMLResponse)
     def page() -> HTMLResponse:
@@ -312,13 +321,13 @@ def serve(
     host, port = config.web.host, config.web.port
     recognizer_factory(config.speech.recognizer)  # a misnamed one fails now, not in each tab
     check_port_free(host, port)
-    certificate, urls = None, [f"http://{'127.0.0.1' if _any(host) else host}:{port}/"]
+    certificate, urls = None, [page_url("http", "127.0.0.1" if _any(host) else host, port)]
     if uses_https(config.web):
         from oxbot.web.tls import ensure_certificate, local_addresses, qr_text
 
         reachable = local_addresses() if _any(host) else [host]
         certificate = ensure_certificate(reachable)
-        urls = [f"https://{_url_host(h)}:{port}/" for h in (reachable or ["127.0.0.1"])]
+        urls = [page_url("https", h, port) for h in (reachable or ["127.0.0.1"])]
     recording = RecordingSetup(data_dir, on_by_default=record, keep_audio=record_audio)
     if record:
         log.warning("recording is on: %s", recording.notice())
@@ -373,8 +382,9 @@ def _any(host: str) -> bool:
     return host in ("0.0.0.0", "::", "")
 
 
-def _url_host(host: str) -> str:
-    return f"[{host}]" if ":" in host else host
+def page_url(scheme: str, host: str, port: int) -> str:
+    """The page's URL on `host` (an IPv6 address in brackets: http://[::1]:8000/)."""
+    return f"{scheme}://{f'[{host}]' if ':' in host else host}:{port}/"
 
 
 def socket_options(limits: WebConfig) -> dict[str, int]:

@@ -1,0 +1,97 @@
+"""Every HTTP route checks Host and Origin as the game socket does, and the learned page's data
+stays small whatever the recordings hold."""
+
+from __future__ import annotations
+
+import gc
+import os
+import urllib.parse
+
+import pytest
+from fastapi.testclient import TestClient
+
+from oxbot.config import load_config
+from oxbot.game.board import EMPTY_BOARD
+from oxbot.recording import Recorder, RecordingStore
+from oxbot.robot.bus import LocalBus
+from oxbot.robot.messages import GameState
+from oxbot.testing.hostile import decompression_bomb
+from oxbot.web.recording import RecordingSetup
+from oxbot.web.server import create_app, page_url
+
+ROUTES = [
+    "/",
+    "/static/app.js",
+    "/health",
+    "/tls",
+    "/learned",
+    "/recording/status",
+    "/recording/learned",
+    "/recording/record.js",
+]
+CONFIG = load_config(None, ['web.allowed_origins="http://oxbot.lan:8000"'])
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory) -> TestClient:
+    """The app without its lifespan (no models loaded), its recordings in an empty folder."""
+    recording = RecordingSetup(tmp_path_factory.mktemp("data"))
+    return TestClient(create_app(CONFIG, recording=recording), base_url="http://127.0.0.1:8000")
+
+
+@pytest.mark.parametrize("route", ROUTES)
+def test_every_route_answers_its_own_host_and_origin(client, route):
+    assert client.get(route).status_code == 200
+    assert client.get(route, headers={"origin": "http://127.0.0.1:8000"}).status_code == 200
+    assert client.get(route, headers={"origin": "http://oxbot.lan:8000"}).status_code == 200
+
+
+@pytest.mark.parametrize("route", ROUTES)
+@pytest.mark.parametrize(
+    "headers",
+    [
+        {"host": "evil.example:8000"},  # DNS rebinding: the page of another name, this address
+        {"host": "evil.example"},
+        {"origin": "http://evil.example"},
+        {"origin": "null"},
+    ],
+)
+def test_a_foreign_host_or_origin_is_refused_on_every_route(client, route, headers):
+    response = client.get(route, headers=headers)
+    assert response.status_code == 403, response.text
+    assert "web.allowed_origins" in response.json()["error"]
+
+
+def _rss_mb() -> float:
+    with open("/proc/self/statm") as statm:
+        return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def test_an_oversized_crop_is_left_unread_and_memory_stays_put(tmp_path):
+    with RecordingStore(tmp_path) as store:
+        recorder = Recorder(LocalBus(), store)
+        recorder.handle(GameState(board=EMPTY_BOARD, robot_starts=True))
+        with store.transaction() as db:
+            db.executemany(
+                "INSERT INTO crops VALUES (?, ?, 0, 0.0, ?, 'circle', 0.9, 2, 'cross')",
+                [(recorder.sessions[0], 1, decompression_bomb(20_000)),  # 400 MB decoded
+                 (recorder.sessions[0], 2, decompression_bomb(2_000))],  # small, still not 40x40
+            )  # fmt: skip
+    client = TestClient(
+        create_app(CONFIG, recording=RecordingSetup(tmp_path)), base_url="http://127.0.0.1:8000"
+    )
+    client.get("/recording/learned")
+    gc.collect()
+    before = _rss_mb()
+    for _ in range(10):
+        response = client.get("/recording/learned")
+        assert response.status_code == 200 and response.json()["crops"] == []
+        assert len(response.content) < 100_000
+    gc.collect()
+    assert _rss_mb() - before < 50
+
+
+def test_an_ipv6_host_gives_a_valid_url():
+    url = page_url("http", "::1", 8000)
+    assert url == "http://[::1]:8000/"
+    assert urllib.parse.urlsplit(url).hostname == "::1" and urllib.parse.urlsplit(url).port == 8000
