@@ -20,8 +20,10 @@ import ipaddress
 import logging
 import os
 import socket
+import stat
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from oxbot.atomic import atomic_write
 from oxbot.errors import ConfigError
@@ -127,9 +129,39 @@ def _load(cert_path: Path, key_path: Path) -> Certificate | None:
     if left < datetime.timedelta(days=RENEW_DAYS):
         log.info("the HTTPS certificate expires in %s: making a new one", left)
         return None
+    _check_key(cert, key_path, cert_path)
     listed = [str(n) for n in names.get_values_for_type(x509.DNSName)]
     listed += [str(n) for n in names.get_values_for_type(x509.IPAddress)]
     return Certificate(cert_path, key_path, _fingerprint(cert), tuple(listed))
+
+
+def _check_key(cert: Any, key_path: Path, cert_path: Path) -> None:
+    """A ConfigError unless `key_path` holds the key of `cert`; a key others may read is made
+    the owner's alone, with a warning (they may have copied it)."""
+    from cryptography.hazmat.primitives import serialization
+
+    mode = stat.S_IMODE(key_path.stat().st_mode)
+    if mode & 0o077:
+        os.chmod(key_path, 0o600)
+        log.warning(
+            "the HTTPS key %s was readable by others (mode %o): made it 0600; if others could "
+            "log in here, delete %s and %s to make a new pair",
+            key_path,
+            mode,
+            key_path,
+            cert_path,
+        )
+    remedy = f"delete {key_path} and {cert_path} to make a new pair, or put the matching key there"
+    try:
+        key = serialization.load_pem_private_key(key_path.read_bytes(), password=None)
+    except (ValueError, TypeError, OSError) as exc:
+        raise ConfigError(f"the HTTPS key {key_path} cannot be read ({exc}); {remedy}") from None
+    public = serialization.PublicFormat.SubjectPublicKeyInfo
+    encoding = serialization.Encoding.DER
+    if key.public_key().public_bytes(encoding, public) != cert.public_key().public_bytes(
+        encoding, public
+    ):
+        raise ConfigError(f"the HTTPS key {key_path} is not the key of {cert_path}; {remedy}")
 
 
 def _make(cert_path: Path, key_path: Path, names: tuple[str, ...]) -> Certificate:

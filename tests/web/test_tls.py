@@ -36,3 +36,27 @@ def test_https_is_the_default_off_loopback_and_the_url_has_a_qr_code():
     assert uses_https(WebConfig(https="on"))
     qr = qr_text("https://192.168.1.20:8000/")
     assert len(qr.splitlines()) > 10 and "█" in qr
+
+
+def test_a_key_that_is_not_the_certificates_is_a_clear_error(tmp_path):
+    import pytest
+
+    from oxbot.errors import ConfigError
+
+    ensure_certificate([], folder=tmp_path / "a")
+    other = ensure_certificate([], folder=tmp_path / "b")
+    (tmp_path / "a" / other.key.name).write_bytes(other.key.read_bytes())
+    with pytest.raises(ConfigError, match=r"is not the key of .*delete"):
+        ensure_certificate([], folder=tmp_path / "a")
+    (tmp_path / "a" / other.key.name).write_text("garbage")
+    with pytest.raises(ConfigError, match="cannot be read"):
+        ensure_certificate([], folder=tmp_path / "a")
+
+
+def test_a_world_readable_key_is_made_private_with_a_warning(tmp_path, caplog):
+    first = ensure_certificate([], folder=tmp_path)
+    first.key.chmod(0o644)
+    again = ensure_certificate([], folder=tmp_path)
+    assert again.fingerprint == first.fingerprint
+    assert stat.S_IMODE(first.key.stat().st_mode) == 0o600
+    assert any("readable by others" in r.getMessage() for r in caplog.records)
