@@ -5,7 +5,8 @@ Routes (added by `add_routes`, beside the game's):
 - `GET /recording/learned`: JSON of the recorded sessions, the crops the robot read wrong when
   it saw them and what the learnt model (`DATA_DIR/learned/perceiver.pt`, else the shipped one)
   reads now, and the answers it had to ask again about;
-- `GET /recording/status`: whether new games record by default, and the notice to show;
+- `GET /recording/status`: whether games can be recorded here, whether new ones are by default,
+  and the notice to show;
 - `GET /recording/{name}`: the two scripts (record.js for the toggle, learned.js).
 
 The database is opened at the first use (a game recorded or the page asked for), never before.
@@ -49,6 +50,8 @@ class RecordingSetup:
     """`oxbot play --record`: the page's toggle starts on."""
     keep_audio: bool = False
     """`--record-audio`: keep the recordings of spoken answers too."""
+    unavailable: str = ""
+    """Why games cannot be recorded here (the toggle is refused with it), or "" when they can."""
     _store: RecordingStore | None = field(default=None, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
@@ -77,7 +80,9 @@ def add_routes(app: Any, setup: RecordingSetup) -> None:
 
     @app.get("/recording/status")
     def recording_status() -> dict:
-        return {"on_by_default": setup.on_by_default, "notice": setup.notice()}
+        if setup.unavailable:  # the truth: nothing would be kept
+            return {"available": False, "on_by_default": False, "notice": setup.unavailable}
+        return {"available": True, "on_by_default": setup.on_by_default, "notice": setup.notice()}
 
     @app.get("/recording/learned")
     def learned_data() -> Any:

@@ -206,9 +206,13 @@ async def _serve_session(
             await _close(websocket, 1011, "the robot cannot start")
             return
         session = Session(robot, limits, app.state.listening)
+        session.recording_refusal = app.state.recording.unavailable
         sessions[session.id] = session
         if websocket.query_params.get("record") == "1":  # the page's record toggle was on
-            robot.bus.publish(RecordingSwitch(on=True))
+            if session.recording_refusal:
+                await websocket.send_text(error_text(session.recording_refusal))
+            else:
+                robot.bus.publish(RecordingSwitch(on=True))
         log.info("session %d opened (%d running)", session.id, len(sessions))
     try:
         async with app.state.starting:
@@ -227,6 +231,10 @@ async def _serve_session(
         log.info("session %d closed (%d running)", session.id, len(sessions))
 
 
+REMOTE_RECORDING = (
+    "recording is not available for a robot whose parts run as processes (oxbot robot --web): "
+    "nothing of this game is kept; play with `oxbot play --record` to keep games"
+)
 ROBOTS_STARTING = 2
 """Robots built or started at once: a burst of tabs starts its robots a few at a time, so
 that their threads never starve the event loop (and /health, and the games under way)."""
@@ -316,6 +324,8 @@ def serve(
 
     from oxbot.speech.recognition import recognizer_factory
 
+    if record and robot_factory is not None:
+        raise ConfigError(REMOTE_RECORDING)
     share_malloc_arenas()
     config = config if config is not None else OxbotConfig()
     host, port = config.web.host, config.web.port
@@ -329,6 +339,8 @@ def serve(
         certificate = ensure_certificate(reachable)
         urls = [page_url("https", h, port) for h in (reachable or ["127.0.0.1"])]
     recording = RecordingSetup(data_dir, on_by_default=record, keep_audio=record_audio)
+    if robot_factory is not None:  # its parts run elsewhere: no Recorder joins their bus
+        recording.unavailable = REMOTE_RECORDING
     if record:
         log.warning("recording is on: %s", recording.notice())
     app = create_app(config, robot_factory, certificate=certificate, recording=recording)

@@ -125,6 +125,8 @@ class Session:
             target=self._forward, name=f"oxbot-web-session-{self.id}", daemon=True
         )
         self.errors = 0
+        self.recording_refusal = ""
+        """Why the record toggle is refused (games cannot be kept here), or "" if it is not."""
 
     def start(self) -> None:
         self._bridge.start()
@@ -257,6 +259,8 @@ class Session:
         on = message.get("on")
         if not isinstance(on, bool):
             raise InvalidInputError("'on' must be true or false")
+        if on and self.recording_refusal:
+            raise InvalidInputError(self.recording_refusal)
         self.robot.bus.publish(RecordingSwitch(on=on))
 
     def _on_new_game(self, message: dict) -> None:

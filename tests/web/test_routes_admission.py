@@ -95,3 +95,32 @@ def test_an_ipv6_host_gives_a_valid_url():
     url = page_url("http", "::1", 8000)
     assert url == "http://[::1]:8000/"
     assert urllib.parse.urlsplit(url).hostname == "::1" and urllib.parse.urlsplit(url).port == 8000
+
+
+def test_a_robot_that_cannot_record_says_so_and_refuses_the_toggle(tmp_path):
+    import asyncio
+    from types import SimpleNamespace
+
+    from oxbot.config import WebConfig
+    from oxbot.errors import ConfigError, InvalidInputError
+    from oxbot.web.server import REMOTE_RECORDING, serve
+    from oxbot.web.session import Session
+
+    remote = RecordingSetup(tmp_path, unavailable=REMOTE_RECORDING)
+    client = TestClient(create_app(CONFIG, recording=remote), base_url="http://127.0.0.1:8000")
+    status = client.get("/recording/status").json()
+    assert status["available"] is False and "not available" in status["notice"]
+    with pytest.raises(ConfigError, match="not available"):
+        serve(CONFIG, record=True, robot_factory=lambda: None)
+
+    async def toggle() -> list:
+        bus = LocalBus()
+        seen = bus.subscribe()
+        session = Session(SimpleNamespace(bus=bus), WebConfig())
+        session.recording_refusal = REMOTE_RECORDING
+        with pytest.raises(InvalidInputError, match="not available"):
+            session._on_record({"on": True})
+        session._on_record({"on": False})  # nothing is kept: switching off is harmless
+        return seen.drain()
+
+    assert [type(m).__name__ for m in asyncio.run(toggle())] == ["RecordingSwitch"]

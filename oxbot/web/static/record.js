@@ -16,6 +16,10 @@
   });
   fetch("/recording/status").then((r) => r.json()).then((status) => {
     text = status.notice;
+    if (!status.available) {   // this robot cannot keep games: say so, and no toggle to press
+      box.checked = false; box.disabled = true; notice.textContent = text;
+      return;
+    }
     if (status.on_by_default && !state.ws) box.checked = true;
     show();
   });
