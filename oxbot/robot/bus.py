@@ -3,9 +3,10 @@
 Components know only their messages (oxbot.robot.messages): they subscribe to message types
 and publish others, through the two calls of the `Bus` protocol, so another transport (across
 processes or machines) can stand in for `LocalBus`, the in-process one. In `LocalBus` each
-subscription is its own FIFO queue, so a burst of messages never reorders what one publisher
-sent, and a slow component never holds up another; it is thread-safe, and each component runs
-in its own named thread.
+subscription is its own FIFO queue (bounded: `MAX_QUEUED`, the oldest dropped when a reader
+falls that far behind), so a burst of messages never reorders what one publisher sent, and a
+slow component never holds up another; it is thread-safe, and each component runs in its own
+named thread.
 
 Components are supervised one for one, like an Erlang supervisor's children or ROS 2 launch's
 respawned nodes: a component that raises is restarted after an exponentially growing wait; one
@@ -18,6 +19,7 @@ a count, not with a traceback each time.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import queue
@@ -33,6 +35,10 @@ from oxbot.errors import OxbotError
 from oxbot.robot.messages import ComponentFailed, ComponentLost, Message
 
 log = logging.getLogger(__name__)
+
+MAX_QUEUED = 5_000
+"""The most messages a subscription holds unread; beyond, its oldest is dropped. A component
+keeps up with a game's dozens a second: only a stalled reader or a flood reaches this."""
 
 
 class Subscription(Protocol):
@@ -66,16 +72,39 @@ class Bus(Protocol):
 class LocalSubscription:
     """A `Subscription` of `LocalBus`: a thread-safe FIFO queue."""
 
-    def __init__(self, bus: Subscriptions, types: tuple[type[Message], ...]) -> None:
+    def __init__(
+        self, bus: Subscriptions, types: tuple[type[Message], ...], limit: int = 0
+    ) -> None:
         self.types = types
         self._bus = bus
-        self._queue: queue.SimpleQueue[Message] = queue.SimpleQueue()
+        self._queue: queue.Queue[Message] = queue.Queue(limit or MAX_QUEUED)
+        self._put_lock = threading.Lock()
+        self.dropped = 0
+        """Messages dropped because the queue was full (its reader fell behind)."""
 
     def wants(self, message: Message) -> bool:
         return isinstance(message, self.types)
 
     def put(self, message: Message) -> None:
-        self._queue.put(message)
+        """Queue `message`; when the queue is full, its oldest message is dropped (a reader
+        that fell that far behind needs the news, not the backlog)."""
+        with self._put_lock:
+            while True:
+                try:
+                    self._queue.put_nowait(message)
+                    return
+                except queue.Full:
+                    with contextlib.suppress(queue.Empty):
+                        self._queue.get_nowait()
+                    self.dropped += 1
+                    if self.dropped == 1 or self.dropped % 1000 == 0:
+                        log.warning(
+                            "a subscription to %s fell %d messages behind: dropped %d, oldest "
+                            "first",
+                            ", ".join(t.__name__ for t in self.types),
+                            self._queue.maxsize,
+                            self.dropped,
+                        )
 
     def get(self, timeout: float | None = None) -> Message | None:
         """The next message, or None after `timeout` seconds without one."""

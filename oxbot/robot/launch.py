@@ -23,7 +23,6 @@ A launch file:
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 import logging
 import multiprocessing
@@ -42,7 +41,7 @@ from typing import TYPE_CHECKING, Any
 from oxbot.config import OxbotConfig
 from oxbot.errors import ConfigError, OxbotError
 from oxbot.robot.bus import Bus, Component, Supervisor
-from oxbot.robot.zenoh_bus import Endpoints, PartsWatcher, ZenohBus
+from oxbot.robot.zenoh_bus import NAME, Endpoints, PartsWatcher, ZenohBus
 
 if TYPE_CHECKING:
     from oxbot.robot.remote import RemoteRobot  # loads the models: imported when driven
@@ -155,9 +154,14 @@ def run_component(
     camera: str | None = None,
     stop: threading.Event | None = None,
     seed: int | None = None,
+    replace: bool = False,
 ) -> None:
     """Run component `name` of robot `robot` in this process until `stop` is set (or SIGTERM
-    / SIGINT in the main thread). Raises the BusError or ConfigError that prevents it."""
+    / SIGINT in the main thread). Raises the BusError or ConfigError that prevents it.
+
+    With `replace` (a launcher's child: the launcher starts one process per name, and only once
+    the last has ended), a liveliness token that claims the name is up already is logged and
+    overridden, not obeyed: any peer can declare one, and a fake must not block a respawn."""
     component_class(name)  # an unknown name fails before any network work
     if name in ("manager", "perception"):
         import torch
@@ -170,9 +174,21 @@ def run_component(
     bus = ZenohBus(robot, endpoints)
     supervisor = watcher = None
     try:
-        bus.check_running(name)  # before seconds of model loading
+        if replace:
+            twins = [p for p in bus.alive() if p.name == name and p.zid != bus.zid]
+            for twin in twins:
+                log.warning(
+                    "a process claims to be %s already (zenoh id %s, pid %d); this launcher's "
+                    "%s takes its place",
+                    name,
+                    twin.zid,
+                    twin.pid,
+                    name,
+                )
+        else:
+            bus.check_running(name)  # before seconds of model loading
         component = build_component(name, bus, config, camera, seed)
-        bus.join(name)
+        bus.join(name, replace=replace)
         catch_up(name, component, bus)
         on_lost = None
         if name == "manager":
@@ -230,13 +246,33 @@ class LaunchFile:
         return Endpoints(connect=local + self.connect, scouting=self.scouting)
 
 
+MAX_LAUNCH_FILE_BYTES = 1_000_000
+"""A launch file is a few hundred bytes; a bigger one (or /dev/zero) is refused unread."""
+LAUNCH_TYPES: dict[str, type] = {
+    "robot": str,
+    "components": list,
+    "listen": list,
+    "connect": list,
+    "scouting": bool,
+    "respawn": bool,
+}
+"""The TOML type of each launch-file key."""
+
+
 def load_launch_file(path: Path) -> LaunchFile:
     """The launch file at `path`; ConfigError naming what is wrong."""
+    path = Path(path)
     try:
-        data = tomllib.loads(Path(path).read_text())
-    except (OSError, tomllib.TOMLDecodeError) as exc:
+        if not path.is_file():
+            raise ConfigError(f"launch file {path} is not a regular file; give a .toml file")
+        with path.open("rb") as handle:  # bounded: never read a device until memory runs out
+            raw = handle.read(MAX_LAUNCH_FILE_BYTES + 1)
+        if len(raw) > MAX_LAUNCH_FILE_BYTES:
+            raise ConfigError(f"launch file {path} is over {MAX_LAUNCH_FILE_BYTES:,} bytes")
+        data = tomllib.loads(raw.decode("utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise ConfigError(f"cannot read launch file {path}: {exc}") from None
-    known = {f.name for f in dataclasses.fields(LaunchFile)} - {"cameras"}
+    known = set(LAUNCH_TYPES)
     fields: dict[str, Any] = {}
     cameras: dict[str, str] = {}
     for key, value in data.items():
@@ -247,16 +283,26 @@ def load_launch_file(path: Path) -> LaunchFile:
             if "camera" in value:
                 cameras[key] = str(value["camera"])
         elif key in known:
+            if not isinstance(value, LAUNCH_TYPES[key]):
+                kind = {str: "a string", list: "a list", bool: "true or false"}[LAUNCH_TYPES[key]]
+                raise ConfigError(f"{path}: {key} must be {kind}, not {value!r:.60}")
             fields[key] = tuple(value) if isinstance(value, list) else value
         else:
             raise ConfigError(
                 f"{path}: unknown key {key!r}; a launch file has {', '.join(sorted(known))} "
                 f"and a table per component ({', '.join(COMPONENTS)})"
             )
-    for name in fields.get("components", ()):
+    for key in ("components", "listen", "connect"):
+        if not all(isinstance(e, str) for e in fields.get(key, ())):
+            raise ConfigError(f"{path}: {key} is a list of strings")
+    names = fields.get("components", ())
+    for name in names:
         component_class(name)
-    if not all(isinstance(e, str) for key in ("listen", "connect") for e in fields.get(key, ())):
-        raise ConfigError(f"{path}: listen and connect are lists of endpoint strings")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ConfigError(f"{path}: components lists {', '.join(twice)} twice; list each once")
+    if "robot" in fields and not NAME.match(fields["robot"]):
+        raise ConfigError(f"{path}: robot {fields['robot']!r}: letters, digits, '_', '-', '.'")
     return LaunchFile(**fields, cameras=cameras)
 
 
@@ -271,7 +317,7 @@ def _child(
     """A launched component process's main."""
     logging.basicConfig(level=level, format=f"%(levelname)s {name}: %(message)s")
     try:
-        run_component(name, robot, endpoints, config, camera)
+        run_component(name, robot, endpoints, config, camera, replace=True)
     except OxbotError as exc:
         log.error("%s", exc)
         raise SystemExit(2) from None

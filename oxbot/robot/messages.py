@@ -328,7 +328,11 @@ def _encode(value: Any) -> Any:
 
 
 def from_json(text: str | bytes) -> Message:
-    """The message `to_json` made; InvalidInputError if it is not one."""
+    """The message `to_json` made, checked (`oxbot.robot.message_checks`: size and nesting
+    before parsing, then every field); InvalidInputError if it is not one."""
+    from oxbot.robot.message_checks import check_json, check_message
+
+    check_json(text)
     try:
         envelope = json.loads(text)
         cls = MESSAGE_TYPES[envelope["type"]]
@@ -358,7 +362,7 @@ def from_json(text: str | bytes) -> Message:
                 f"field {f.name!r} of a {cls.__name__} message is not base64 bytes"
             ) from None
     try:
-        return cls(**data)
+        return check_message(cls(**data))
     except TypeError as exc:
         raise InvalidInputError(f"malformed {cls.__name__} message: {exc}") from None
 

@@ -17,6 +17,13 @@ Besides messages, each component process of a robot declares:
   `GameState`, `DialogueAct`, `DialogueEnded`, `ArmStroke`), so a late joiner (a respawned
   component, a web page opened mid-game) learns the board and the dialogue (`game_so_far`).
 
+What comes from the network is not trusted (any peer that reaches the endpoints may publish):
+each message is checked before it is dispatched (`oxbot.robot.message_checks`: the JSON's size
+and depth, every field's type and range, cell names) and a bad one is dropped with one log
+line; each topic's rate is bounded (`FloodGuard`: beyond it, messages are dropped, a line per
+burst); a game record answering a state query is bounded and checked the same way; and every
+subscription's queue is bounded (`oxbot.robot.bus.MAX_QUEUED`, the oldest dropped).
+
 Refusals are errors of oxbot.errors, raised at once: an endpoint nobody answers at
 (`BusUnreachable`, after `CONNECT_TIMEOUT`), a process of another message format on the same
 robot (`BusVersionError`), a component that is up already (`ComponentAlreadyRunning`).
@@ -50,6 +57,7 @@ from oxbot.errors import (
     InvalidInputError,
 )
 from oxbot.robot.bus import LocalSubscription, Subscriptions
+from oxbot.robot.message_checks import FloodGuard, check_json, check_message
 from oxbot.robot.messages import (
     MESSAGE_TYPES,
     ArmStroke,
@@ -99,6 +107,8 @@ QUERY_TIMEOUT = 1.0
 REJOIN_SECONDS = 5.0
 """How long a component whose process ended may take to come back (respawned by
 `oxbot robot --launch` within about 1 s) before the robot takes it as lost."""
+MAX_RECORD_BYTES = 16 * 1024 * 1024
+"""The most a game record (the answer to a state query) may take; a whole game's is ~100 KB."""
 NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 BLOBS = zenoh.Encoding.APPLICATION_OCTET_STREAM.with_schema("oxbot-blobs")
 SHARED_MEMORY_FROM = 64 * 1024
@@ -150,6 +160,7 @@ def decode(payload: bytes, blobs: bool) -> Message:
         return from_json(payload)
     try:
         end = payload.index(b"\n")
+        check_json(payload[:end], "a message's header")
         header = json.loads(payload[:end])
         cls = MESSAGE_TYPES[header["type"]]
         data, sizes = dict(header["data"]), [int(n) for n in header["blobs"]]
@@ -172,7 +183,7 @@ def decode(payload: bytes, blobs: bool) -> Message:
         for name, value in fields.items():
             if hints.get(name) is bytes and not isinstance(value, bytes):
                 raise TypeError(f"field {name!r} of a {cls.__name__} message is not bytes")
-        return cls(**fields)
+        return check_message(cls(**fields))
     except (ValueError, KeyError, TypeError, IndexError, RecursionError) as exc:
         raise InvalidInputError(
             f"not a message of oxbot's bus ({type(exc).__name__}: {exc})"
@@ -249,6 +260,7 @@ class ZenohBus(Subscriptions):
         super().__init__()  # subscribe / unsubscribe: the queues of this process
         self._record: list[Message] = []
         self._refused: set[str] = set()  # formats already reported, so the log says it once
+        self._flood = FloodGuard()
         self._declared: list[typing.Any] = []
         self._shared_memory: zenoh.shm.ShmProvider | None = None
         self._shared_memory_failed = False
@@ -322,6 +334,8 @@ class ZenohBus(Subscriptions):
             return
         with self._lock:
             targets = [s for s in self._subscriptions if issubclass(cls, s.types)]
+            if not issubclass(cls, LOSSY) and not self._flood.admit(cls.topic, time.monotonic()):
+                return  # over its topic's rate: a peer floods (logged by the guard)
         if not targets and not issubclass(cls, RECORDED):
             return  # nobody here wants it: not even decoded
         try:
@@ -362,12 +376,14 @@ class ZenohBus(Subscriptions):
                     "oxbot version in every process of the robot"
                 )
 
-    def join(self, name: str) -> None:
+    def join(self, name: str, replace: bool = False) -> None:
         """Announce component `name` as up (its liveliness token) and answer state queries;
-        ComponentAlreadyRunning if it is up in another process of this robot."""
+        ComponentAlreadyRunning if it is up in another process of this robot, unless `replace`
+        (a launcher's child, which the network's claims do not stop)."""
         if not NAME.match(name):
             raise ConfigError(f"component name {name!r}: letters, digits, '_', '-' and '.'")
-        self.check_running(name)
+        if not replace:
+            self.check_running(name)
         self._seed_record()
         token = f"{self.prefix}alive/{name}/{self.FORMAT}/{self.zid}/{os.getpid()}"
         self._declared.append(self.session.liveliness().declare_token(token))
@@ -415,10 +431,16 @@ class ZenohBus(Subscriptions):
             sample = reply.ok
             if sample.attachment is None or sample.attachment.to_string() != self.FORMAT:
                 continue  # its process is refused by `check_formats`
-            try:
-                record = [from_json(m) for m in json.loads(sample.payload.to_bytes())]
-            except (InvalidInputError, ValueError, TypeError) as exc:
-                log.error("a malformed game record from %s: %s", sample.key_expr, exc)
+            try:  # any peer may answer: bounded before it is parsed, each message checked
+                raw = sample.payload.to_bytes()
+                if len(raw) > MAX_RECORD_BYTES:
+                    raise InvalidInputError(f"{len(raw):,} bytes")
+                record = json.loads(raw)
+                if not isinstance(record, list) or not all(isinstance(m, str) for m in record):
+                    raise InvalidInputError("not a list of messages")
+                record = [from_json(m) for m in record]
+            except (InvalidInputError, ValueError, TypeError, RecursionError) as exc:
+                log.error("dropped a malformed game record from %s: %s", sample.key_expr, exc)
                 continue
             if len(record) > len(best):
                 best = record
