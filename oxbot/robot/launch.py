@@ -6,7 +6,10 @@ component process that ends is started again after a backoff that doubles with e
 `[robot] restart_window` (from `restart_backoff` up to `restart_backoff_max`), and given up
 after `restart_limit` of them. The launcher forks its components from a fork server that has
 already imported oxbot and torch, so a respawned component is up again in well under a second
-instead of the seconds a cold start takes.
+instead of the seconds a cold start takes. The launcher owns its children
+(oxbot.robot.children): they die with it, `kill -9` included; a new launcher ends what an old
+one left; their shared memory is removed when they end. A launched child overrides a liveliness
+token that claims its name (any peer may declare one) instead of refusing to start.
 
 A launch file:
 
@@ -23,6 +26,7 @@ A launch file:
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import logging
 import multiprocessing
@@ -41,6 +45,14 @@ from typing import TYPE_CHECKING, Any
 from oxbot.config import OxbotConfig
 from oxbot.errors import ConfigError, OxbotError
 from oxbot.robot.bus import Bus, Component, Supervisor
+from oxbot.robot.children import (
+    end_leftovers,
+    hold_child,
+    pid_file,
+    remove_unmapped,
+    shared_memory_of,
+    write_pids,
+)
 from oxbot.robot.zenoh_bus import NAME, Endpoints, PartsWatcher, ZenohBus
 
 if TYPE_CHECKING:
@@ -313,8 +325,10 @@ def _child(
     config: OxbotConfig,
     camera: str | None,
     level: int,
+    launcher: int,
 ) -> None:
-    """A launched component process's main."""
+    """A launched component process's main; `launcher` is the launcher's pid."""
+    hold_child(name, launcher)  # dies with the launcher (oxbot.robot.children)
     logging.basicConfig(level=level, format=f"%(levelname)s {name}: %(message)s")
     try:
         run_component(name, robot, endpoints, config, camera, replace=True)
@@ -345,9 +359,11 @@ class Launcher:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._context: Any = None
+        self._segments: set[Path] = set()
         self.bus: ZenohBus | None = None
 
     def start(self) -> Launcher:
+        end_leftovers(self.launch.robot)  # an earlier launcher's children, killed with it
         if self.launch.listen:
             router = Endpoints(
                 listen=self.launch.listen,
@@ -358,7 +374,9 @@ class Launcher:
             self.bus = ZenohBus(self.launch.robot, router)
         context = multiprocessing.get_context("forkserver")
         # imported once by the fork server: every (re)spawned component starts warm
-        context.set_forkserver_preload([m for m, _ in COMPONENTS.values()] + [__name__])
+        context.set_forkserver_preload(
+            ["oxbot.robot.fork_server"] + [m for m, _ in COMPONENTS.values()] + [__name__]
+        )
         self._context = context
         for name in self.launch.components:
             self._spawn(name)
@@ -375,16 +393,25 @@ class Launcher:
             self.config,
             launch.cameras.get(name),
             logging.getLogger().getEffectiveLevel(),
+            os.getpid(),
         )
         process = self._context.Process(target=_child, args=args, name=f"oxbot-{name}")
         process.start()
         self.processes[name] = process
         log.info("started %s (pid %s)", name, process.pid)
+        with contextlib.suppress(OSError):
+            write_pids(self.launch.robot, [p.pid for p in self.processes.values() if p.pid])
 
     def _watch(self) -> None:
         body = self.config.robot
+        noted = 0.0
         while not self._stop.wait(self.POLL):
             now = time.monotonic()
+            if now - noted > 1.0:  # the shared memory to remove once they have ended
+                noted = now
+                for process in self.processes.values():
+                    if process.pid:
+                        self._segments |= shared_memory_of(process.pid)
             for name, process in list(self.processes.items()):
                 if name in self._due or name in self.gave_up or process.is_alive():
                     continue
@@ -417,6 +444,8 @@ class Launcher:
         if self._thread is not None:
             self._thread.join(2.0)
         for process in self.processes.values():
+            if process.pid:
+                self._segments |= shared_memory_of(process.pid)
             if process.is_alive():
                 process.terminate()
         deadline = time.monotonic() + timeout
@@ -426,7 +455,11 @@ class Launcher:
                 process.kill()
                 process.join(1.0)
         if self.bus is not None:
+            self._segments |= shared_memory_of()
             self.bus.close()
+        remove_unmapped(self._segments)
+        with contextlib.suppress(OSError):
+            pid_file(self.launch.robot).unlink()
 
     def wait(self, until: Callable[[], bool] | None = None) -> None:
         """Block until `until()` (or Ctrl-C, or every component given up)."""
