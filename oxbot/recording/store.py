@@ -242,14 +242,14 @@ class RecordingStore:
             db.execute("PRAGMA secure_delete=ON")  # forgotten rows are zeroed, not freed
         except sqlite3.Error as exc:
             raise self._error(exc) from None
-        with self.transaction() as tx:
-            if version == 0:  # a new file: the tables and the version in one transaction
-                for statement in SCHEMA.split(";"):  # executescript would commit first
-                    if statement.strip():
-                        tx.execute(statement)
-            elif version == 1:  # derived files gained their seal
-                tx.execute("ALTER TABLE derived ADD COLUMN seal TEXT NOT NULL DEFAULT ''")
-            if version < SCHEMA_VERSION:
+        if version < SCHEMA_VERSION:  # a reader of an up-to-date file takes no write lock
+            with self.transaction() as tx:
+                if version == 0:  # a new file: the tables and the version in one transaction
+                    for statement in SCHEMA.split(";"):  # executescript would commit first
+                        if statement.strip():
+                            tx.execute(statement)
+                elif version == 1:  # derived files gained their seal
+                    tx.execute("ALTER TABLE derived ADD COLUMN seal TEXT NOT NULL DEFAULT ''")
                 tx.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
         for table, columns in EXPECTED_COLUMNS.items():
             found = {r["name"] for r in self.query(f"PRAGMA table_info({table})")}
