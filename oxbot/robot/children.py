@@ -11,12 +11,13 @@ ends what an old one left, and their shared memory goes when they do.
   starting its own, so a launcher killed with its children somehow alive never leaves the
   next one refused or running beside orphans.
 - Zenoh's shared-memory segments (`/dev/shm/*.zenoh`) outlive their processes; the launcher
-  notes those its children map, and when they have all ended removes the ones no process maps
-  any more.
+  notes those its children map, and when they have all ended removes the ones no other process
+  maps; `oxbot robot` removes its own likewise when it exits.
 """
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import ctypes
 import json
@@ -137,14 +138,15 @@ def shared_memory_of(pid: int | str = "self") -> set[Path]:
     }
 
 
-def remove_unmapped(candidates: Iterable[Path]) -> int:
-    """Remove those of `candidates` that no process maps any more; the bytes freed."""
+def remove_unmapped(candidates: Iterable[Path], ignore: int | None = None) -> int:
+    """Remove those of `candidates` that no process maps any more (`ignore`: but the process
+    of this pid, whose mappings outlive the names); the bytes freed."""
     candidates = {p for p in candidates if p.exists()}
     if not candidates:
         return 0
     mapped: set[Path] = set()
     for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
+        if entry.name.isdigit() and entry.name != str(ignore):
             mapped |= shared_memory_of(entry.name)
     freed = 0
     for path in candidates - mapped:
@@ -155,3 +157,9 @@ def remove_unmapped(candidates: Iterable[Path]) -> int:
     if freed:
         log.info("removed %.1f MB of shared memory the components left", freed / 2**20)
     return freed
+
+
+def remove_own_shared_memory_at_exit() -> None:
+    """When this process exits, remove the shared-memory files it maps that no other process
+    does (Zenoh leaves its own behind): for a process that ends after its last session."""
+    atexit.register(lambda: remove_unmapped(shared_memory_of(), ignore=os.getpid()))

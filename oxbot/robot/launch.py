@@ -49,6 +49,7 @@ from oxbot.robot.children import (
     end_leftovers,
     hold_child,
     pid_file,
+    remove_own_shared_memory_at_exit,
     remove_unmapped,
     shared_memory_of,
     write_pids,
@@ -455,9 +456,8 @@ class Launcher:
                 process.kill()
                 process.join(1.0)
         if self.bus is not None:
-            self._segments |= shared_memory_of()
             self.bus.close()
-        remove_unmapped(self._segments)
+        remove_unmapped(self._segments, ignore=os.getpid())  # this process only read them
         with contextlib.suppress(OSError):
             pid_file(self.launch.robot).unlink()
 
@@ -505,6 +505,7 @@ def run_robot(
     wait until Ctrl-C."""
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _interrupt)  # a service manager's stop, like Ctrl-C
+    remove_own_shared_memory_at_exit()
     launcher = Launcher(launch, config).start() if launch is not None else None
     try:
         if drive is None:
