@@ -32,6 +32,8 @@ from oxbot.recording.store import DB_NAME, RecordingStore, default_data_dir
 log = logging.getLogger(__name__)
 
 SCRIPTS = {"record.js": "text/javascript", "learned.js": "text/javascript"}
+MAX_SESSIONS = 500
+"""The page lists at most this many sessions (the latest), so its data stays small."""
 MAX_CROPS = 60
 """The page shows at most this many drawings read wrong (the latest sessions')."""
 NOTICE = (
@@ -135,7 +137,7 @@ def what_i_learned(store: RecordingStore) -> dict[str, Any]:
             "crops": s.crops,
             "labelled": s.labelled,
         }
-        for s in store.sessions()
+        for s in store.sessions()[-MAX_SESSIONS:]
     ]
     # a crop bigger than any real one is left in the file, unread (a damaged or crafted row)
     rows = store.query(
