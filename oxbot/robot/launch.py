@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING, Any
 from oxbot.config import OxbotConfig
 from oxbot.errors import ConfigError, OxbotError
 from oxbot.robot.bus import Bus, Component, Supervisor
+from oxbot.robot.bus_security import BusSecurity
 from oxbot.robot.children import (
     end_leftovers,
     hold_child,
@@ -250,13 +251,18 @@ class LaunchFile:
     """A camera spec per component (`[perception] camera = "0"`)."""
     respawn: bool = True
     """Start a component whose process ended again (ROS 2 launch's `respawn`)."""
+    security: BusSecurity | None = None
+    """Zenoh TLS with mutual authentication and access control, from a `[security]` table
+    (oxbot.robot.bus_security); the router's and the children's alike."""
 
     def child_endpoints(self) -> Endpoints:
         """How the launched components reach each other: through this launcher's router."""
         local = tuple(
             e.replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]") for e in self.listen
         )
-        return Endpoints(connect=local + self.connect, scouting=self.scouting)
+        return Endpoints(
+            connect=local + self.connect, scouting=self.scouting, security=self.security
+        )
 
 
 MAX_LAUNCH_FILE_BYTES = 1_000_000
@@ -288,8 +294,11 @@ def load_launch_file(path: Path) -> LaunchFile:
     known = set(LAUNCH_TYPES)
     fields: dict[str, Any] = {}
     cameras: dict[str, str] = {}
+    security = None
     for key, value in data.items():
-        if key in COMPONENTS and isinstance(value, dict):
+        if key == "security" and isinstance(value, dict):
+            security = _security(path, value)
+        elif key in COMPONENTS and isinstance(value, dict):
             extra = set(value) - {"camera"}
             if extra:
                 raise ConfigError(f"{path}: [{key}] has only `camera`, not {sorted(extra)}")
@@ -303,7 +312,7 @@ def load_launch_file(path: Path) -> LaunchFile:
         else:
             raise ConfigError(
                 f"{path}: unknown key {key!r}; a launch file has {', '.join(sorted(known))} "
-                f"and a table per component ({', '.join(COMPONENTS)})"
+                f"a table per component ({', '.join(COMPONENTS)}) and [security]"
             )
     for key in ("components", "listen", "connect"):
         if not all(isinstance(e, str) for e in fields.get(key, ())):
@@ -316,7 +325,23 @@ def load_launch_file(path: Path) -> LaunchFile:
         raise ConfigError(f"{path}: components lists {', '.join(twice)} twice; list each once")
     if "robot" in fields and not NAME.match(fields["robot"]):
         raise ConfigError(f"{path}: robot {fields['robot']!r}: letters, digits, '_', '-', '.'")
-    return LaunchFile(**fields, cameras=cameras)
+    return LaunchFile(**fields, cameras=cameras, security=security)
+
+
+def _security(path: Path, table: dict[str, Any]) -> BusSecurity:
+    """The `[security]` table: ca, certificate, key (paths relative to the launch file's
+    folder) and allowed (certificate names)."""
+    wanted = {"ca", "certificate", "key", "allowed"}
+    if set(table) != wanted:
+        raise ConfigError(f"{path}: [security] has exactly {', '.join(sorted(wanted))}")
+    allowed = table["allowed"]
+    files = [table[k] for k in ("ca", "certificate", "key")]
+    if not all(isinstance(f, str) for f in files) or not (
+        isinstance(allowed, list) and all(isinstance(a, str) for a in allowed)
+    ):
+        raise ConfigError(f"{path}: [security] paths are strings, allowed a list of names")
+    ca, certificate, key = (path.parent / f for f in files)
+    return BusSecurity(ca, certificate, key, tuple(allowed))
 
 
 def _child(
@@ -371,6 +396,7 @@ class Launcher:
                 connect=self.launch.connect,
                 scouting=self.launch.scouting,
                 router=True,
+                security=self.launch.security,
             )
             self.bus = ZenohBus(self.launch.robot, router)
         context = multiprocessing.get_context("forkserver")

@@ -57,6 +57,7 @@ from oxbot.errors import (
     InvalidInputError,
 )
 from oxbot.robot.bus import LocalSubscription, Subscriptions
+from oxbot.robot.bus_security import BusSecurity
 from oxbot.robot.message_checks import FloodGuard, check_json, check_message
 from oxbot.robot.messages import (
     MESSAGE_TYPES,
@@ -202,6 +203,9 @@ class Endpoints:
     """Find peers on the LAN by UDP multicast (Zenoh's default); off for tests and routers."""
     router: bool = False
     """Run as a Zenoh router (routes for peers that cannot reach each other directly)."""
+    security: BusSecurity | None = None
+    """TLS with mutual authentication and access control (oxbot.robot.bus_security); the
+    endpoints are then `tls/HOST:PORT`."""
 
     def zenoh_config(self) -> zenoh.Config:
         config = zenoh.Config()
@@ -221,6 +225,8 @@ class Endpoints:
             }
         if self.listen:
             settings["listen/endpoints"] = list(self.listen)
+        if self.security is not None:
+            settings |= self.security.zenoh_settings()
         for key, value in settings.items():
             try:
                 config.insert_json5(key, json.dumps(value))
