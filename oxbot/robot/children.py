@@ -80,7 +80,10 @@ def write_pids(robot: str, pids: Iterable[int]) -> None:
     """Note the launcher's and its children's pids (atomically, readable by the owner only)."""
     path = pid_file(robot)
     tmp = path.with_suffix(".tmp")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with contextlib.suppress(FileNotFoundError):
+        tmp.unlink()
+    # a shared temporary folder: never follow a link someone left under our name
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
     with os.fdopen(fd, "w") as handle:
         json.dump({"launcher": os.getpid(), "children": sorted(pids)}, handle)
     os.replace(tmp, path)
