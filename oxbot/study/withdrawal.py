@@ -37,8 +37,11 @@ def forget_participant(folder: Path, pid: str) -> list[Path]:
         store.participant(pid)  # a DataError naming the command that lists them
         if (folder / RECORDINGS).exists():
             with open_recordings(folder) as recordings:
-                for session in recordings.sessions():
-                    if session.mode == recording_mode(pid):
-                        deleted += recordings.forget(session.id)
+                # by id alone: a damaged row elsewhere must not stop a withdrawal
+                rows = recordings.query(
+                    "SELECT id FROM sessions WHERE mode = ?", (recording_mode(pid),)
+                )
+                for row in rows:
+                    deleted += recordings.forget(row["id"]).deleted
         store.forget(pid)
     return deleted
