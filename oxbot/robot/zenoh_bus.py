@@ -515,7 +515,8 @@ class PartsWatcher:
     within `rejoin_seconds` is lost (ComponentLost: the robot says so and, if the game needs
     it, ends the game); one that comes back announces ComponentJoined, so that the manager asks
     it again what its predecessor never answered. `parts` maps a component's name to its
-    (class name, part, essential), as the robot's messages name them.
+    (class name, part, essential), as the robot's messages name them. A token that goes counts
+    even while another claims the same name (a launcher's child replaces a stale or fake one).
     """
 
     def __init__(
@@ -570,8 +571,12 @@ class PartsWatcher:
                 log.warning("%s is back (pid %d)", peer.name, peer.pid)
                 self.bus.publish(ComponentJoined(component=component, part=part))
             return
+        if peer.zid not in zids:
+            return
         zids.discard(peer.zid)
-        if not zids and peer.name not in self._down:
+        # one of its processes went: down until a new one comes, whatever other tokens claim
+        # the name (any peer can declare one; a fake must not hide the death and stall the game)
+        if peer.name not in self._down:
             self._down[peer.name] = time.monotonic()
             log.warning(
                 "%s's process (pid %d) is gone; waiting for it to come back", peer.name, peer.pid

@@ -195,3 +195,30 @@ def test_a_launch_file_that_is_a_device_is_refused_unread(tmp_path):
     with pytest.raises(ConfigError, match="over 1,000,000 bytes"):
         load_launch_file(big)
     assert time.monotonic() - started < 2.0
+
+
+def test_a_fake_liveliness_token_does_not_hide_a_parts_death(network):
+    from oxbot.robot.messages import ComponentFailed, ComponentJoined
+    from oxbot.robot.zenoh_bus import PartsWatcher
+
+    ours, theirs = network
+    port = int(re.search(r":(\d+)$", ours.endpoints.listen[0])[1])
+    fake = theirs.session.liveliness().declare_token(
+        f"{theirs.prefix}alive/head-movement/{FORMAT}/0123456789abcdef/4242"
+    )
+    news = ours.subscribe(ComponentFailed, ComponentJoined)
+    real = ZenohBus(ours.robot, loopback(port))
+    watcher = None
+    try:
+        real.join("head-movement", replace=True)
+        parts = {"head-movement": ("HeadMovementComponent", "head", False)}
+        watcher = PartsWatcher(ours, parts, rejoin_seconds=30).start()
+        time.sleep(0.5)  # the watcher has seen both tokens up
+        real.close()  # the real process dies; the fake token stays
+        (failed,) = _received(news, 1, 5.0)
+        assert isinstance(failed, ComponentFailed) and failed.component == "HeadMovementComponent"
+    finally:
+        if watcher is not None:
+            watcher.stop()
+        fake.undeclare()
+        real.close()
