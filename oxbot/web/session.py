@@ -70,7 +70,14 @@ from fastapi import FastAPI, WebSocket
 from oxbot.config import ListeningConfig, WebConfig
 from oxbot.errors import InvalidInputError, OxbotError
 from oxbot.robot.listening import HandsFreeListener
-from oxbot.robot.messages import Frame, PersonFrame, RecordingSwitch, SpeechAudio, to_json
+from oxbot.robot.messages import (
+    ComponentJoined,
+    Frame,
+    PersonFrame,
+    RecordingSwitch,
+    SpeechAudio,
+    to_json,
+)
 from oxbot.web.inbound import (
     STREAM_PIECE_SECONDS,
     MessageRate,
@@ -125,6 +132,8 @@ class Session:
             target=self._forward, name=f"oxbot-web-session-{self.id}", daemon=True
         )
         self.errors = 0
+        self.sheet: np.ndarray | None = None
+        """The last sheet the tab sent, shown again to eyes that rejoin (a respawned process)."""
         self.recording_refusal = ""
         """Why the record toggle is refused (games cannot be kept here), or "" if it is not."""
 
@@ -156,6 +165,10 @@ class Session:
             message = self._subscription.get(timeout=0.1)
             if message is None or isinstance(message, ECHOES):
                 continue
+            if isinstance(message, ComponentJoined) and message.part == "eyes":
+                sheet = self.sheet
+                if sheet is not None:  # what the tab sent while they were gone reached nobody
+                    self.robot.show(sheet)
             try:
                 text = to_json(message)
             except (TypeError, ValueError) as exc:  # a message the page cannot take
@@ -217,7 +230,8 @@ class Session:
         handler(message)
 
     def _on_frame(self, message: dict) -> None:
-        self.robot.show(decode_image(message.get("image"), self.limits))
+        self.sheet = decode_image(message.get("image"), self.limits)
+        self.robot.show(self.sheet)
 
     def _on_look(self, message: dict) -> None:
         self.robot.look(decode_image(message.get("image"), self.limits))
@@ -267,6 +281,7 @@ class Session:
         image = message.get("image")
         frame = decode_image(image, self.limits) if image is not None else None
         self.robot.new_game()  # forgets the old sheet
+        self.sheet = frame
         if frame is not None:
             # the fresh sheet; should the robot forget it too (it handles NewGame in its own
             # thread), the page sends it again when the NewGame message comes back

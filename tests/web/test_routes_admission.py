@@ -124,3 +124,44 @@ def test_a_robot_that_cannot_record_says_so_and_refuses_the_toggle(tmp_path):
         return seen.drain()
 
     assert [type(m).__name__ for m in asyncio.run(toggle())] == ["RecordingSwitch"]
+
+
+def test_eyes_that_rejoin_are_shown_the_last_sheet_again():
+    import asyncio
+    import threading
+    import time
+    from types import SimpleNamespace
+
+    import cv2
+    import numpy as np
+
+    from oxbot.config import WebConfig
+    from oxbot.robot.messages import ComponentJoined
+    from oxbot.testing.player import data_url
+    from oxbot.web.session import Session
+
+    shown: list[np.ndarray] = []
+    again = threading.Event()
+
+    def show(frame):
+        shown.append(frame)
+        if len(shown) == 2:
+            again.set()
+
+    bus = LocalBus()
+    robot = SimpleNamespace(bus=bus, show=show, start=lambda: None, stop=lambda: None)
+
+    async def rejoin() -> bool:
+        session = Session(robot, WebConfig())
+        session.start()
+        try:
+            sheet = np.full((120, 160, 3), 255, np.uint8)
+            session._on_frame({"image": data_url(cv2.imencode(".png", sheet)[1].tobytes())})
+            bus.publish(ComponentJoined(component="GameMoveComponent", part="eyes"))
+            return await asyncio.to_thread(again.wait, 5.0)
+        finally:
+            await asyncio.to_thread(session.close)
+
+    started = time.monotonic()
+    assert asyncio.run(rejoin()), "the sheet was not shown again"
+    assert np.array_equal(shown[0], shown[1]) and time.monotonic() - started < 5
