@@ -16,6 +16,11 @@ _CONNECT = typer.Option("--connect", help="A Zenoh peer or router to reach: tcp/
 _LISTEN = typer.Option("--listen", help="Accept connections here: tcp/0.0.0.0:PORT.")
 _SCOUTING = typer.Option("--scouting/--no-scouting", help="Find peers by multicast on the LAN.")
 _ROBOT = typer.Option("--robot", help="The robot's name: key expressions oxbot/ROBOT/...")
+_SECURITY = typer.Option(
+    "--security",
+    help="A TOML file with a [security] table (ca, certificate, key, allowed): Zenoh TLS with "
+    "mutual authentication and access control; endpoints tls/HOST:PORT.",
+)
 
 
 def component_command(
@@ -31,11 +36,12 @@ def component_command(
     listen: Annotated[list[str] | None, _LISTEN] = None,
     scouting: Annotated[bool, _SCOUTING] = True,
     camera: Annotated[str | None, typer.Option(help="perception, head-tracking: a camera.")] = None,
+    security: Annotated[Path | None, _SECURITY] = None,
 ) -> None:
     """Run one component of a robot in this process, over Zenoh, until Ctrl-C."""
     from oxbot.robot.launch import endpoints_of, run_component
 
-    endpoints = endpoints_of(connect, listen, scouting)
+    endpoints = endpoints_of(connect, listen, scouting, security)
     run_component(name, robot, endpoints, config_of(ctx), camera)
 
 
@@ -50,6 +56,7 @@ def robot_command(
     scouting: Annotated[bool, _SCOUTING] = True,
     terminal: Annotated[bool, typer.Option("--terminal", help="Drive it from here.")] = False,
     web: Annotated[bool, typer.Option("--web", help="Serve the page for it ([web]).")] = False,
+    security: Annotated[Path | None, _SECURITY] = None,
 ) -> None:
     """A robot as processes: --launch FILE starts them; --terminal / --web drive one."""
     from oxbot.robot.launch import endpoints_of, load_launch_file, run_robot
@@ -68,4 +75,4 @@ def robot_command(
         def drive(remote: Any) -> None:
             serve(config, announce=print, robot_factory=lambda: remote)
 
-    run_robot(config, plan, robot, endpoints_of(connect, listen, scouting), drive)
+    run_robot(config, plan, robot, endpoints_of(connect, listen, scouting, security), drive)

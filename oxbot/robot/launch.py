@@ -505,14 +505,42 @@ class Launcher:
 # --- the commands: oxbot component, oxbot robot ---
 
 
-def endpoints_of(connect: list[str] | None, listen: list[str] | None, scouting: bool) -> Endpoints:
-    """Command-line endpoints; ConfigError for one that is not `proto/address:port`."""
+def endpoints_of(
+    connect: list[str] | None,
+    listen: list[str] | None,
+    scouting: bool,
+    security: Path | None = None,
+) -> Endpoints:
+    """Command-line endpoints, with the `[security]` table of the TOML file `security` if
+    given; ConfigError for an endpoint that is not `proto/address:port`."""
     for endpoint in [*(connect or ()), *(listen or ())]:
         if "/" not in endpoint:
             raise ConfigError(
                 f"endpoint {endpoint!r}: write protocol/address:port, e.g. tcp/127.0.0.1:7447"
             )
-    return Endpoints(connect=tuple(connect or ()), listen=tuple(listen or ()), scouting=scouting)
+    return Endpoints(
+        connect=tuple(connect or ()),
+        listen=tuple(listen or ()),
+        scouting=scouting,
+        security=load_security_file(security) if security is not None else None,
+    )
+
+
+def load_security_file(path: Path) -> BusSecurity:
+    """The `[security]` table of the TOML file at `path` (as in a launch file; its paths are
+    relative to the file's folder)."""
+    path = Path(path)
+    try:
+        if not path.is_file():
+            raise ConfigError(f"security file {path} is not a regular file")
+        with path.open("rb") as handle:
+            raw = handle.read(MAX_LAUNCH_FILE_BYTES + 1)
+        data = tomllib.loads(raw[:MAX_LAUNCH_FILE_BYTES].decode("utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ConfigError(f"cannot read security file {path}: {exc}") from None
+    if set(data) != {"security"} or not isinstance(data["security"], dict):
+        raise ConfigError(f"{path}: a security file holds one [security] table")
+    return _security(path, data["security"])
 
 
 def _interrupt(*_: object) -> None:

@@ -89,3 +89,20 @@ def test_a_launch_files_security_table_is_read_and_checked(tmp_path):
     bad.write_text('[security]\nca = "nowhere.pem"\ncertificate = "x"\nkey = "y"\nallowed = []\n')
     with pytest.raises(ConfigError, match="is not a file"):
         load_launch_file(bad)
+
+
+def test_a_components_security_file_is_read_for_its_endpoints(tmp_path):
+    from oxbot.robot.launch import endpoints_of
+
+    make_credentials(tmp_path, ["arm-machine"])
+    file = tmp_path / "security.toml"
+    file.write_text(
+        '[security]\nca = "ca.pem"\ncertificate = "arm-machine.pem"\n'
+        'key = "arm-machine-key.pem"\nallowed = ["launcher", "arm-machine"]\n'
+    )
+    endpoints = endpoints_of(["tls/192.0.2.1:7447"], None, False, file)
+    assert endpoints.security is not None
+    assert endpoints.security.certificate == tmp_path / "arm-machine.pem"
+    file.write_text('robot = "x"\n')
+    with pytest.raises(ConfigError, match="one \\[security\\] table"):
+        endpoints_of([], None, False, file)
