@@ -3,9 +3,11 @@
 Paper §3.1: the interaction manager (SimpleDS) takes the latest speech and game moves, builds
 the state, acts greedily with the trained policy among the acts the Naive Bayes mask offers,
 and verbalises the act through the templates; a GameMove also moves the arm, and the next
-utterance waits until the arm is done. `[robot] manager` (`oxbot play --manager`) may put the
-baselines the policy is compared with in its place (`oxbot.dialogue.baselines`: the rules, the
-script), their scores in the Q-values' place.
+utterance waits until the arm is done. The policy is any `oxbot.dialogue.policy.Policy`:
+`[robot] policy` (`oxbot play --policy`) names another trained one (an oxbot policy file, an
+SB3 model), and `[robot] manager` (`oxbot play --manager`) may put the baselines the policy is
+compared with in its place (`oxbot.dialogue.baselines`: the rules, the script), their scores in
+the Q-values' place.
 
 One turn here is what one environment step is in training (`oxbot.dialogue.env`): the robot
 says an act (and for a GameMove then draws it), then listens for the person's answer — their
@@ -70,8 +72,6 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from oxbot.config import OxbotConfig, RobotConfig
-from oxbot.dialogue.agent import masked_argmax
-from oxbot.dialogue.baselines import Manager, load_manager
 from oxbot.dialogue.cells_in_words import MoveHeard, move_in_words, read_cell
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -92,6 +92,7 @@ from oxbot.dialogue.domain import (
     words_of,
 )
 from oxbot.dialogue.model import build_dialogue_model
+from oxbot.dialogue.policy import Policy, choose
 from oxbot.dialogue.state import DialogueState, Turn
 from oxbot.dialogue.understanding import UserAct
 from oxbot.game.board import (
@@ -108,6 +109,7 @@ from oxbot.game.board import (
     cell_index,
     symbol_of,
 )
+from oxbot.peers import load_robot_policy
 from oxbot.robot.bus import Bus, Component
 from oxbot.robot.messages import (
     ArmCommand,
@@ -231,7 +233,7 @@ class InteractionManagerComponent(Component):
     def __init__(
         self,
         bus: Bus,
-        policy: Manager | None = None,
+        policy: Policy | None = None,
         config: OxbotConfig | None = None,
         understand: Understand | None = None,
         rng: np.random.Generator | None = None,
@@ -240,7 +242,7 @@ class InteractionManagerComponent(Component):
         super().__init__(bus, name)
         self.config = config if config is not None else OxbotConfig()
         self.model = build_dialogue_model(self.config)
-        self.policy = policy if policy is not None else load_manager(self.config.robot.manager)
+        self.policy = policy if policy is not None else load_robot_policy(self.config)
         self.rng = rng if rng is not None else np.random.default_rng()
         self._understand = understand or self.model.understanding.intent_of
         domain = self.model.domain
@@ -363,8 +365,7 @@ class InteractionManagerComponent(Component):
         """Choose the next act greedily among the offered ones, and start saying it."""
         obs = self.state.encode()
         _, mask = self.state.offered()
-        q = self.policy.q_values(obs[None])[0]
-        action = int(masked_argmax(q, mask))
+        action, q = choose(self.policy, obs, mask)
         self.bus.publish(
             Decision(
                 offered=tuple(a for a, m in zip(SYSTEM_ACTS, mask, strict=True) if m),
