@@ -333,6 +333,7 @@ class InteractionManagerComponent(Component):
         for name in (
             "_moved_since",
             "_spoke_since",
+            "_heard_act",
             "_speaking",
             "_arm_cell",
             "_rematch",
@@ -349,6 +350,7 @@ class InteractionManagerComponent(Component):
         self.state: DialogueState = self.model.new_state(robot_starts)
         self._moved_since = False
         self._spoke_since = False
+        self._heard_act = ""  # the act of the person's last words
         self._speaking = ""
         self._arm_cell: int | None = None
         self._rematch = False
@@ -429,8 +431,16 @@ class InteractionManagerComponent(Component):
         else:
             wait = self.timing.answer_timeout
         self._deadline = time.monotonic() + wait / self.timing.speed_factor
-        if self._moved_since or (self._spoke_since and not self._expects_move()):
+        if self._moved_since or (self._spoke_since and self._words_need_an_answer()):
             self._decide()  # the answer came while the robot was still busy
+
+    def _words_need_an_answer(self) -> bool:
+        """Whether words heard while the robot was busy are answered now: always, except while
+        it waits for a move, where only a stop or a goodbye is ("stop" said over "Your move");
+        chatter then needs no second request for the move."""
+        if not self._expects_move():
+            return True
+        return self._heard_act in (STOP, CLOSING) or self._heard_act in REFUSALS
 
     def _expects_move(self) -> bool:
         return (
@@ -486,7 +496,7 @@ class InteractionManagerComponent(Component):
                 reading = dataclasses.replace(reading, act=STOP)
         self.state.person_says(reading.act, text, words, (reading.act, reading.score))
         self._publish_turn("usr", reading.act, text)
-        self._spoke_since = True
+        self._spoke_since, self._heard_act = True, reading.act
         self._unanswered_in_a_row = 0
         if self.phase is Phase.LISTENING and not (
             self._expects_move() and is_game_move(reading.act)
