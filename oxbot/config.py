@@ -85,7 +85,7 @@ class PerceptionConfig:
     partial_output: bool = False
     """oxbot: (experimental) train a fourth output, "partial", for ink that is not a
     whole symbol. Off: the paper's three outputs, as shipped. On, the retrained model read 99.2%
-    of generated cells (SPEC §1 asks 99.9%), 98.5% of another hand's (99.5%) and all 9 cells of
+    of generated cells (oxbot's goal: 99.9%), 98.5% of another hand's (99.5%) and all 9 cells of
     94.0% of held-out boards (98.5% with three outputs)."""
     wholeness: bool = True
     """oxbot: the board reader reads a circle or cross whose ink is not whole as

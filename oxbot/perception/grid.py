@@ -2,7 +2,7 @@
 
 Paper §3.1 "Game Move Recognition": grayscale → remove the grid → split into 9 images. The
 paper's arm camera saw a fixed grid from a fixed pose; here the grid may be anywhere in view,
-turned up to 45° (SPEC §2 asks only ±15°) and in perspective, so it is found first, in
+turned up to 45° (oxbot's goal asks only ±15°) and in perspective, so it is found first, in
 stages, each in its own module:
 
 1. *Ink* (`ink.py`): pixels clearly darker than the paper around them in any colour channel,

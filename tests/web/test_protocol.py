@@ -60,8 +60,10 @@ def test_a_taken_port_is_a_clear_error_not_uvicorns():
         taken.listen()
         port = taken.getsockname()[1]
         config = load_config(None, [f"web.port={port}"])
-        with pytest.raises(ConfigError, match=f"port {port} on 127.0.0.1 is already in use"):
+        with pytest.raises(ConfigError, match=f"port {port} on 127.0.0.1 is already in use") as e:
             serve(config)
+        # `oxbot` is not on PATH in a clone: the hint runs as pasted
+        assert f"`.venv/bin/oxbot play --port {port + 1}`" in str(e.value)
 
 
 def test_each_tab_is_its_own_session_and_ends_cleanly(server_url, ws_url):

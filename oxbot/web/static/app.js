@@ -611,7 +611,7 @@ function stopCamera() {
 
 // --- what the robot sees ------------------------------------------------------------------
 
-// SPEC §5's `cells`: the robot's current reading of each cell, "partial" for ink that is not
+// The page's public `cells`: the robot's current reading of each cell, "partial" for ink that is not
 // a whole symbol yet
 const CELL_MARKS = { circle: "O", cross: "X", nothing: "", partial: "~" };
 function showCells(d) {
