@@ -6,6 +6,7 @@ import asyncio
 import base64
 import io
 import json
+import re
 import socket
 import threading
 import time
@@ -48,6 +49,9 @@ def test_page_has_the_spec_hooks_and_its_files(server_url):
     for name in ("app.js", "style.css", "tap.js"):
         assert httpx.get(f"{server_url}/static/{name}").status_code == 200
     assert httpx.get(f"{server_url}/static/secret.py").status_code == 404
+    # its own icon, inline: no request for a /favicon.ico the server does not have
+    icon = re.search(r'<link rel="icon" [^>]*href="data:image/svg\+xml,(.+?)"', page)
+    assert icon and "%3Csvg" in icon.group(1)
 
 
 def test_server_binds_to_localhost_unless_told_otherwise():

@@ -230,6 +230,9 @@ const handlers = {
     } else if (d.speaker === "sys" && d.act !== acts.problem) {
       $("turn").textContent = "";
     }
+    // the robot has moved on: what it said of the sheet is past (the log keeps it), and a
+    // camera's guidance is shown again while it lasts
+    if (d.act !== acts.problem && !paper.guiding) showProblem("");
     // the box shows what the robot said of the sheet; the tracker's reason stays in the log
     if (d.speaker === "sys" && d.act === acts.problem) showProblem(d.text);
   },
@@ -781,6 +784,8 @@ function setPaper(on) {
   $("paper-view").hidden = !on; $("camera-pick").hidden = !on;
   $("sheet").hidden = on; $("undo").hidden = on; $("guidance").hidden = true;
   $("paper-hint").hidden = !on || !$("paper-hint").textContent;
+  $("sees-source").textContent = on ? "the camera's picture of the paper, ten times a second"
+    : "the sheet the page sends each time the pen lifts";
   drawPaperOverlay();
   if (on !== was) send({ type: "paper", on });
   if (!on && was) { drawPaperMoves(); state.dirty = true; sendFrame(); }  // the canvas again
