@@ -16,7 +16,8 @@ rate). The terminal (`oxbot play --terminal`), the web page (`oxbot play`) and t
 the same Robot; each browser tab has its own. The Robot talks to its components only through
 messages on its bus, and learns the board and the dialogue from them too. Components that load
 models (the classifier, the recogniser, the policy) share one copy per process. `[robot] manager`
-picks the policy: the trained DQN, or the rules or the script it is compared with.
+picks the policy: the trained DQN, or the rules or the script it is compared with; `[robot]
+policy` another trained one, and `[dialogue] domain` another domain (docs/extending.md).
 
 The components run under a `Supervisor` (oxbot.robot.bus, with the `[robot]` restart budget and
 hang deadline): a part that fails is restarted, a hung one replaced, and one lost for good is
