@@ -1,6 +1,7 @@
 """docs/extending.md's worked examples, run as written with smaller budgets: a policy trained in
 a fresh folder, a domain with a new phrase and a MaskablePPO model each play a game through
-`oxbot play --policy` (in the terminal, answers typed), and a body joins the robot's bus."""
+`oxbot play --policy` (in the terminal, answers typed; the MaskablePPO model on the page too),
+and a body joins the robot's bus."""
 
 import contextlib
 import io
@@ -120,7 +121,10 @@ def test_a_maskable_ppo_model_plays_through_the_adapter(tmp_path, monkeypatch):
 
     train, own_policy = code(3, "python")
     monkeypatch.chdir(tmp_path)
-    exec(train.replace("20_000", "2_048"), {})
+    from oxbot.torch_threads import one_thread
+
+    with one_thread():  # small networks are faster unshared, above all on a busy machine
+        exec(train.replace("20_000", "2_048"), {})
     *others, play_line = shell_lines(3)
     for line in others:
         run_shell(line, tmp_path)
@@ -128,9 +132,27 @@ def test_a_maskable_ppo_model_plays_through_the_adapter(tmp_path, monkeypatch):
     policy = manager_of(robot).policy
     assert isinstance(policy, SB3Policy) and policy.algorithm == "maskable_ppo"
     played_a_game(robot, "yes let's play")
+    plays_on_the_page(tmp_path / "runs" / "ppo.zip")
     scope = {}
     exec(own_policy, scope)
     assert isinstance(manager_of(scope["robot"]).policy, scope["FirstOffered"])
+
+
+def plays_on_the_page(policy: Path) -> None:
+    """The page's game (a scripted person over its WebSocket) with `[robot] policy`."""
+    import asyncio
+
+    from oxbot.config import with_overrides
+    from oxbot.testing.player import play_game
+    from tests.web.conftest import FAST, running_server
+
+    config = with_overrides(FAST, {"robot": {"policy": str(policy), "speed_factor": 20}})
+    with running_server(config=config) as url:
+        # a weak policy may never say goodbye: 12 s of its game are enough to see it play
+        record = asyncio.run(play_game(url.replace("http://", "ws://") + "/ws", timeout=12))
+    assert not record.errors, record.errors
+    assert ("usr", "Confirm(playGame=yes)") in [(s, a) for s, a, _ in record.transcript]
+    assert record.robot_cells, record.transcript  # it drew
 
 
 def test_a_body_on_the_bus_follows_the_robots_strokes():
