@@ -328,6 +328,7 @@ def test_ink_that_is_not_a_whole_symbol_is_named_in_words_and_is_no_move(page: P
             # the red box holds the robot's words, not the tracker's technical reason
             assert tab.locator("#problem").inner_text() == told[-1]
             assert tab.evaluate("window.oxbot.stats.moves.length") == 0
+            assert tab.get_by_test_id("agreeing").is_hidden()  # no stream to agree on a canvas
             tab.screenshot(path=ARTIFACTS / "07-unclear-ink.png", full_page=True)
 
             # the dialogue moves on (the person asks something): the red box does not stay

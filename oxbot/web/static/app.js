@@ -788,6 +788,7 @@ function setPaper(on) {
   $("paper-view").hidden = !on; $("camera-pick").hidden = !on;
   $("sheet").hidden = on; $("undo").hidden = on; $("guidance").hidden = true;
   $("paper-hint").hidden = !on || !$("paper-hint").textContent;
+  $("agreeing").hidden = !on;  // readings agree on the camera's stream; a canvas is read once
   $("sees-source").textContent = on ? "the camera's picture of the paper, ten times a second"
     : "the sheet the page sends each time the pen lifts";
   drawPaperOverlay();
