@@ -143,8 +143,8 @@ def find_grid(frame: np.ndarray) -> Grid:
     best = best_grid(lines, strokes, min_spacing, short / 2, center)
     if best is None:
         raise NoGridFound(
-            "no 3x3 grid in view: no two pairs of crossing pen lines run across a whole grid; "
-            "keep all four lines of the grid in the picture"
+            "no 3x3 grid in view: I see lines, but not the four lines of a whole grid; keep "
+            "all of the grid in the picture"
         )
     four, support = best
     # The fits below look only at ink near the four lines, a small part of all the ink.
