@@ -57,3 +57,35 @@ def test_chatter_over_your_move_does_not_make_the_robot_ask_again():
     hand.say("yes let's play")
     person_draws(hand)
     assert speak_until_move_request(hand, "what time is it") == []
+
+
+def test_the_whole_robot_acts_on_a_stop_said_over_your_move_within_a_second():
+    import time
+
+    from oxbot.config import load_config
+    from oxbot.robot.messages import DialogueAct
+    from oxbot.robot.session import Robot
+
+    # waits a quarter as long: the move timeout (7.5 s) far longer than the second allowed
+    config = load_config(None, ["robot.speed_factor=4"])
+    with Robot(config, seed=2) as robot:
+        events = robot.bus.subscribe(Utterance, SpeakingFinished, DialogueAct)
+        robot.say("yes let's play")  # kept until the robot asks
+        asking, said_at, deadline = None, None, time.monotonic() + 60
+        while time.monotonic() < deadline:
+            message = events.get(timeout=0.05)
+            if isinstance(message, Utterance) and message.act == MOVE_REQUEST and not asking:
+                asking = message.text
+                robot.say("I want to stop")  # while the robot says "Your move"
+            elif isinstance(message, SpeakingFinished) and message.text == asking:
+                said_at = time.monotonic()
+            elif (
+                isinstance(message, DialogueAct)
+                and said_at is not None
+                and message.speaker == "sys"
+            ):
+                answered = (message.act, time.monotonic() - said_at)
+                break
+        else:
+            raise AssertionError(f"no answer to the stop (asked: {asking!r})")
+    assert answered[0] == GRANT_STOP and answered[1] <= 1.0, answered
