@@ -18,3 +18,25 @@ def test_the_docs_and_the_readme_cite_nothing_outside_the_repository():
 
 def test_oxbot_config_cites_nothing_outside_the_repository():
     assert not OUTSIDE.search(to_toml(OxbotConfig()))
+
+
+def test_every_oxbot_command_in_the_how_tos_names_options_that_exist():
+    import shlex
+
+    from typer.testing import CliRunner
+
+    from oxbot.cli import app
+
+    lines = [
+        part.strip()
+        for doc in ("robot.md", "perception.md", "extending.md", "dialogue.md")
+        for block in re.findall(r"```sh\n(.*?)```", (ROOT / "docs" / doc).read_text(), re.S)
+        for line in block.splitlines()
+        for part in line.split("#")[0].split("&&")
+        if part.strip().startswith(".venv/bin/oxbot ")
+    ]
+    assert len(lines) > 20
+    for line in lines:
+        # --help last: the options before it are parsed (an unknown one fails), nothing runs
+        result = CliRunner().invoke(app, [*shlex.split(line)[1:], "--help"])
+        assert result.exit_code == 0 and "Usage:" in result.output, f"{line}\n{result.output}"
