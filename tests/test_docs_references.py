@@ -1,5 +1,5 @@
-"""The docs, the README and `oxbot config` cite only what a clone has: no paper source, spec
-or issue kept outside the repository."""
+"""The docs, the README, the package and `oxbot config` cite only what a clone has: no paper
+source, spec or issue kept outside the repository; and the docs' commands exist."""
 
 import re
 from pathlib import Path
@@ -14,6 +14,14 @@ def test_the_docs_and_the_readme_cite_nothing_outside_the_repository():
     for path in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
         for n, line in enumerate(path.read_text().splitlines(), 1):
             assert not OUTSIDE.search(line), f"{path.name}:{n}: {line}"
+
+
+def test_the_package_cites_nothing_outside_the_repository():
+    suffixes = {".py", ".js", ".html", ".txt", ".toml", ".md"}
+    for path in sorted((ROOT / "oxbot").rglob("*")):
+        if path.suffix in suffixes:
+            for n, line in enumerate(path.read_text().splitlines(), 1):
+                assert not OUTSIDE.search(line), f"{path.relative_to(ROOT)}:{n}: {line}"
 
 
 def test_oxbot_config_cites_nothing_outside_the_repository():
