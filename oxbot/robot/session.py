@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
 import threading
 from collections.abc import Callable, Sequence
 
@@ -84,12 +85,14 @@ def shared_policy(manager: str = "dqn", config: OxbotConfig | None = None) -> Po
     `[robot] policy` and `[dialogue] domain` (`oxbot.peers.load_robot_policy`), loaded once
     per process."""
     config = config if config is not None else OxbotConfig()
-    return _loaded_policy(manager, config.robot.policy, config.dialogue, config.reward)
+    # the folder too: `policy` and `[dialogue] domain` may be paths relative to it
+    where = os.getcwd()
+    return _loaded_policy(manager, config.robot.policy, config.dialogue, config.reward, where)
 
 
 @functools.cache
 def _loaded_policy(
-    manager: str, policy: str, dialogue: DialogueConfig, reward: RewardConfig
+    manager: str, policy: str, dialogue: DialogueConfig, reward: RewardConfig, where: str
 ) -> Policy:
     from oxbot.peers import load_robot_policy
 
