@@ -436,7 +436,7 @@ class InteractionManagerComponent(Component):
 
     def _words_need_an_answer(self) -> bool:
         """Whether words heard while the robot was busy are answered now: always, except while
-        it waits for a move, where only a stop or a goodbye is ("stop" said over "Your move");
+        it waits for a move, where only a stop, a no or a goodbye is ("stop" over "Your move");
         chatter then needs no second request for the move."""
         if not self._expects_move():
             return True
