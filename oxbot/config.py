@@ -85,7 +85,7 @@ class PerceptionConfig:
     partial_output: bool = False
     """oxbot: (experimental) train a fourth output, "partial", for ink that is not a
     whole symbol. Off: the paper's three outputs, as shipped. On, the retrained model read 99.2%
-    of generated cells (SPEC §1 asks 99.9%), 98.5% of another hand's (99.5%) and all 9 cells of
+    of generated cells (oxbot's goal: 99.9%), 98.5% of another hand's (99.5%) and all 9 cells of
     94.0% of held-out boards (98.5% with three outputs)."""
     wholeness: bool = True
     """oxbot: the board reader reads a circle or cross whose ink is not whole as
@@ -378,6 +378,11 @@ class DialogueConfig:
     """oxbot: JSON {act: {phrasing: weight}}: the simulated person says an act's
     phrasings in these proportions (others of the act weigh 1); `oxbot learn agent` fits it to
     recorded dialogues. Empty: every phrasing of an act equally often."""
+    domain: str = ""
+    """oxbot: a folder of domain files (`dialogues.txt`, `templates.txt`, `user_responses.txt`,
+    optionally `user_phrases.txt`) to train, evaluate and play with (`--domain`); empty: the
+    shipped one, oxbot/data/dialogue. New words give the state another feature layout, so a
+    policy must be trained on it (docs/extending.md)."""
 
     def __post_init__(self) -> None:
         for name in (
@@ -457,6 +462,10 @@ class RobotConfig:
     """oxbot: who decides what the robot says and where it draws: "dqn" (the trained policy, as
     in the paper), "rules" (a hand-written finite-state manager) or "script" (the action model's
     most probable act); the last two are baselines for comparison."""
+    policy: str = ""
+    """oxbot: the policy the "dqn" manager plays with (`oxbot play --policy`): a policy file
+    `oxbot train agent` wrote, the folder it wrote it in, or a Stable-Baselines3 DQN or
+    sb3-contrib MaskablePPO model's .zip; empty: the shipped oxbot/data/models/agent.pt."""
     answer_timeout: float = 4.0
     """oxbot: seconds to wait for an optional answer (to a greeting, say) before taking silence."""
     question_timeout: float = 30.0
@@ -500,6 +509,11 @@ class RobotConfig:
             raise ConfigError(
                 f"{_where(self, 'manager')} is {self.manager!r}; "
                 f"choose one of {', '.join(MANAGERS)}"
+            )
+        if self.policy and self.manager != "dqn":
+            raise ConfigError(
+                f'{_where(self, "policy")} is a trained policy, played by the "dqn" manager; '
+                f"leave it empty with manager = {self.manager!r}"
             )
         if not 0 <= self.restart_backoff <= self.restart_backoff_max:
             raise ConfigError(

@@ -6,9 +6,16 @@
   environment's action mask) on `oxbot/NoughtsAndCrosses-v0`, trained for a wall-clock budget
   against the same opponents and who-starts conditions as oxbot's agent (`train_peer_agent`).
   Both are evaluated with `oxbot.dialogue.evaluation.evaluate`, oxbot's own protocol.
+- Playing on the robot: `SB3Policy` makes a saved SB3 DQN or MaskablePPO model the robot's
+  `oxbot.dialogue.policy.Policy`, and `load_robot_policy` loads whichever policy the config
+  names (`oxbot play --policy model.zip`).
 
-    peer = train_peer_agent("dqn", config, budget_s=240)
-    peer.evaluations[-1]["results"]["minimax/person"]["loss_rate"]
+>>> from oxbot.config import OxbotConfig
+>>> peer = train_peer_agent("dqn", OxbotConfig(), budget_s=1, eval_every_s=1, eval_games=2)
+>>> peer.evaluations[-1]["results"]["minimax/person"]["games"]
+2
+>>> SB3Policy(peer.model).algorithm
+'dqn'
 """
 
 from __future__ import annotations
@@ -17,6 +24,7 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -25,8 +33,13 @@ import numpy as np
 from oxbot.config import OxbotConfig, opponent_mix, who_starts
 from oxbot.dialogue import ENV_ID
 from oxbot.dialogue.agent import greedy_batch_policy
+from oxbot.dialogue.baselines import load_manager
+from oxbot.dialogue.domain import N_ACTIONS
 from oxbot.dialogue.evaluation import CONDITIONS, Policy, condition_key, evaluate
-from oxbot.errors import ConfigError
+from oxbot.dialogue.model import build_dialogue_model
+from oxbot.dialogue.policy import Policy as RobotPolicy
+from oxbot.dialogue.policy import retrain_advice
+from oxbot.errors import ConfigError, ModelFileError
 from oxbot.game.opponents import make_opponent
 from oxbot.perception.synth import LABELS
 
@@ -322,3 +335,90 @@ def peer_settings(algorithm: str, model: Any) -> dict[str, Any]:
         settings[name] = value if isinstance(value, int | float | str | None) else str(value)
     settings["net_arch"] = list(model.policy_kwargs.get("net_arch", []))
     return settings
+
+
+# --- playing on the robot: a saved SB3 model as the robot's policy ------------------------
+
+
+class SB3Policy:
+    """A Stable-Baselines3 DQN or sb3-contrib MaskablePPO model as the robot's policy
+    (`oxbot.dialogue.policy.Policy`), greedy over the offered acts as in `peer_batch_policy`;
+    a DQN's Q-values are its scores on the page."""
+
+    def __init__(self, model: Any) -> None:
+        self.model = model
+        self.algorithm = "dqn" if hasattr(model, "q_net") else "maskable_ppo"
+        self.act_batch = peer_batch_policy(self.algorithm, model)
+
+    def act(self, observation: np.ndarray, mask: np.ndarray) -> int:
+        """The model's act in `observation` among those `mask` offers."""
+        batch = self.act_batch(np.asarray(observation, np.float32)[None], np.asarray(mask)[None])
+        return int(batch[0])
+
+    def q_values(self, states: np.ndarray) -> np.ndarray:
+        """A DQN's Q-values (N, N_ACTIONS); MaskablePPO's log-probabilities of each act."""
+        import torch
+
+        x = torch.as_tensor(np.asarray(states, np.float32))
+        with torch.inference_mode():
+            if self.algorithm == "dqn":
+                return self.model.q_net(x).numpy()
+            return self.model.policy.get_distribution(x).distribution.logits.numpy()
+
+
+def load_sb3_policy(path: str | Path, n_features: int, advice: str = "") -> SB3Policy:
+    """The SB3 DQN or MaskablePPO model saved at `path` (`model.save`), checked to fit the
+    domain's `n_features` state features and oxbot's acts; else `ModelFileError` with `advice`.
+
+    Loading an SB3 file unpickles it: load only models you trust (your own)."""
+    path = Path(path)
+    algorithm = sb3_algorithm(path)
+    if algorithm == "dqn":
+        from stable_baselines3 import DQN as Algorithm
+    else:
+        from sb3_contrib import MaskablePPO as Algorithm
+    model = Algorithm.load(path, device="cpu")
+    shape, actions = model.observation_space.shape, getattr(model.action_space, "n", None)
+    if shape != (n_features,) or actions != N_ACTIONS:
+        raise ModelFileError(
+            f"{path} was trained on {shape} observations and {actions} acts; the robot's domain "
+            f"has ({n_features},) and {N_ACTIONS}: train it on this domain's environment "
+            f"(docs/extending.md){'; or ' + advice if advice else ''}"
+        )
+    return SB3Policy(model)
+
+
+def sb3_algorithm(path: Path) -> str:
+    """Which peer a saved SB3 file holds ("dqn" or "maskable_ppo"), from its policy class;
+    `ModelFileError` if it is neither or no SB3 file."""
+    import json
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+        module = str(data["policy_class"]["__module__"])
+    except (OSError, KeyError, TypeError, ValueError, zipfile.BadZipFile) as exc:
+        raise ModelFileError(
+            f"{path} is not a Stable-Baselines3 model file ({type(exc).__name__}); save one with "
+            "model.save(path)"
+        ) from None
+    if module.startswith("stable_baselines3.dqn"):
+        return "dqn"
+    if module.startswith("sb3_contrib.common.maskable"):
+        return "maskable_ppo"
+    raise ModelFileError(
+        f"{path} holds a {module} policy; the robot plays SB3's DQN or sb3-contrib's MaskablePPO"
+    )
+
+
+def load_robot_policy(config: OxbotConfig, manager: str | None = None) -> RobotPolicy:
+    """The policy the robot plays with: `[robot] manager` (or `manager`) and, for the DQN,
+    `[robot] policy` (an oxbot policy file or its folder, or an SB3 model's .zip; the shipped
+    policy when empty), for the feature layout of `[dialogue] domain`."""
+    name = manager or config.robot.manager
+    path = config.robot.policy
+    if name == "dqn" and path and Path(path).suffix == ".zip":
+        n_features = len(build_dialogue_model(config).layout.names)
+        return load_sb3_policy(path, n_features, retrain_advice(config.dialogue.domain))
+    return load_manager(name, config, Path(path) if path else None)

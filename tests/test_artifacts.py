@@ -207,7 +207,9 @@ def _write_raw(path, kind, version, body):
 
 def test_a_folder_or_a_missing_file_is_refused(tmp_path):
     with pytest.raises(ModelFileError, match="is a folder"):
-        load_policy(tmp_path)
+        load_classifier(tmp_path)
+    with pytest.raises(ModelFileError, match=r"agent\.pt does not exist"):
+        load_policy(tmp_path)  # a policy's folder: the agent.pt `train agent --out` writes
     with pytest.raises(ModelFileError, match="does not exist; retrain it with `oxbot train"):
         load_classifier(tmp_path / "none.pt")
 

@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 
 from oxbot.cli.context import config_of, resumable
-from oxbot.config import who_starts
+from oxbot.config import OxbotConfig, who_starts, with_overrides
 
 
 def train_agent_command(
@@ -29,25 +29,43 @@ def train_agent_command(
             "new policy's metrics)."
         ),
     ] = None,
+    domain: Annotated[
+        str | None,
+        typer.Option(help="Train on this folder of domain files (default: the shipped domain)."),
+    ] = None,
 ) -> None:
     """Train the DQN interaction manager against the user simulator (agent config section)."""
     from oxbot.dialogue.agent import load_policy
+    from oxbot.dialogue.model import build_dialogue_model
+    from oxbot.dialogue.policy import play_command, retrain_advice
     from oxbot.dialogue.training import train_agent
 
-    start = load_policy(init_from) if init_from is not None else None
+    config = with_domain(config_of(ctx), domain)
+    start = None
+    if init_from is not None:
+        names = build_dialogue_model(config).layout.names
+        start = load_policy(init_from, names, retrain_advice(config.dialogue.domain, str(out)))
     again = ["train", "agent", "--out", str(out), "--resume"]
+    if domain is not None:
+        again += ["--domain", domain]
     if init_from is not None:
         again += ["--init-from", str(init_from)]
     with resumable(ctx, again):
-        result = train_agent(
-            config_of(ctx), out, resume=resume, show_progress=not quiet, init_from=start
-        )
+        result = train_agent(config, out, resume=resume, show_progress=not quiet, init_from=start)
     m = result.metrics
     typer.echo(
         f"trained on {m['experiences']} experiences ({m['games']} games) in "
         f"{m['wall_clock_s']:.0f} s; wrote {out}/agent.pt, agent_metrics.json, "
-        "agent_reward.png, agent_win_draw.png"
+        f"agent_reward.png, agent_win_draw.png; play with it: "
+        f"{play_command(config.dialogue.domain, str(out / 'agent.pt'))}"
     )
+
+
+def with_domain(config: OxbotConfig, domain: str | None) -> OxbotConfig:
+    """`config` with `--domain` in `[dialogue] domain`, when given."""
+    if domain is None:
+        return config
+    return with_overrides(config, {"dialogue": {"domain": domain}})
 
 
 def evaluate_agent_command(
@@ -65,7 +83,15 @@ def evaluate_agent_command(
     show: Annotated[int, typer.Option(help="Print this many transcripts like Figure 1.")] = 0,
     policy_file: Annotated[
         Path | None,
-        typer.Option("--policy", help="The DQN's policy file (default: the shipped one)."),
+        typer.Option(
+            "--policy",
+            help="The DQN's policy file or its folder, or an SB3 DQN / MaskablePPO model's .zip "
+            "(default: the shipped one).",
+        ),
+    ] = None,
+    domain: Annotated[
+        str | None,
+        typer.Option(help="A folder of domain files (default: the shipped domain)."),
     ] = None,
     manager: Annotated[
         str,
@@ -87,10 +113,10 @@ def evaluate_agent_command(
     dialogues."""
     import json
 
-    from oxbot.dialogue.baselines import load_manager
     from oxbot.dialogue.evaluation import evaluate, format_transcript
     from oxbot.errors import ConfigError
     from oxbot.game.opponents import OPPONENTS
+    from oxbot.peers import load_robot_policy
 
     names = list(OPPONENTS) if opponent == "all" else [opponent]
     if any(n not in OPPONENTS for n in names):
@@ -100,14 +126,17 @@ def evaluate_agent_command(
         raise ConfigError(f"--games is {games}; play at least one game")
     if policy_file is not None and manager != "dqn":
         raise ConfigError(f"--policy is a DQN's file; leave it out with --manager {manager}")
-    policy = load_manager(manager, config_of(ctx), policy_file)
+    config = with_domain(config_of(ctx), domain)
+    if policy_file is not None:
+        config = with_overrides(config, {"robot": {"policy": str(policy_file)}})
+    policy = load_robot_policy(config, manager)
     results = [
         evaluate(
             policy.act_batch,
             name,
             start,
             games,
-            config_of(ctx),
+            config,
             seed=seed,
             keep_transcripts=show,
             cooperative=cooperative,

@@ -86,11 +86,26 @@ def play(
             "(the baselines it is compared with); default: config."
         ),
     ] = None,
+    policy: Annotated[
+        str | None,
+        typer.Option(
+            help="The trained policy to play with: a file (or the folder) `oxbot train agent "
+            "--out` wrote, or an SB3 DQN / MaskablePPO model's .zip (default: the shipped one)."
+        ),
+    ] = None,
+    domain: Annotated[
+        str | None,
+        typer.Option(
+            help="A folder of domain files (dialogues.txt, templates.txt, user_responses.txt) "
+            "to play instead of the shipped one; its policy must be trained on it."
+        ),
+    ] = None,
 ) -> None:
     """Play with the whole robot: the web page at http(s)://HOST:PORT, or --terminal."""
     changes = {
         "game": {"robot_starts": robot_starts},
-        "robot": {"speed_factor": speed, "manager": manager},
+        "robot": {"speed_factor": speed, "manager": manager, "policy": policy},
+        "dialogue": {"domain": domain},
         "web": {"host": host, "port": port, "https": {True: "on", False: "off"}.get(https)},
     }
     config = with_overrides(
@@ -100,6 +115,9 @@ def play(
             for section, values in changes.items()
         },
     )
+    from oxbot.robot.session import shared_policy
+
+    shared_policy(config.robot.manager, config)  # a policy that does not fit: said before serving
     if terminal:
         from oxbot.perception.sources import open_source
         from oxbot.robot.session import Robot

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import gymnasium
 
 from oxbot.dialogue.env import InteractiveGameEnv
+from oxbot.dialogue.policy import Policy
 
 if TYPE_CHECKING:
     from oxbot.dialogue.agent import DQNPolicy, load_policy
@@ -27,7 +28,7 @@ ENV_ID = "oxbot/NoughtsAndCrosses-v0"
 if ENV_ID not in gymnasium.registry:
     gymnasium.register(id=ENV_ID, entry_point="oxbot.dialogue.env:InteractiveGameEnv")
 
-__all__ = ["ENV_ID", "DQNPolicy", "InteractiveGameEnv", "load_policy"]
+__all__ = ["ENV_ID", "DQNPolicy", "InteractiveGameEnv", "Policy", "load_policy"]
 
 
 def __getattr__(name: str) -> Any:

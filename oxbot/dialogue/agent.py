@@ -28,6 +28,7 @@ from torch import nn
 
 from oxbot import artifacts
 from oxbot.dialogue.domain import GAME_MOVES, N_ACTIONS, SYSTEM_ACTS
+from oxbot.dialogue.policy import retrain_advice
 from oxbot.errors import ModelFileError
 
 POLICY_FORMAT = "oxbot-dqn-policy/1"
@@ -158,14 +159,20 @@ def shipped_policy_path() -> Path:
 
 
 def load_policy(
-    path: str | Path | None = None, feature_names: Sequence[str] | None = None
+    path: str | Path | None = None,
+    feature_names: Sequence[str] | None = None,
+    advice: str | None = None,
 ) -> DQNPolicy:
-    """The shipped trained policy, or the one at `path`; no training step.
+    """The shipped trained policy, or the one at `path` (a file, or the folder `oxbot train
+    agent --out` wrote it in); no training step.
 
     The file must have been trained on the same feature layout as the environment's (the
-    shipped domain's unless `feature_names` is given); otherwise `ModelFileError`.
+    shipped domain's unless `feature_names` is given); otherwise `ModelFileError`, saying
+    `advice` (what to run; by default, how to train for the shipped domain).
     """
     path = Path(path) if path is not None else shipped_policy_path()
+    if path.is_dir():
+        path = path / SHIPPED_POLICY
     if feature_names is None:
         from oxbot.dialogue.model import shipped_dialogue_model
 
@@ -190,8 +197,8 @@ def load_policy(
         extra = sorted(set(saved) - set(feature_names))[:5]
         raise ModelFileError(
             f"policy file {path} was trained on another feature layout ({len(saved)} features, "
-            f"the environment has {len(feature_names)}; missing {missing}, unknown {extra}); "
-            "retrain it with `oxbot train agent`"
+            f"the domain has {len(feature_names)}; missing {missing}, unknown {extra}): "
+            f"{advice or retrain_advice()}"
         )
     if actions != SYSTEM_ACTS:
         raise ModelFileError(f"policy file {path} was trained on other acts; retrain it")

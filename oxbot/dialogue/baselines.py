@@ -55,6 +55,7 @@ from oxbot.dialogue.env import InteractiveGameEnv
 from oxbot.dialogue.evaluation import Policy
 from oxbot.dialogue.features import DIALOGUE_FLAGS, HEARD_ACTS, FeatureLayout
 from oxbot.dialogue.model import DialogueModel, build_dialogue_model
+from oxbot.dialogue.policy import retrain_advice
 from oxbot.dialogue.wellformed import SURE_NO
 from oxbot.errors import ConfigError
 from oxbot.game.board import EMPTY, N_CELLS, ROBOT, USER, Board, outcome, play
@@ -312,13 +313,16 @@ def load_manager(
     name: str = "dqn", config: OxbotConfig | None = None, policy_file: Path | None = None
 ) -> Manager:
     """An interaction manager by name (`oxbot.config.MANAGERS`): "dqn", the trained policy
-    (the shipped one, or `policy_file`); "rules", `RuleBasedManager`; "script",
-    `ScriptedManager`; the last two over the dialogue model of `config`."""
+    (the shipped one, or `policy_file`, checked against the feature layout of `config`'s
+    domain); "rules", `RuleBasedManager`; "script", `ScriptedManager`; the last two over the
+    dialogue model of `config`."""
+    config = config if config is not None else OxbotConfig()
     if name == "dqn":
-        return load_policy(policy_file)
+        names = build_dialogue_model(config).layout.names
+        return load_policy(policy_file, names, retrain_advice(config.dialogue.domain))
     if name not in MANAGERS:
         raise ConfigError(f"unknown manager {name!r}; choose one of {', '.join(MANAGERS)}")
-    model = build_dialogue_model(config if config is not None else OxbotConfig())
+    model = build_dialogue_model(config)
     return RuleBasedManager(model) if name == "rules" else ScriptedManager(model)
 
 

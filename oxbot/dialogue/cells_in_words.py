@@ -1,11 +1,17 @@
 """Cells in words: where a person says they play, typed or heard, as the cell it names.
 
-    read_cell("top left")                 # CellWords(cell=0, ...): the upper left
-    read_cell("I'll take the middle one") # the centre, 4
-    read_cell("row two column three")     # the middle right, 5; "road to column three" too
-    read_cell("number five")              # 4: cells 1-9 row by row, as the terminal numbers them
-    read_cell("I'm left handed")          # None: "left" alone names no cell
-    move_in_words([("top left", 0.8), ("top left please", 0.5), ("stop it", 0.1)])
+>>> read_cell("top left").cell  # the upper left
+0
+>>> read_cell("I'll take the middle one").cell  # the centre
+4
+>>> read_cell("row two column three").cell  # the middle right; "road to column three" too
+5
+>>> read_cell("number five").cell  # cells 1-9 row by row, as the terminal numbers them
+4
+>>> read_cell("I'm left handed") is None  # "left" alone names no cell
+True
+>>> move_in_words([("top left", 0.8), ("top left please", 0.5), ("stop it", 0.1)]).cell
+0
 
 The names are the board's (`oxbot.game.board`: rows upper, middle, lower; columns left, middle,
 right; the centre is the middle), with the words people use for them: top and bottom for the

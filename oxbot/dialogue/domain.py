@@ -43,7 +43,7 @@ from oxbot.game.board import (
 )
 
 # --- the acts, named once ---------------------------------------------------------------------
-# The robot's acts (SPEC §3) other than its moves; the person greets and says goodbye with the
+# The robot's acts other than its moves; the person greets and says goodbye with the
 # same acts as the robot.
 GREETING = "Salutation(greeting)"
 CLOSING = "Salutation(closing)"
@@ -111,12 +111,12 @@ SYSTEM_ACTS: tuple[str, ...] = (
     GRANT_REFUSAL,
     GRANT_STOP,
 )
-"""SPEC §3: the paper's 18 actions, in its order: first a GameMove on each cell (the act's index
+"""The paper's 18 actions, in its order: first a GameMove on each cell (the act's index
 is its cell's), then the rest; oxbot's own acts follow. A new act goes at the end, with its
 templates, its user responses and a seed dialogue that uses it (the action model never offers
 an act no seed dialogue shows)."""
 PAPER_ACTS = SYSTEM_ACTS[:18]
-"""The paper's 18 acts (SPEC §3)."""
+"""The paper's 18 acts."""
 N_ACTIONS = len(SYSTEM_ACTS)
 ACTION_INDEX: dict[str, int] = {act: i for i, act in enumerate(SYSTEM_ACTS)}
 

@@ -50,7 +50,7 @@ what score; `info["person"]` the kind of person
 
 ## Arguments
 
-`opponent`: the person's game strategy, a SPEC §5 callable `f(board) -> cell` or a name
+`opponent`: the person's game strategy, a callable `f(board) -> cell` or a name
 (`random`, `blocker`, `minimax`; default random, seeded by `reset`). `robot_starts`: who draws
 first (with circles). `config`: the `OxbotConfig` (reward, dialogue). `cooperative`: a person
 who always agrees and plays a whole game (recognition noise still on), for measuring game play.

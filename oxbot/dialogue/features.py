@@ -1,6 +1,6 @@
 """The state the interaction manager sees: word features plus game and dialogue context.
 
-Layout (SPEC §3, paper §2.2 "State Space") with the shipped vocabulary of 84 words, 150 features:
+Layout (paper §2.2 "State Space") with the shipped vocabulary of 84 words, 150 features:
 
     index    name                     value
     0-83     word:<w>, vocabulary     system words of the last response: 1 if present; user

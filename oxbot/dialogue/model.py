@@ -1,13 +1,15 @@
 """The dialogue model: a domain and what is learned from it, built once per process.
 
-The domain's vocabulary gives the state's feature layout, its seed dialogues train the Naive
-Bayes action model. `new_state` starts a dialogue read with both, and `template` picks the words
-the robot says an act with. The environment and the interaction manager hold one each.
+The domain (the shipped one, or the folder `[dialogue] domain` names) gives, by its vocabulary,
+the state's feature layout; its seed dialogues train the Naive Bayes action model. `new_state`
+starts a dialogue read with both, and `template` picks the words the robot says an act with.
+The environment and the interaction manager hold one each.
 """
 
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import numpy as np
 
@@ -17,6 +19,7 @@ from oxbot.dialogue.domain import SYSTEM_ACTS, Domain, load_domain
 from oxbot.dialogue.features import FeatureLayout
 from oxbot.dialogue.state import DialogueState
 from oxbot.dialogue.understanding import UserActClassifier
+from oxbot.errors import ConfigError
 
 
 class DialogueModel:
@@ -50,17 +53,30 @@ class DialogueModel:
 
 
 def build_dialogue_model(config: OxbotConfig, domain: Domain | None = None) -> DialogueModel:
-    """The dialogue model of `domain` (the shipped one, built once, when None)."""
+    """The dialogue model of `domain`; when None, of the folder `config.dialogue.domain` names
+    (the shipped one when empty), built once per process while its files stay unchanged."""
     d, r = config.dialogue, config.reward
     settings = (d.nb_alpha, d.nb_binarize, r.mask_threshold)
-    if domain is None:
-        return _shipped(*settings)
-    return _build(domain, *settings)
+    if domain is not None:
+        return _build(domain, *settings)
+    if not d.domain:
+        return _cached("", (), *settings)
+    folder = Path(d.domain).expanduser().resolve()
+    if not folder.is_dir():
+        raise ConfigError(
+            f"[dialogue] domain is {d.domain!r}, which is not a folder; give a folder with "
+            "dialogues.txt, templates.txt and user_responses.txt (copy oxbot/data/dialogue)"
+        )
+    files = tuple(sorted((p.name, p.stat().st_mtime_ns) for p in folder.glob("*.txt")))
+    return _cached(str(folder), files, *settings)
 
 
 @functools.cache
-def _shipped(alpha: float, binarize: float, threshold: float) -> DialogueModel:
-    return _build(load_domain(), alpha, binarize, threshold)
+def _cached(
+    folder: str, files: tuple, alpha: float, binarize: float, threshold: float
+) -> DialogueModel:
+    # `files` (names and modification times) keys the cache: an edited domain is read again
+    return _build(load_domain(folder or None), alpha, binarize, threshold)
 
 
 def _build(domain: Domain, alpha: float, binarize: float, threshold: float) -> DialogueModel:

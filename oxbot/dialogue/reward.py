@@ -1,6 +1,6 @@
 """The reward R(s,a,s') = BR*w + DR*(1-w) - DL, and the reward at the end of the dialogue.
 
-Paper §2.2 "Reward Function", SPEC §3: BR is 5 if the agent is about to win, 1 if it is about to
+Paper §2.2 "Reward Function": BR is 5 if the agent is about to win, 1 if it is about to
 draw, else 0; w = 0.5; DR = Pr(a|s) from the action model; DL = 0.1. At the end of the dialogue
 the agent also gets 0 if the robot lost the game and 5 otherwise; oxbot adds it to the reward of
 the last step (the closing act). The values come from `RewardConfig`.

@@ -23,7 +23,7 @@ game play.
 What the person says is one of the domain's phrasings of the act they mean
 (`user_phrases.txt`, the user responses), each equally often unless `phrasing_weights` says
 otherwise (`oxbot learn agent` fits them to recorded dialogues); the cell they draw in comes from
-the opponent strategy (a SPEC §5 callable), checked with `checked_move`. The robot hears it
+the opponent strategy (`f(board) -> cell`), checked with `checked_move`. The robot hears it
 through a speech recogniser model with noise level `asr_noise` = n: each word is dropped with
 probability n/4, replaced by a random word of the phrasings (confidence uniform in [0.1, 0.6])
 with probability n/4, and otherwise heard with a confidence uniform in [1-n, 1]; then

@@ -71,7 +71,8 @@ if TYPE_CHECKING:
 Heard = tuple[tuple[str, float], ...]
 """Words as the recogniser heard them, each with its confidence in [0, 1]."""
 Turn = dict[str, str]
-"""One transcript entry (SPEC §5): `{"speaker": "sys" | "usr", "act": ..., "text": ...}`."""
+"""One transcript entry (`info["transcript"]`):
+`{"speaker": "sys" | "usr", "act": ..., "text": ...}`."""
 ASKING_TO_PLAY = frozenset({INVITATION, ASK_AGAIN})
 
 

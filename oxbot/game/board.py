@@ -1,8 +1,8 @@
 """The noughts-and-crosses board: cells, names, symbols, legal moves and outcomes.
 
-A board is a tuple of 9 ints, row-major from the upper left (SPEC §5): 0 empty, 1 the robot's
-mark, 2 the person's mark. Boards are immutable so they can key caches and replay buffers.
-Which *symbol* a mark is drawn with depends on who started: the starter draws circles
+A board is a tuple of 9 ints, row-major from the upper left, as opponents see it: 0 empty, 1
+the robot's mark, 2 the person's mark. Boards are immutable so they can key caches and replay
+buffers. Which *symbol* a mark is drawn with depends on who started: the starter draws circles
 (paper §2.1, footnote).
 """
 
@@ -36,11 +36,11 @@ CELL_NAMES: tuple[str, ...] = tuple(
     for row in ROW_NAMES
     for column in COLUMN_NAMES
 )
-"""SPEC §2: the paper's cell names, row-major from the upper left (`upperleft` ... `lowerright`,
+"""The paper's cell names, row-major from the upper left (`upperleft` ... `lowerright`,
 the centre is `middle`)."""
 
 LABELS: tuple[str, ...] = ("circle", "cross", "nothing")
-"""SPEC §1: the perceiver's labels, in this order when indexed 0, 1, 2."""
+"""The perceiver's labels, in this order when indexed 0, 1, 2."""
 PLURALS = {"circle": "circles", "cross": "crosses"}
 
 _ROWS = tuple(tuple(range(r * SIZE, (r + 1) * SIZE)) for r in range(SIZE))
@@ -131,12 +131,12 @@ def to_move(board: Board, robot_starts: bool) -> int:
 
 
 def is_winning_move(board: Board, cell: int, player: int) -> bool:
-    """True if `player` marking `cell` completes a line: the agent is *about to win* (SPEC §3)."""
+    """True if `player` marking `cell` completes a line: the agent is *about to win*."""
     return board[cell] == EMPTY and winner(play(board, cell, player)) == player
 
 
 def is_drawing_move(board: Board, cell: int, player: int) -> bool:
-    """True if `player` marking `cell` fills the board with no line: *about to draw* (SPEC §3)."""
+    """True if `player` marking `cell` fills the board with no line: *about to draw*."""
     if board[cell] != EMPTY:
         return False
     after = play(board, cell, player)

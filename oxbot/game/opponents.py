@@ -1,12 +1,13 @@
-"""The person's side in simulation: opponents as callables `f(board) -> cell` (SPEC §5).
+"""The person's side in simulation: opponents as callables `f(board) -> cell`.
 
 An opponent sees the board from the robot's side (1 the robot's marks, 2 its own) and returns
 the index of an empty cell. Each factory takes the random generator it breaks ties with, so that
 a seeded run is reproducible:
 
-    rng = np.random.default_rng(0)
-    opponent = make_opponent("blocker", rng)
-    cell = opponent((1, 0, 0, 0, 2, 0, 0, 0, 1))
+>>> import numpy as np
+>>> opponent = make_opponent("blocker", np.random.default_rng(0))
+>>> opponent((1, 0, 0, 0, 2, 0, 0, 0, 1)) in (1, 2, 3, 5, 6, 7)  # an empty cell
+True
 """
 
 from __future__ import annotations

@@ -52,7 +52,7 @@ def win_probability_vs_random(
     """Pr(`player` wins) when it plays as well as it can and the other side moves at random.
 
     With `safe`, `player` only considers moves that keep its minimax value (it never risks a
-    loss against a perfect opponent). This is the optimum that SPEC §3 quotes for a policy with
+    loss against a perfect opponent). This is the optimum that oxbot's goal quotes for a policy with
     zero losses: 99.48% from the empty board when the robot starts, 91.64% when it is second.
     Without `safe` the second figure rises to 93.86%, at the price of losable positions.
     """

@@ -76,7 +76,7 @@ def is_cell(text: str) -> bool:
 
 
 class TerminalGame:
-    """Games between a person at the keyboard and `robot` (a SPEC §5 callable).
+    """Games between a person at the keyboard and `robot` (a callable `f(board) -> cell`).
 
     `robot` sees the board from the robot's side (its marks are 1), like the environment's
     opponents see it from theirs; wrap a person-side strategy with `as_robot`.

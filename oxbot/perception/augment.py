@@ -12,7 +12,7 @@ grid lines that grid removal leaves at a cell's border.
 Experimental (`[perception] partial_output`): with `partial=True` blank cells also come
 on squared, dotted or ruled paper and with erased marks, and a fourth class, "partial" (index 3
 of OUTPUTS), is ink that is not a whole symbol: a seed's circle with a sector cut away, or a
-synthesised arc, stroke, plus or tick. Without it the images are those of SPEC §1's three labels
+synthesised arc, stroke, plus or tick. Without it the images are those of the three public labels
 the shipped model was trained on.
 """
 
@@ -212,7 +212,7 @@ def generate(
             items = drawings[label]
             ink = _place_symbol(items[rng.integers(len(items))], rng, size)
             if partial and label == "circle" and rng.random() < 0.3:
-                # An open circle is still one (SPEC §1): taught beside the arcs of "partial",
+                # An open circle is still one (oxbot's goal): taught beside the arcs of "partial",
                 # so that a gap of a fifth of a turn does not make a circle partial.
                 ink = _cut_to_arc(ink, rng.uniform(0.8, 0.97), rng)
         # Lighter or darker ink, but never so faint that a person could not see the drawing.

@@ -1,4 +1,4 @@
-"""Reading the board: a photo of the game sheet in, the 9 cells' labels out (SPEC §5).
+"""Reading the board: a photo of the game sheet in, the 9 cells' labels out (a public interface).
 
 Paper §3.1 "Game Move Recognition": RGB → grayscale → remove the grid → split into 9 images →
 classify each as circle, cross or nothing. Here the grid is found first (`grid.py`), the sheet
@@ -9,7 +9,7 @@ and the cells go to the classifier in one batch:
     read_board(frame)   # uint8 (H, W, 3) RGB or (H, W) gray -> ["nothing", "cross", ...]
     read_cells(frame)   # -> [CellReading("nothing", 0.99, 0.0), CellReading("partial", ...)]
 
-`read_board` keeps SPEC §5's three labels; `read_cells` (and `BoardReader.read`'s
+`read_board` keeps the three public labels; `read_cells` (and `BoardReader.read`'s
 `BoardReading.readings`) say also "partial" for ink that is not a whole symbol (one stroke, or
 what `wholeness.py` finds is no whole circle or cross), with the classifier's calibrated
 confidence and the cell's ink.
@@ -60,7 +60,7 @@ is above 18."""
 
 
 class Classifier(Protocol):
-    """What the board reader needs of a classifier: SPEC §5's `predict`."""
+    """What the board reader needs of a classifier: the public `predict`."""
 
     def predict(self, cells: np.ndarray) -> list[str]: ...
 
@@ -179,7 +179,7 @@ class BoardReader:
         in each cell (`cut_board`), if known."""
         if hasattr(self.classifier, "read"):
             readings = list(self.classifier.read(cells))
-        else:  # a SPEC-only classifier: its labels, fully trusted
+        else:  # a three-label classifier: its labels, fully trusted
             ink = ink_share(cells)
             readings = [
                 CellReading(label, 1.0, float(ink[i]))

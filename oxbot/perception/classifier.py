@@ -1,4 +1,4 @@
-"""The symbol classifier: a small CNN with an SVM output layer (paper §2.1, SPEC §1).
+"""The symbol classifier: a small CNN with an SVM output layer (paper §2.1).
 
 Paper: input 40x40 → conv 8 filters → ReLU → max-pool 2x2 stride 2 → conv 16 filters → ReLU →
 max-pool 3x3 stride 3 → SVM output with 3 labels. The paper's toolkit (ConvNetJS, in SimpleDS)
@@ -10,7 +10,7 @@ scores divided by a temperature fitted on held-out images (`fit_temperature`), s
 model's metadata. The shipped model has the paper's three outputs. Trained with
 `[perception] partial_output` (experimental), the output layer has a fourth score, "partial",
 after them, for ink that is not a whole symbol (an arc, one stroke, a plus, a tick); `predict`
-keeps SPEC §5's three labels and says "nothing" for it. A model file says how many outputs it
+keeps the three public labels and says "nothing" for it. A model file says how many outputs it
 has, and `load` builds the network to match.
 
 The classifier has scikit-learn's shape: configured in `__init__`, learned by `fit`, and
@@ -212,7 +212,7 @@ def label_indices(labels: Sequence[str] | np.ndarray) -> np.ndarray:
 
 @dataclasses.dataclass(frozen=True)
 class CellReading:
-    """What the classifier makes of one cell, beside SPEC §5's bare label."""
+    """What the classifier makes of one cell, beside the public bare label."""
 
     label: str
     """One of OUTPUTS: circle, cross, nothing, or partial (ink that is not a whole symbol)."""
@@ -224,12 +224,12 @@ class CellReading:
 
     @property
     def spec_label(self) -> str:
-        """The SPEC §5 label: a partial cell is "nothing" (no move)."""
+        """The public label: a partial cell is "nothing" (no move)."""
         return "nothing" if self.label == PARTIAL else self.label
 
 
 def spec_label(label: str) -> str:
-    """The SPEC §5 label of one of OUTPUTS: PARTIAL is "nothing", since it is no move."""
+    """The public label of one of OUTPUTS: PARTIAL is "nothing", since it is no move."""
     return "nothing" if label == PARTIAL else label
 
 
@@ -296,7 +296,7 @@ class SymbolClassifier:
 
     @property
     def outputs(self) -> tuple[str, ...]:
-        """The network's outputs in score order: SPEC §1's three labels, then "partial" when
+        """The network's outputs in score order: the three public labels, then "partial" when
         the model was trained with `partial_output` (experimental)."""
         return OUTPUTS if self.config.partial_output else LABELS
 
@@ -368,7 +368,7 @@ class SymbolClassifier:
     def predict(self, cells: Any) -> list[str]:
         """The label of each cell of a batch: uint8 (N, 40, 40) dark-on-light -> N strings.
 
-        SPEC §5's labels only: a cell a four-output network reads as partial is "nothing" (no
+        The public labels only: a cell a four-output network reads as partial is "nothing" (no
         move).
         """
         scores = self.decision_function(cells)
@@ -409,8 +409,8 @@ class SymbolClassifier:
         """Lower the "partial" output's bias until at most `share` of the labelled whole
         symbols among `cells` read as partial; return by how much.
 
-        A whole symbol read as partial is a move the robot does not see, and SPEC §1's
-        accuracy counts it wrong; partial ink read as a symbol is what the tracker's
+        A whole symbol read as partial is a move the robot does not see, and oxbot's
+        accuracy goal counts it wrong; partial ink read as a symbol is what the tracker's
         confidence and still-ink checks are for. Four-output models only.
         """
         if PARTIAL not in self.outputs:

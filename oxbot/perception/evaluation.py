@@ -92,7 +92,7 @@ def generated_test_set(
     seeds: LabelledImages, n: int = 1000, seed: int = 0, size: int = 40, partial: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Fresh test cells generated from the seeds, from a stream training never draws from;
-    SPEC §1's three labels, and with `partial` the fourth output too."""
+    the three public labels, and with `partial` the fourth output too."""
     return generate(seeds, n, np.random.default_rng([seed, TEST_STREAM]), size, partial)
 
 

@@ -30,7 +30,7 @@ FRAME = FrameTuning()
 def as_gray(frame: object) -> np.ndarray:
     """A frame as a uint8 (H, W) grayscale image, or InvalidInputError saying what is wrong.
 
-    Accepts uint8 (H, W) grayscale and (H, W, 3) RGB, as SPEC §5 promises, and nothing else:
+    Accepts uint8 (H, W) grayscale and (H, W, 3) RGB, as `read_board` promises, and nothing else:
     other layouts are refused with the fix rather than silently guessed at.
     """
     image = as_image(frame)

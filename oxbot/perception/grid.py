@@ -2,7 +2,7 @@
 
 Paper §3.1 "Game Move Recognition": grayscale → remove the grid → split into 9 images. The
 paper's arm camera saw a fixed grid from a fixed pose; here the grid may be anywhere in view,
-turned up to 45° (SPEC §2 asks only ±15°) and in perspective, so it is found first, in
+turned up to 45° (oxbot's goal asks only ±15°) and in perspective, so it is found first, in
 stages, each in its own module:
 
 1. *Ink* (`ink.py`): pixels clearly darker than the paper around them in any colour channel,
@@ -143,8 +143,8 @@ def find_grid(frame: np.ndarray) -> Grid:
     best = best_grid(lines, strokes, min_spacing, short / 2, center)
     if best is None:
         raise NoGridFound(
-            "no 3x3 grid in view: no two pairs of crossing pen lines run across a whole grid; "
-            "keep all four lines of the grid in the picture"
+            "no 3x3 grid in view: I see lines, but not the four lines of a whole grid; keep "
+            "all of the grid in the picture"
         )
     four, support = best
     # The fits below look only at ink near the four lines, a small part of all the ink.

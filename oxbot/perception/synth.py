@@ -38,9 +38,9 @@ from oxbot.errors import InvalidInputError
 from oxbot.game.board import LABELS
 
 PARTIAL = "partial"
-"""oxbot: what the network calls ink that is not a whole symbol; not a SPEC label."""
+"""oxbot: what the network calls ink that is not a whole symbol; not a public label."""
 OUTPUTS: tuple[str, ...] = (*LABELS, PARTIAL)
-"""The network's outputs: SPEC §1's labels at 0-2 (kept there), then PARTIAL at 3."""
+"""The network's outputs: the public labels at 0-2 (kept there), then PARTIAL at 3."""
 
 _SUPERSAMPLE = 4  # strokes are drawn 4x larger, then averaged down: cheap anti-aliasing
 

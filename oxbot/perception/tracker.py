@@ -217,7 +217,7 @@ class MoveTracker:
 
     def taken_as(self, reading: CellReading) -> str:
         """A cell's reading as the tracker takes it: a circle or cross less sure than
-        `min_confidence` is partial ink, no symbol yet (its own label, not SPEC §5's, where
+        `min_confidence` is partial ink, no symbol yet (its own label, not a public one, where
         partial is "nothing")."""
         if reading.label in ("circle", "cross") and reading.confidence < self.config.min_confidence:
             return PARTIAL

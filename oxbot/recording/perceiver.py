@@ -9,7 +9,7 @@ right label)), mixed with `replay_images` images generated from the seeds as in 
 that what it knew stays known. The softmax temperature is fitted again as in training.
 
 The new model is measured before and after on the held-back crops and on the project's test
-sets (1,000 generated images, SPEC §1; the handwriting-font set); it is refused
+sets (1,000 generated images; the handwriting-font set); it is refused
 (`LearningRefused`) if any test set is worse than before (by more than `tolerance`) or the
 person's own held-back crops are not better read. Written beside `out`: the model (with its
 config, seed and metrics), `.metrics.json` and `.before_after.png`; each is registered as
@@ -323,7 +323,7 @@ def plot_before_after(metrics: dict[str, Any], path: str | Path) -> Path:
 
     names = {
         "held_back": "your held-back\ndrawings",
-        "generated": "generated\n(SPEC §1)",
+        "generated": "generated\nimages",
         "fonts": "handwriting\nfonts",
     }
     at = np.arange(len(names))

@@ -2,7 +2,7 @@
 
 One run, from a clean work folder: draw the 108 seed images, train the perceiver on 10K images
 generated from them, train the interaction manager, evaluate both as the paper did (and as
-SPEC §3 asks), train the peers (a linear SVM on raw pixels; Stable-Baselines3's DQN and
+oxbot's goals ask), train the peers (a linear SVM on raw pixels; Stable-Baselines3's DQN and
 sb3-contrib's MaskablePPO for the same wall-clock time as oxbot's agent) and write
 `REPORT.md` with its plots and `report.json` with every figure, seed, version and the machine.
 

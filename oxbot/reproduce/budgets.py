@@ -18,7 +18,7 @@ class Budgets:
     agent_eval_games: int | None
     """Games per condition of those evaluations (None: the config's)."""
     evaluation_games: int
-    """Games per opponent and who-starts condition of the final evaluations (SPEC §3: 10,000)."""
+    """Games per opponent and who-starts condition of the final evaluations (goal: 10,000)."""
 
 
 FULL = Budgets(None, None, None, None, 10_000)

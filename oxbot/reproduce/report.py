@@ -46,8 +46,8 @@ def _header_section(f: dict[str, Any]) -> list[str]:
             "",
         ]
     lines += [
-        f"Paper: {PAPER}. Paper figures are quoted with the section of paper.tex that gives them;",
-        "goals are oxbot's (SPEC §1, §3). Made by `oxbot reproduce"
+        f"Paper: {PAPER}. Paper figures are quoted with the section of the paper that gives them;",
+        "goals are oxbot's. Made by `oxbot reproduce"
         + (" --quick" if quick else "")
         + f"` in {f['wall_clock_s']:.0f} s, started {f['started']}.",
         "",

@@ -24,8 +24,27 @@ log = logging.getLogger(__name__)
 
 
 def cell_strokes(symbol: str, rng: np.random.Generator, fill: float = 0.7) -> list[np.ndarray]:
-    """A hand-drawn `symbol`'s strokes in the cell's unit square, centred, spanning `fill`."""
-    return [0.5 + 0.5 * fill * stroke for stroke in symbol_strokes(symbol, rng)]
+    """A hand-drawn `symbol`'s strokes in the cell's unit square, centred, spanning `fill`: a
+    cross as the handwriting synthesiser draws one, a circle always closed (`closed_circle`)."""
+    strokes = [closed_circle(rng)] if symbol == "circle" else symbol_strokes(symbol, rng)
+    return [0.5 + 0.5 * fill * stroke for stroke in strokes]
+
+
+def closed_circle(rng: np.random.Generator) -> np.ndarray:
+    """The robot's own circle, a (K, 2) polyline in the unit box [-1, 1]^2: one loop, a little
+    oval and tilted as a hand draws it, whose end runs a little past its start.
+
+    Not the synthesiser's: a quarter of its circles are open loops, a "C", which the perceiver
+    must learn to read as people draw them but a person would not take for a circle."""
+    sweep = rng.uniform(1.03, 1.1)  # a turn and a little more: closed, a short overlap
+    start, direction = rng.uniform(0, 2 * np.pi), rng.choice((-1.0, 1.0))
+    t = start + direction * np.linspace(0.0, 2 * np.pi * sweep, 72)
+    radius = 1.0 + rng.uniform(0, 0.04) * np.sin(2 * t + rng.uniform(0, 2 * np.pi))
+    aspect, tilt = rng.uniform(0.8, 1.0), rng.uniform(0, np.pi)
+    x, y = radius * np.cos(t), radius * aspect * np.sin(t)
+    c, s = np.cos(tilt), np.sin(tilt)
+    points = np.stack([c * x - s * y, s * x + c * y], axis=1)
+    return points / np.abs(points).max()
 
 
 def stroke_seconds(stroke: np.ndarray, config: ArmConfig) -> float:

@@ -109,7 +109,7 @@ def build_component(
     if name == "manager":
         from oxbot.robot.session import shared_policy
 
-        return cls(bus, policy=shared_policy(body.manager), config=config, rng=rng)
+        return cls(bus, policy=shared_policy(body.manager, config), config=config, rng=rng)
     if name == "perception":
         return cls(
             bus,

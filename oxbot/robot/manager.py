@@ -3,9 +3,11 @@
 Paper §3.1: the interaction manager (SimpleDS) takes the latest speech and game moves, builds
 the state, acts greedily with the trained policy among the acts the Naive Bayes mask offers,
 and verbalises the act through the templates; a GameMove also moves the arm, and the next
-utterance waits until the arm is done. `[robot] manager` (`oxbot play --manager`) may put the
-baselines the policy is compared with in its place (`oxbot.dialogue.baselines`: the rules, the
-script), their scores in the Q-values' place.
+utterance waits until the arm is done. The policy is any `oxbot.dialogue.policy.Policy`:
+`[robot] policy` (`oxbot play --policy`) names another trained one (an oxbot policy file, an
+SB3 model), and `[robot] manager` (`oxbot play --manager`) may put the baselines the policy is
+compared with in its place (`oxbot.dialogue.baselines`: the rules, the script), their scores in
+the Q-values' place.
 
 One turn here is what one environment step is in training (`oxbot.dialogue.env`): the robot
 says an act (and for a GameMove then draws it), then listens for the person's answer — their
@@ -70,8 +72,6 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from oxbot.config import OxbotConfig, RobotConfig
-from oxbot.dialogue.agent import masked_argmax
-from oxbot.dialogue.baselines import Manager, load_manager
 from oxbot.dialogue.cells_in_words import MoveHeard, move_in_words, read_cell
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -92,6 +92,7 @@ from oxbot.dialogue.domain import (
     words_of,
 )
 from oxbot.dialogue.model import build_dialogue_model
+from oxbot.dialogue.policy import Policy, choose
 from oxbot.dialogue.state import DialogueState, Turn
 from oxbot.dialogue.understanding import UserAct
 from oxbot.game.board import (
@@ -108,6 +109,7 @@ from oxbot.game.board import (
     cell_index,
     symbol_of,
 )
+from oxbot.peers import load_robot_policy
 from oxbot.robot.bus import Bus, Component
 from oxbot.robot.messages import (
     ArmCommand,
@@ -231,7 +233,7 @@ class InteractionManagerComponent(Component):
     def __init__(
         self,
         bus: Bus,
-        policy: Manager | None = None,
+        policy: Policy | None = None,
         config: OxbotConfig | None = None,
         understand: Understand | None = None,
         rng: np.random.Generator | None = None,
@@ -240,7 +242,7 @@ class InteractionManagerComponent(Component):
         super().__init__(bus, name)
         self.config = config if config is not None else OxbotConfig()
         self.model = build_dialogue_model(self.config)
-        self.policy = policy if policy is not None else load_manager(self.config.robot.manager)
+        self.policy = policy if policy is not None else load_robot_policy(self.config)
         self.rng = rng if rng is not None else np.random.default_rng()
         self._understand = understand or self.model.understanding.intent_of
         domain = self.model.domain
@@ -331,6 +333,7 @@ class InteractionManagerComponent(Component):
         for name in (
             "_moved_since",
             "_spoke_since",
+            "_heard_act",
             "_speaking",
             "_arm_cell",
             "_rematch",
@@ -347,6 +350,7 @@ class InteractionManagerComponent(Component):
         self.state: DialogueState = self.model.new_state(robot_starts)
         self._moved_since = False
         self._spoke_since = False
+        self._heard_act = ""  # the act of the person's last words
         self._speaking = ""
         self._arm_cell: int | None = None
         self._rematch = False
@@ -363,8 +367,7 @@ class InteractionManagerComponent(Component):
         """Choose the next act greedily among the offered ones, and start saying it."""
         obs = self.state.encode()
         _, mask = self.state.offered()
-        q = self.policy.q_values(obs[None])[0]
-        action = int(masked_argmax(q, mask))
+        action, q = choose(self.policy, obs, mask)
         self.bus.publish(
             Decision(
                 offered=tuple(a for a, m in zip(SYSTEM_ACTS, mask, strict=True) if m),
@@ -428,8 +431,16 @@ class InteractionManagerComponent(Component):
         else:
             wait = self.timing.answer_timeout
         self._deadline = time.monotonic() + wait / self.timing.speed_factor
-        if self._moved_since or (self._spoke_since and not self._expects_move()):
+        if self._moved_since or (self._spoke_since and self._words_need_an_answer()):
             self._decide()  # the answer came while the robot was still busy
+
+    def _words_need_an_answer(self) -> bool:
+        """Whether words heard while the robot was busy are answered now: always, except while
+        it waits for a move, where only a stop, a no or a goodbye is ("stop" over "Your move");
+        chatter then needs no second request for the move."""
+        if not self._expects_move():
+            return True
+        return self._heard_act in (STOP, CLOSING) or self._heard_act in REFUSALS
 
     def _expects_move(self) -> bool:
         return (
@@ -485,7 +496,7 @@ class InteractionManagerComponent(Component):
                 reading = dataclasses.replace(reading, act=STOP)
         self.state.person_says(reading.act, text, words, (reading.act, reading.score))
         self._publish_turn("usr", reading.act, text)
-        self._spoke_since = True
+        self._spoke_since, self._heard_act = True, reading.act
         self._unanswered_in_a_row = 0
         if self.phase is Phase.LISTENING and not (
             self._expects_move() and is_game_move(reading.act)

@@ -16,7 +16,8 @@ rate). The terminal (`oxbot play --terminal`), the web page (`oxbot play`) and t
 the same Robot; each browser tab has its own. The Robot talks to its components only through
 messages on its bus, and learns the board and the dialogue from them too. Components that load
 models (the classifier, the recogniser, the policy) share one copy per process. `[robot] manager`
-picks the policy: the trained DQN, or the rules or the script it is compared with.
+picks the policy: the trained DQN, or the rules or the script it is compared with; `[robot]
+policy` another trained one, and `[dialogue] domain` another domain (docs/extending.md).
 
 The components run under a `Supervisor` (oxbot.robot.bus, with the `[robot]` restart budget and
 hang deadline): a part that fails is restarted, a hung one replaced, and one lost for good is
@@ -30,14 +31,15 @@ from __future__ import annotations
 
 import functools
 import logging
+import os
 import threading
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from oxbot.config import OxbotConfig
-from oxbot.dialogue.baselines import Manager
+from oxbot.config import DialogueConfig, OxbotConfig, RewardConfig, RobotConfig
 from oxbot.dialogue.domain import words_of
+from oxbot.dialogue.policy import Policy
 from oxbot.dialogue.state import Turn
 from oxbot.errors import InvalidInputError, SpeechUnavailable
 from oxbot.game.board import (
@@ -78,13 +80,24 @@ from oxbot.speech.synthesis import Voice
 log = logging.getLogger(__name__)
 
 
-@functools.cache
-def shared_policy(manager: str = "dqn") -> Manager:
-    """The interaction manager `[robot] manager` names (the shipped policy, the rules or the
-    script), loaded once per process."""
-    from oxbot.dialogue.baselines import load_manager
+def shared_policy(manager: str = "dqn", config: OxbotConfig | None = None) -> Policy:
+    """The policy `manager` names (the trained policy, the rules or the script) for `config`'s
+    `[robot] policy` and `[dialogue] domain` (`oxbot.peers.load_robot_policy`), loaded once
+    per process."""
+    config = config if config is not None else OxbotConfig()
+    # the folder too: `policy` and `[dialogue] domain` may be paths relative to it
+    where = os.getcwd()
+    return _loaded_policy(manager, config.robot.policy, config.dialogue, config.reward, where)
 
-    return load_manager(manager)
+
+@functools.cache
+def _loaded_policy(
+    manager: str, policy: str, dialogue: DialogueConfig, reward: RewardConfig, where: str
+) -> Policy:
+    from oxbot.peers import load_robot_policy
+
+    config = OxbotConfig(dialogue=dialogue, reward=reward, robot=RobotConfig(policy=policy))
+    return load_robot_policy(config, manager)
 
 
 @functools.cache
@@ -95,7 +108,7 @@ def warm_up(config: OxbotConfig | None = None) -> None:
     from oxbot.perception.board import default_reader
 
     config = config if config is not None else OxbotConfig()
-    shared_policy(config.robot.manager)
+    shared_policy(config.robot.manager, config)
     default_reader(config.perception)
     try:
         load_recognizer(config.speech)
@@ -108,7 +121,7 @@ class Robot:
 
     `sheet_camera` / `head_camera` are frame sources the robot reads itself; without them it
     sees only what `show` / `look` hand over. `recognizer` and `policy` replace the ones the
-    config names (the shipped ones; `policy` is any `oxbot.dialogue.baselines.Manager`); `seed`
+    config names (the shipped ones; `policy` is any `oxbot.dialogue.policy.Policy`); `seed`
     fixes the choice among templates and the arm's hand.
     `joining` makes more components on the robot's bus, each from the bus: a
     `oxbot.recording.Recorder` that keeps the games, say (`oxbot.recording.recorder.joining`).
@@ -121,7 +134,7 @@ class Robot:
         sheet_camera: FrameSource | None = None,
         head_camera: FrameSource | None = None,
         recognizer: Recognizer | None = None,
-        policy: Manager | None = None,
+        policy: Policy | None = None,
         seed: int | None = None,
         joining: Sequence[Callable[[Bus], Component]] = (),
     ) -> None:
@@ -133,7 +146,7 @@ class Robot:
         components: list[Component] = [
             InteractionManagerComponent(
                 self.bus,
-                policy=policy if policy is not None else shared_policy(body.manager),
+                policy=policy if policy is not None else shared_policy(body.manager, self.config),
                 config=self.config,
                 rng=np.random.default_rng(manager_seed),
             ),

@@ -274,6 +274,8 @@ class TerminalRobot:
                 self._listen()
             elif self.typed_moves and is_cell(line):
                 self.robot.draw(line)
+            elif self.typed_moves and line.isdigit():  # "10" is no answer: a cell mistyped
+                raise InvalidInputError(f"there is no cell {line}; type {CELL_HELP}")
             else:
                 self.robot.say(line)
         except OxbotError as exc:

@@ -5,7 +5,7 @@
 (`oxbot.speech.nbest.Recognizer`). The default is Whisper tiny.en (`oxbot.speech.whisper`);
 pocketsphinx (`oxbot.speech.sphinx`) is the fallback: when Whisper cannot load (its package or
 weights missing, or not the pinned ones) the robot says so in one log line and hears with
-pocketsphinx. `recognize(wav)` is the SPEC's one-call interface.
+pocketsphinx. `recognize(wav)` is the public one-call interface.
 """
 
 from __future__ import annotations
@@ -103,5 +103,5 @@ def default_recognizer() -> Recognizer:
 
 
 def recognize(wav: str | os.PathLike[str] | bytes) -> list[tuple[str, float]]:
-    """SPEC §5: a 16 kHz mono WAV (path or bytes) -> N-best list of (text, confidence)."""
+    """A 16 kHz mono WAV (path or bytes) -> N-best list of (text, confidence)."""
     return [(h.text, h.confidence) for h in default_recognizer().recognize(wav)]

@@ -70,7 +70,7 @@ class RenderStyle:
     grid_fraction: Range = (0.4, 0.8)
     """Side of the 3x3 grid as a share of the photo's shorter side."""
     max_rotation: float = 15.0
-    """SPEC §2: the grid may be rotated up to ±15 degrees."""
+    """oxbot's goal: the grid may be rotated up to ±15 degrees."""
     perspective: float = 0.06
     """Largest shift of a grid corner, as a share of the grid's side (mild perspective)."""
     desk_colors: tuple[Color, ...] = ((150, 110, 70), (120, 85, 55), (170, 140, 100))

@@ -424,7 +424,8 @@ def check_port_free(host: str, port: int) -> None:
             if exc.errno == errno.EADDRINUSE:
                 raise ConfigError(
                     f"port {port} on {host} is already in use (is another `oxbot play` "
-                    f"running?); stop it, or pick another port: oxbot play --port {port + 1}"
+                    "running?); stop it, or pick another port: "
+                    f"`.venv/bin/oxbot play --port {port + 1}`"
                 ) from None
             raise ConfigError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
 

@@ -140,6 +140,16 @@ def test_a_desk_with_no_paper_and_stray_strokes_has_no_grid():
         find_grid(as_gray(scene.photo(rng)))
 
 
+def test_lines_that_make_no_grid_are_told_in_plain_words():
+    sheet = np.full((480, 640), 235, np.uint8)
+    for start, end in (((320, 60), (320, 420)), ((250, 60), (250, 420)), ((140, 240), (500, 240))):
+        cv2.line(sheet, start, end, 30, 4)  # three of a grid's four lines
+    with pytest.raises(NoGridFound) as refused:
+        find_grid(sheet)
+    words = str(refused.value)  # shown over the camera's video, to anyone
+    assert "the four lines of a whole grid" in words and "pairs" not in words
+
+
 @pytest.mark.parametrize(
     "frame,message",
     [

@@ -27,6 +27,14 @@ def test_strokes_stay_inside_the_cell_with_a_margin():
         assert np.allclose((points.min(axis=0) + points.max(axis=0)) / 2, 0.5, atol=0.05)
 
 
+def test_the_robots_circles_are_always_closed():
+    for seed in range(200):
+        (loop,) = cell_strokes("circle", np.random.default_rng(seed))
+        around = loop - (loop.min(axis=0) + loop.max(axis=0)) / 2
+        turned = np.abs(np.diff(np.unwrap(np.arctan2(around[:, 1], around[:, 0])))).sum()
+        assert turned >= 2 * np.pi, f"seed {seed}: an open loop, {np.degrees(turned):.0f} degrees"
+
+
 def test_the_arm_draws_stroke_by_stroke_then_says_done():
     bus = LocalBus()
     inbox = bus.subscribe(ArmStroke, ArmDone)

@@ -71,6 +71,22 @@ def test_a_typed_game_in_the_terminal_prints_the_dialogue_like_figure_1():
     assert not any(c.running for c in robot.components)  # stopped when the person quit
 
 
+def test_a_number_that_is_no_cell_is_answered_with_what_the_cells_are():
+    robot = Robot(FAST, seed=4)
+    lines = iter(["10", "quit"])
+    console = Console(record=True, width=120, force_terminal=False)
+    TerminalRobot(
+        robot,
+        read_line=lambda prompt: next(lines),
+        console=console,
+        speakers=Speakers(enabled=False),
+        microphone=Microphone(),
+    ).run()
+    out = console.export_text()
+    assert "there is no cell 10" in out and "1-9" in out
+    assert not any(turn["speaker"] == "usr" for turn in robot.transcript)  # no answer heard
+
+
 def test_a_camera_that_cannot_be_opened_falls_back_to_typed_moves(caplog):
     caplog.set_level(logging.WARNING)
     robot = Robot(FAST, sheet_camera=CameraSource(97), seed=4)

@@ -328,7 +328,15 @@ def test_ink_that_is_not_a_whole_symbol_is_named_in_words_and_is_no_move(page: P
             # the red box holds the robot's words, not the tracker's technical reason
             assert tab.locator("#problem").inner_text() == told[-1]
             assert tab.evaluate("window.oxbot.stats.moves.length") == 0
+            assert tab.get_by_test_id("agreeing").is_hidden()  # no stream to agree on a canvas
             tab.screenshot(path=ARTIFACTS / "07-unclear-ink.png", full_page=True)
+
+            # the dialogue moves on (the person asks something): the red box does not stay
+            before = len(log_items(tab))
+            tab.get_by_test_id("say").fill("what do you mean")
+            tab.get_by_test_id("say").press("Enter")
+            wait_for_act(tab, "Unknown", speaker="usr", after=before, timeout=10_000)
+            tab.wait_for_function("document.getElementById('problem').hidden", timeout=10_000)
 
             trace(tab, arc_path(tab, "lowerright", 0, 370))
             tab.wait_for_function("window.oxbot.stats.moves.length > 0", timeout=10_000)

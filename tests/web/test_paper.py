@@ -206,6 +206,8 @@ def play_on_paper(page: Page, game: Game, watcher: BusWatcher) -> None:
     page.get_by_test_id("paper").click()
     page.wait_for_function("window.oxbot.paper.on", timeout=10_000)  # the camera opened
     assert page.get_by_test_id("paper").get_attribute("aria-pressed") == "true"
+    assert "camera" in page.get_by_test_id("sees-source").inner_text()  # not the pen's lifts
+    assert page.get_by_test_id("agreeing").is_visible()  # the readings of the camera's stream
     assert page.get_by_test_id("board").is_hidden()
 
     # no grid in view: told on the video at once, and out loud while the robot waits

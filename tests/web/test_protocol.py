@@ -6,6 +6,7 @@ import asyncio
 import base64
 import io
 import json
+import re
 import socket
 import threading
 import time
@@ -48,6 +49,9 @@ def test_page_has_the_spec_hooks_and_its_files(server_url):
     for name in ("app.js", "style.css", "tap.js"):
         assert httpx.get(f"{server_url}/static/{name}").status_code == 200
     assert httpx.get(f"{server_url}/static/secret.py").status_code == 404
+    # its own icon, inline: no request for a /favicon.ico the server does not have
+    icon = re.search(r'<link rel="icon" [^>]*href="data:image/svg\+xml,(.+?)"', page)
+    assert icon and "%3Csvg" in icon.group(1)
 
 
 def test_server_binds_to_localhost_unless_told_otherwise():
@@ -60,8 +64,10 @@ def test_a_taken_port_is_a_clear_error_not_uvicorns():
         taken.listen()
         port = taken.getsockname()[1]
         config = load_config(None, [f"web.port={port}"])
-        with pytest.raises(ConfigError, match=f"port {port} on 127.0.0.1 is already in use"):
+        with pytest.raises(ConfigError, match=f"port {port} on 127.0.0.1 is already in use") as e:
             serve(config)
+        # `oxbot` is not on PATH in a clone: the hint runs as pasted
+        assert f"`.venv/bin/oxbot play --port {port + 1}`" in str(e.value)
 
 
 def test_each_tab_is_its_own_session_and_ends_cleanly(server_url, ws_url):

@@ -179,7 +179,7 @@ function connect() {
   ws.onmessage = (e) => { try { onMessage(JSON.parse(e.data)); } catch (err) { console.error(err); } };
   ws.onclose = () => {
     if (state.ws === ws) {
-      state.ws = null; setStatus("Disconnected. Press Start to play again.");
+      state.ws = null; gameUnderWay(false); setStatus("Disconnected. Press Start to play again.");
       $("start").textContent = "Start"; enableAnswers(false);
     }
   };
@@ -208,7 +208,7 @@ $("start").addEventListener("click", startOrNewGame);
 
 const handlers = {
   Hello(d) {
-    state.hello = d;
+    state.hello = d; gameUnderWay(true);
     if (d.size !== SIZE) { SIZE = d.size; state.grid = newGrid(); redrawSheet(); }
     $("start").textContent = "New game";
     $("symbol-hint").textContent = `You draw ${d.user_symbol === "cross" ? "crosses (X)" : "circles (O)"}; `
@@ -230,6 +230,9 @@ const handlers = {
     } else if (d.speaker === "sys" && d.act !== acts.problem) {
       $("turn").textContent = "";
     }
+    // the robot has moved on: what it said of the sheet is past (the log keeps it), and a
+    // camera's guidance is shown again while it lasts
+    if (d.act !== acts.problem && !paper.guiding) showProblem("");
     // the box shows what the robot said of the sheet; the tracker's reason stays in the log
     if (d.speaker === "sys" && d.act === acts.problem) showProblem(d.text);
   },
@@ -240,7 +243,10 @@ const handlers = {
   SpeakingFinished() { state.speaking = false; },
   // Another game, from the button or asked for in words ("one more game"): a clean sheet on
   // the page too (paper is the person's to change), listening again, and the robot shown it.
-  NewGame() { if (!paper.on) resetSheet(); else state.ended = false; sendFrame(); },
+  NewGame() {
+    if (!paper.on) resetSheet(); else state.ended = false;
+    gameUnderWay(true); sendFrame();
+  },
   ArmStroke(d) {
     drawArmStroke(d.where, d.points);
     (state.robotStrokes[d.where] = state.robotStrokes[d.where] || []).push(d.points);
@@ -279,6 +285,7 @@ const handlers = {
   HeadMove(d) { lookTowards(d.direction); },
   DialogueEnded(d) {
     state.ended = true;   // drawings stop; words still go: "new game", "again!" start another
+    gameUnderWay(false);
     const text = {
       win: "The robot won.", loss: "You won!", draw: "A draw.",
       declined: "No game, as you wished.", stopped: "Stopped, as you asked.",
@@ -611,7 +618,7 @@ function stopCamera() {
 
 // --- what the robot sees ------------------------------------------------------------------
 
-// SPEC §5's `cells`: the robot's current reading of each cell, "partial" for ink that is not
+// The page's public `cells`: the robot's current reading of each cell, "partial" for ink that is not
 // a whole symbol yet
 const CELL_MARKS = { circle: "O", cross: "X", nothing: "", partial: "~" };
 function showCells(d) {
@@ -781,6 +788,9 @@ function setPaper(on) {
   $("paper-view").hidden = !on; $("camera-pick").hidden = !on;
   $("sheet").hidden = on; $("undo").hidden = on; $("guidance").hidden = true;
   $("paper-hint").hidden = !on || !$("paper-hint").textContent;
+  $("agreeing").hidden = !on;  // readings agree on the camera's stream; a canvas is read once
+  $("sees-source").textContent = on ? "the camera's picture of the paper, ten times a second"
+    : "the sheet the page sends each time the pen lifts";
   drawPaperOverlay();
   if (on !== was) send({ type: "paper", on });
   if (!on && was) { drawPaperMoves(); state.dirty = true; sendFrame(); }  // the canvas again
@@ -934,3 +944,19 @@ video.addEventListener("resize", drawPaperOverlay);
 
 // the blank sheet, before the first game
 state.grid = newGrid(); redrawSheet();
+
+// A game lives in its socket's robot, which a reload closes: the page cannot resume it, and
+// says so after the reload rather than showing a blank sheet as if nothing had happened.
+const UNDER_WAY = "oxbot.game-under-way";
+function gameUnderWay(on) {
+  try { if (on) sessionStorage.setItem(UNDER_WAY, "1"); else sessionStorage.removeItem(UNDER_WAY); }
+  catch (_) { /* storage off: nothing to tell after a reload */ }
+}
+try {
+  if (sessionStorage.getItem(UNDER_WAY)) {
+    gameUnderWay(false);
+    showProblem("The page was reloaded during a game, and a reload cannot bring a game back: "
+      + "that one is lost. Press Start to play again.");
+    setStatus("The last game was lost when the page reloaded.");
+  }
+} catch (_) { /* storage off */ }
