@@ -100,10 +100,15 @@ def play(
             "to play instead of the shipped one; its policy must be trained on it."
         ),
     ] = None,
+    voice: Annotated[
+        str | None,
+        typer.Option(help="The robot's voice: piper (neural) or espeak (default: config)."),
+    ] = None,
 ) -> None:
     """Play with the whole robot: the web page at http(s)://HOST:PORT, or --terminal."""
     changes = {
         "game": {"robot_starts": robot_starts},
+        "speech": {"voice": voice},
         "robot": {"speed_factor": speed, "manager": manager, "policy": policy},
         "dialogue": {"domain": domain},
         "web": {"host": host, "port": port, "https": {True: "on", False: "off"}.get(https)},

@@ -75,7 +75,7 @@ from oxbot.robot.messages import (
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
 from oxbot.speech.audio import read_wav
 from oxbot.speech.recognition import Recognizer, load_recognizer
-from oxbot.speech.synthesis import Voice
+from oxbot.speech.synthesis import robot_voice
 
 log = logging.getLogger(__name__)
 
@@ -102,7 +102,7 @@ def _loaded_policy(
 
 @functools.cache
 def warm_up(config: OxbotConfig | None = None) -> None:
-    """Load the shared models once (policy, classifier, recogniser: a few seconds), so that
+    """Load the shared models once (policy, classifier, voice, recogniser: a few seconds), so that
     the first game does not wait for them mid-sentence. A recogniser the config names but that
     cannot be built is a ConfigError here; one that is not installed only a warning."""
     from oxbot.perception.board import default_reader
@@ -110,6 +110,7 @@ def warm_up(config: OxbotConfig | None = None) -> None:
     config = config if config is not None else OxbotConfig()
     shared_policy(config.robot.manager, config)
     default_reader(config.perception)
+    robot_voice(config.speech)
     try:
         load_recognizer(config.speech)
     except SpeechUnavailable as exc:
@@ -159,7 +160,7 @@ class Robot:
             ),
             SpeechRecognitionComponent(self.bus, recognizer, self.config.speech),
             SpeechSynthesisComponent(
-                self.bus, Voice(self.config.speech.voice), speed_factor=body.speed_factor
+                self.bus, robot_voice(self.config.speech), speed_factor=body.speed_factor
             ),
             ArmComponent(
                 self.bus,
