@@ -13,8 +13,9 @@ tensor as a second output (with the `onnx` package, in memory only), so every se
 with its phonemes' timing, from which the face's visemes are made (`oxbot.speech.visemes`).
 
 `PiperVoice.stream` yields a text sentence by sentence, so that the first sentence can play
-while the next is made. One loaded voice serves a whole process (`load_piper_voice`); ONNX
-Runtime's `run` may be called from several threads at once.
+while the next is made, and keeps the sentences it made (the robot says the same few dozen
+again and again). One loaded voice serves a whole process (`load_piper_voice`); ONNX Runtime's
+`run` may be called from several threads at once.
 """
 
 from __future__ import annotations
@@ -24,8 +25,10 @@ import hashlib
 import io
 import json
 import logging
+import threading
 import time
 import wave
+from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from oxbot.errors import ModelFileError, SpeechUnavailable
-from oxbot.speech.phonemes import phoneme_ids, phonemize
+from oxbot.speech.phonemes import PhonemeSentence, phoneme_ids, phonemize
 from oxbot.speech.visemes import Viseme, viseme_timeline
 
 log = logging.getLogger(__name__)
@@ -54,6 +57,9 @@ HOP_SAMPLES = 256
 """Samples of audio per spectrogram frame (the VITS decoder's hop length for Piper's voices)."""
 SENTENCE_SILENCE_SECONDS = 0.2
 """oxbot: quiet after a sentence that another follows (Piper's command line's default)."""
+CACHED_SENTENCES = 256
+"""oxbot: sentences kept once made (about 100 KB each): the robot's few dozen sentences come
+back many times a game, and a kept one starts at once."""
 
 
 @dataclass(frozen=True)
@@ -102,6 +108,9 @@ class PiperVoice:
             dtype=np.float32,
         )
         self.espeak_voice = espeak_voice
+        self._made: OrderedDict[tuple[str, ...], SpokenSentence] = OrderedDict()
+        self._said: OrderedDict[str, list[PhonemeSentence]] = OrderedDict()
+        self._lock = threading.Lock()
 
     @classmethod
     def load(
@@ -127,6 +136,8 @@ class PiperVoice:
         options = ort.SessionOptions()
         options.intra_op_num_threads = threads
         options.inter_op_num_threads = 1
+        # no busy-waiting between operators: the cores are shared with Whisper and the eyes
+        options.add_session_config_entry("session.intra_op.allow_spinning", "0")
         options.log_severity_level = 3  # the graph's unused-initialiser warnings are noise
         session = ort.InferenceSession(
             with_durations_output(model_bytes), options, providers=["CPUExecutionProvider"]
@@ -136,10 +147,17 @@ class PiperVoice:
 
     def stream(self, text: str) -> Iterator[SpokenSentence]:
         """`text` spoken sentence by sentence, each made when the one before has been taken;
-        every sentence but the last ends with `SENTENCE_SILENCE_SECONDS` of quiet."""
-        sentences = phonemize(text, self.espeak_voice)
+        every sentence but the last ends with `SENTENCE_SILENCE_SECONDS` of quiet. A sentence
+        said before (one of the last `CACHED_SENTENCES`) is not made again."""
+        sentences = self._remembered(self._said, text)
+        if sentences is None:
+            sentences = phonemize(text, self.espeak_voice)
+            self._remember(self._said, text, sentences)
         for i, sentence in enumerate(sentences):
-            spoken = self.speak_phonemes(sentence.text, sentence.phonemes)
+            spoken = self._remembered(self._made, sentence.phonemes)
+            if spoken is None:
+                spoken = self.speak_phonemes(sentence.text, sentence.phonemes)
+                self._remember(self._made, sentence.phonemes, spoken)
             if i < len(sentences) - 1:
                 quiet = np.zeros(int(SENTENCE_SILENCE_SECONDS * self.rate), np.int16)
                 spoken = _with_silence(spoken, quiet)
@@ -149,6 +167,25 @@ class PiperVoice:
         """`text` spoken, all its sentences in one WAV."""
         parts = [s.samples for s in self.stream(text)]
         return wav_bytes(np.concatenate(parts) if parts else np.zeros(0, np.int16), self.rate)
+
+    def forget(self) -> None:
+        """Drop the sentences kept (a benchmark's cold start)."""
+        with self._lock:
+            self._made.clear()
+            self._said.clear()
+
+    def _remembered(self, kept: OrderedDict[Any, Any], key: Any) -> Any:
+        with self._lock:
+            if key in kept:
+                kept.move_to_end(key)
+                return kept[key]
+        return None
+
+    def _remember(self, kept: OrderedDict[Any, Any], key: Any, value: Any) -> None:
+        with self._lock:
+            kept[key] = value
+            while len(kept) > CACHED_SENTENCES:
+                kept.popitem(last=False)
 
     def speak_phonemes(self, text: str, phonemes: tuple[str, ...]) -> SpokenSentence:
         """One sentence's audio from its phonemes, with each phoneme's length in samples."""

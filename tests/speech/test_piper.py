@@ -125,3 +125,15 @@ def test_two_sentences_are_two_pieces_the_first_with_a_pause(voice):
     assert (first.text, second.text) == ("Nice.", "Your turn.")
     tail = first.samples[-int(0.15 * first.rate) :]
     assert abs(tail).max() == 0  # the quiet between the sentences
+
+
+@needs_espeak
+def test_a_sentence_said_again_is_not_made_again(voice, monkeypatch):
+    made = []
+    speak = voice.speak_phonemes
+    monkeypatch.setattr(voice, "speak_phonemes", lambda *a: made.append(a) or speak(*a))
+    voice.forget()
+    first = [s.samples for s in voice.stream("Over to you. Your move.")]
+    again = [s.samples for s in voice.stream("Your move.")]
+    assert len(made) == 2  # "Over to you." and "Your move.", once each
+    assert again[0] is first[1]
