@@ -40,6 +40,10 @@ from oxbot.speech.visemes import Viseme
 
 log = logging.getLogger(__name__)
 
+SPOKEN_CHARS_PER_SECOND = 14.0
+"""About how fast the robot speaks, in characters of text: making a sentence may take as long
+as saying it (20 tabs at once on 2 cores) before the watchdog calls it hung."""
+
 
 class SpeechSynthesisComponent(Component):
     """On Utterance: SpeakingStarted with the first sentence's audio, SpeakingContinued with each
@@ -77,6 +81,8 @@ class SpeechSynthesisComponent(Component):
         assert isinstance(message, Utterance)
         text = message.text
         self.speaking = True
+        if isinstance(self.voice, PiperVoice):  # a crowded machine makes sentences slowly
+            self.expect(len(text) / SPOKEN_CHARS_PER_SECOND)
         try:
             ends = time.monotonic()  # when the audio sent so far has played
             for i, (audio, seconds, visemes) in enumerate(self._sentences(text)):

@@ -14,8 +14,8 @@ with its phonemes' timing, from which the face's visemes are made (`oxbot.speech
 
 `PiperVoice.stream` yields a text sentence by sentence, so that the first sentence can play
 while the next is made, and keeps the sentences it made (the robot says the same few dozen
-again and again). One loaded voice serves a whole process (`load_piper_voice`); ONNX Runtime's
-`run` may be called from several threads at once.
+again and again). One loaded voice serves a whole process (`load_piper_voice`), from any
+thread; it makes one sentence at a time.
 """
 
 from __future__ import annotations
@@ -111,6 +111,7 @@ class PiperVoice:
         self._made: OrderedDict[tuple[str, ...], SpokenSentence] = OrderedDict()
         self._said: OrderedDict[str, list[PhonemeSentence]] = OrderedDict()
         self._lock = threading.Lock()
+        self._making = threading.Lock()
 
     @classmethod
     def load(
@@ -154,10 +155,7 @@ class PiperVoice:
             sentences = phonemize(text, self.espeak_voice)
             self._remember(self._said, text, sentences)
         for i, sentence in enumerate(sentences):
-            spoken = self._remembered(self._made, sentence.phonemes)
-            if spoken is None:
-                spoken = self.speak_phonemes(sentence.text, sentence.phonemes)
-                self._remember(self._made, sentence.phonemes, spoken)
+            spoken = self._made_once(sentence)
             if i < len(sentences) - 1:
                 quiet = np.zeros(int(SENTENCE_SILENCE_SECONDS * self.rate), np.int16)
                 spoken = _with_silence(spoken, quiet)
@@ -167,6 +165,20 @@ class PiperVoice:
         """`text` spoken, all its sentences in one WAV."""
         parts = [s.samples for s in self.stream(text)]
         return wav_bytes(np.concatenate(parts) if parts else np.zeros(0, np.int16), self.rate)
+
+    def _made_once(self, sentence: PhonemeSentence) -> SpokenSentence:
+        """The sentence kept, or made now. One sentence is made at a time in a process: many
+        robots (the page's tabs) asking at once share the two cores better in turn than all
+        together, and a sentence several ask for is made once."""
+        spoken = self._remembered(self._made, sentence.phonemes)
+        if spoken is not None:
+            return spoken
+        with self._making:
+            spoken = self._remembered(self._made, sentence.phonemes)
+            if spoken is None:
+                spoken = self.speak_phonemes(sentence.text, sentence.phonemes)
+                self._remember(self._made, sentence.phonemes, spoken)
+        return spoken
 
     def forget(self) -> None:
         """Drop the sentences kept (a benchmark's cold start)."""
