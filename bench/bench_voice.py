@@ -165,7 +165,7 @@ def main() -> None:
             (
                 f"act to first audio, {load}, {label}, {stat} (ms)",
                 f"{load}_{when}_{stat}_ms",
-                "{:.0f}",
+                "{:.1f}",
             )
             for load in ("idle", "game")
             for when, label in (("first", "first time"), ("again", "said before"))
