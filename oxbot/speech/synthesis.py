@@ -12,6 +12,7 @@ import functools
 import logging
 import shutil
 import subprocess
+import threading
 from dataclasses import dataclass
 
 from oxbot.config import SpeechConfig
@@ -71,9 +72,18 @@ def robot_voice(config: SpeechConfig) -> Voice | PiperVoice:
     return Voice(config.espeak_voice)
 
 
-@functools.cache
+_loading = threading.Lock()
+
+
 def _piper_once(threads: int) -> PiperVoice | str:
-    """The loaded voice, or why it cannot load (kept, so that a bad file is hashed once)."""
+    """The loaded voice, or why it cannot load (kept, so that a bad file is hashed once);
+    robots starting together (the server's warm-up and the first tab) wait for one load."""
+    with _loading:
+        return _load_piper(threads)
+
+
+@functools.cache
+def _load_piper(threads: int) -> PiperVoice | str:
     try:
         return load_piper_voice(threads)
     except (SpeechUnavailable, ModelFileError) as exc:

@@ -46,12 +46,12 @@ def test_without_piper_the_robot_falls_back_on_espeak_with_one_warning(monkeypat
         raise SpeechUnavailable("Piper's joe voice is not installed")
 
     monkeypatch.setattr(synthesis_module, "load_piper_voice", broken)
-    synthesis_module._piper_once.cache_clear()
+    synthesis_module._load_piper.cache_clear()
     try:
         with caplog.at_level(logging.WARNING):
             voices = [robot_voice(SpeechConfig(espeak_voice="en-gb")) for _ in range(3)]
     finally:
-        synthesis_module._piper_once.cache_clear()
+        synthesis_module._load_piper.cache_clear()
     assert voices == [Voice("en-gb")] * 3
     warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
     assert len(warnings) == 1 and "speaks with espeak-ng" in warnings[0]
