@@ -6,13 +6,14 @@ recogniser (`[speech.whisper]`, base by default), and the word error rate of eac
     .venv/bin/python bench/bench_intelligibility.py --model tiny.en  # the smaller Whisper
     .venv/bin/python bench/bench_intelligibility.py --voices piper --show-all
 
-The sentences: every template of `oxbot/data/dialogue/templates.txt` (the words it says, its
-drawing tag left out), and every sentence the interaction manager makes itself with every cell
-name ("I take the upper left.", "The middle is already taken. ...") or part name, and its
-guidance about the camera. The WER is the words' edit distance over the words said, after
-both are lower-cased and stripped of punctuation (`oxbot.speech.nbest.normalise`) and three
-spelling variants are written one way (`SPELLINGS`). Whisper
-here reads the game's words as its prompt, as it does on the robot. Not a test.
+The sentences (`oxbot.robot.session.robot_sentences`): every template of
+`oxbot/data/dialogue/templates.txt` (the words it says, its drawing tag left out), and every
+sentence the interaction manager makes itself with every cell name ("I take the upper left.",
+"The middle is already taken. ...") or part name, and its guidance about the camera. The WER
+is the words' edit distance over the words said, after both are lower-cased and stripped of
+punctuation (`oxbot.speech.nbest.normalise`) and three spelling variants are written one way
+(`SPELLINGS`). Whisper here reads the game's words as its prompt, as it does on the robot.
+Not a test.
 """
 
 from __future__ import annotations
@@ -23,41 +24,15 @@ from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 from oxbot.config import SpeechConfig
-from oxbot.dialogue.domain import load_domain
-from oxbot.game.board import N_CELLS
-from oxbot.robot.manager import (
-    GUIDANCE_SENTENCES,
-    LOST_SENTENCES,
-    NOBODY_SENTENCE,
-    PAPER_MOVE,
-    STOPPED_SENTENCE,
-    TAKEN_IN_WORDS,
-    WHICH_CELL,
-    cell_in_words,
-    spoken,
-)
+from oxbot.robot.session import robot_sentences
 from oxbot.speech.nbest import normalise
 from oxbot.speech.piper import load_piper_voice
 from oxbot.speech.recognition import load_recognizer
 from oxbot.speech.synthesis import Voice, synthesize
 
 VOICES = ("piper", "espeak")
-PARTS = ("voice", "arm", "eyes", "mind")
 SPELLINGS = {"good bye": "goodbye", "ok": "okay", "all right": "alright"}
 """Parts named in the robot's goodbye when one is lost (`STOPPED_SENTENCE`)."""
-
-
-def robot_sentences() -> list[str]:
-    """Every distinct sentence the robot can say, in a fixed order."""
-    domain = load_domain()
-    sentences = [spoken(t) for act in domain.templates for t in domain.templates_for(act)]
-    cells = [cell_in_words(c) for c in range(N_CELLS)]
-    sentences += [PAPER_MOVE.format(cell=c) for c in cells]
-    sentences += [TAKEN_IN_WORDS.format(cell=c[0].upper() + c[1:]) for c in cells]
-    sentences += [STOPPED_SENTENCE.format(part=p) for p in PARTS]
-    sentences += [*GUIDANCE_SENTENCES.values(), *LOST_SENTENCES.values()]
-    sentences += [NOBODY_SENTENCE, WHICH_CELL]
-    return list(dict.fromkeys(s for s in sentences if s.strip()))
 
 
 def words(text: str) -> list[str]:

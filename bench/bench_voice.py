@@ -9,7 +9,7 @@ Each voice is measured in its own process (so that its memory is its own):
 - **act to first audio**: the time from an Utterance published on the bus to the
   SpeakingStarted carrying the first sentence's WAV (the synthesis component as the robot runs
   it: phonemes, the network, the WAV), over every sentence the robot can say
-  (`bench_intelligibility.robot_sentences`); median and p90, in ms. "first time": Piper's
+  (`oxbot.robot.session.robot_sentences`); median and p90, in ms. "first time": Piper's
   kept sentences forgotten first, so each is made; "said before": the same again, as the
   robot's sentences come back during a game (`PiperVoice` keeps them); espeak-ng keeps nothing.
   "idle": nothing else runs in this process; "game": the robot's eyes read a rendered photo of
@@ -94,12 +94,9 @@ def act_to_first_audio(voice: object, sentences: list[str]) -> list[float]:
 
 def measure(name: str) -> dict[str, float]:
     """Every figure of one voice, in this process."""
-    sys.path.insert(0, str(Path(__file__).parent))
-    from bench_intelligibility import robot_sentences
-
-    import oxbot.robot.session  # noqa: F401  (the robot's imports, before the voice's memory)
     from oxbot.config import SpeechConfig
     from oxbot.perception.board import default_reader
+    from oxbot.robot.session import robot_sentences  # the robot's imports, before the voice's
     from oxbot.speech.audio import read_wav
     from oxbot.speech.piper import PiperVoice, load_piper_voice
     from oxbot.speech.synthesis import Voice, synthesize

@@ -120,9 +120,10 @@ def play(
             for section, values in changes.items()
         },
     )
-    from oxbot.robot.session import shared_policy
+    from oxbot.robot.session import prepare_voice, shared_policy
 
     shared_policy(config.robot.manager, config)  # a policy that does not fit: said before serving
+    prepare_voice(config)  # every sentence made in the background, so none waits in a game
     if terminal:
         from oxbot.perception.sources import open_source
         from oxbot.robot.session import Robot

@@ -33,15 +33,16 @@ import functools
 import logging
 import os
 import threading
+import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from oxbot.config import DialogueConfig, OxbotConfig, RewardConfig, RobotConfig
-from oxbot.dialogue.domain import words_of
+from oxbot.dialogue.domain import Domain, load_domain, words_of
 from oxbot.dialogue.policy import Policy
 from oxbot.dialogue.state import Turn
-from oxbot.errors import InvalidInputError, SpeechUnavailable
+from oxbot.errors import InvalidInputError, OxbotError, SpeechUnavailable
 from oxbot.game.board import (
     CELL_NAMES,
     EMPTY_BOARD,
@@ -59,7 +60,19 @@ from oxbot.robot.frames import frame_message
 from oxbot.robot.game_moves import GameMoveComponent
 from oxbot.robot.head_movement import HeadMovementComponent
 from oxbot.robot.head_tracking import HeadTracker, HeadTrackingComponent
-from oxbot.robot.manager import InteractionManagerComponent, say_goodbye
+from oxbot.robot.manager import (
+    GUIDANCE_SENTENCES,
+    LOST_SENTENCES,
+    NOBODY_SENTENCE,
+    PAPER_MOVE,
+    STOPPED_SENTENCE,
+    TAKEN_IN_WORDS,
+    WHICH_CELL,
+    InteractionManagerComponent,
+    cell_in_words,
+    say_goodbye,
+    spoken,
+)
 from oxbot.robot.messages import (
     DialogueAct,
     DialogueEnded,
@@ -74,6 +87,7 @@ from oxbot.robot.messages import (
 )
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
 from oxbot.speech.audio import read_wav
+from oxbot.speech.piper import PiperVoice
 from oxbot.speech.recognition import Recognizer, load_recognizer
 from oxbot.speech.synthesis import robot_voice
 
@@ -115,6 +129,47 @@ def warm_up(config: OxbotConfig | None = None) -> None:
         load_recognizer(config.speech)
     except SpeechUnavailable as exc:
         log.warning("speech recognition is off, type your answers instead: %s", exc)
+
+
+ESSENTIAL_PARTS = ("voice", "arm", "eyes", "mind")
+"""The parts a game cannot go on without, as the robot's goodbye names them."""
+
+
+def robot_sentences(domain: Domain | None = None) -> list[str]:
+    """Every distinct sentence the robot can say, the greetings first: each template's words
+    (`domain`'s, the shipped by default), and the interaction manager's own sentences with
+    every cell and part name and its guidance about the camera."""
+    domain = domain if domain is not None else load_domain()
+    sentences = [spoken(t) for act in domain.templates for t in domain.templates_for(act)]
+    cells = [cell_in_words(c) for c in range(N_CELLS)]
+    sentences += [PAPER_MOVE.format(cell=c) for c in cells]
+    sentences += [TAKEN_IN_WORDS.format(cell=c[0].upper() + c[1:]) for c in cells]
+    sentences += [STOPPED_SENTENCE.format(part=p) for p in ESSENTIAL_PARTS]
+    sentences += [*GUIDANCE_SENTENCES.values(), *LOST_SENTENCES.values()]
+    sentences += [NOBODY_SENTENCE, WHICH_CELL]
+    return list(dict.fromkeys(s for s in sentences if s.strip()))
+
+
+def prepare_voice(config: OxbotConfig) -> threading.Thread | None:
+    """Make every sentence the robot can say with Piper in a background thread, greetings
+    first (the voice keeps them), so that no sentence of a game waits for the network; None
+    when the robot speaks with espeak-ng, which needs no preparing."""
+    voice = robot_voice(config.speech)
+    if not isinstance(voice, PiperVoice):
+        return None
+
+    def prepare() -> None:
+        started = time.perf_counter()
+        try:
+            made = voice.prepare(robot_sentences())
+        except OxbotError as exc:  # the game will say it in text, with its own warning
+            log.warning("the robot's sentences could not be prepared: %s", exc)
+            return
+        log.info("%d sentences prepared in %.1f s", made, time.perf_counter() - started)
+
+    thread = threading.Thread(target=prepare, name="oxbot-voice-prepare", daemon=True)
+    thread.start()
+    return thread
 
 
 class Robot:

@@ -29,7 +29,7 @@ import threading
 import time
 import wave
 from collections import OrderedDict
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -150,10 +150,7 @@ class PiperVoice:
         """`text` spoken sentence by sentence, each made when the one before has been taken;
         every sentence but the last ends with `SENTENCE_SILENCE_SECONDS` of quiet. A sentence
         said before (one of the last `CACHED_SENTENCES`) is not made again."""
-        sentences = self._remembered(self._said, text)
-        if sentences is None:
-            sentences = phonemize(text, self.espeak_voice)
-            self._remember(self._said, text, sentences)
+        sentences = self._phonemes(text)
         for i, sentence in enumerate(sentences):
             spoken = self._made_once(sentence)
             if i < len(sentences) - 1:
@@ -161,10 +158,29 @@ class PiperVoice:
                 spoken = _with_silence(spoken, quiet)
             yield spoken
 
+    def prepare(self, texts: Iterable[str]) -> int:
+        """Make and keep every sentence of `texts` not kept yet (at most `CACHED_SENTENCES`);
+        how many were made."""
+        made = 0
+        for text in texts:
+            for sentence in self._phonemes(text):
+                if self._remembered(self._made, sentence.phonemes) is None:
+                    self._made_once(sentence)
+                    made += 1
+        return made
+
     def synthesize(self, text: str) -> bytes:
         """`text` spoken, all its sentences in one WAV."""
         parts = [s.samples for s in self.stream(text)]
         return wav_bytes(np.concatenate(parts) if parts else np.zeros(0, np.int16), self.rate)
+
+    def _phonemes(self, text: str) -> list[PhonemeSentence]:
+        """The text's sentences' phonemes, kept like the sentences made."""
+        sentences = self._remembered(self._said, text)
+        if sentences is None:
+            sentences = phonemize(text, self.espeak_voice)
+            self._remember(self._said, text, sentences)
+        return sentences
 
     def _made_once(self, sentence: PhonemeSentence) -> SpokenSentence:
         """The sentence kept, or made now. One sentence is made at a time in a process: many

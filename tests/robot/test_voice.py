@@ -68,6 +68,16 @@ def test_piper_streams_sentence_by_sentence_with_visemes_then_finishes_after_the
     assert got[3].stamp - got[0].stamp >= sum(m.seconds for m in pieces) / 4.0 * 0.95
 
 
+def test_every_sentence_the_robot_can_say_is_listed_as_said():
+    from oxbot.robot.session import robot_sentences
+
+    sentences = robot_sentences()
+    assert sentences[0] == "Hello!"  # the greetings first: they are needed first
+    assert "I take the lower right." in sentences and "I take this one" in sentences
+    assert not any("[" in s or "$loc" in s or "{" in s for s in sentences)
+    assert len(sentences) == len(set(sentences)) >= 60
+
+
 def test_utterances_queue_and_never_overlap():
     bus = LocalBus()
     inbox = bus.subscribe(SpeakingStarted, SpeakingFinished)

@@ -137,3 +137,10 @@ def test_a_sentence_said_again_is_not_made_again(voice, monkeypatch):
     again = [s.samples for s in voice.stream("Your move.")]
     assert len(made) == 2  # "Over to you." and "Your move.", once each
     assert again[0] is first[1]
+
+
+@needs_espeak
+def test_prepared_sentences_are_made_once_and_kept(voice):
+    voice.forget()
+    assert voice.prepare(["Your turn.", "Nice. Your turn."]) == 2  # "Your turn." once
+    assert voice.prepare(["Nice.", "Your turn."]) == 0
