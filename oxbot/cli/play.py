@@ -123,7 +123,6 @@ def play(
     from oxbot.robot.session import prepare_voice, shared_policy
 
     shared_policy(config.robot.manager, config)  # a policy that does not fit: said before serving
-    prepare_voice(config)  # every sentence made in the background, so none waits in a game
     if terminal:
         from oxbot.perception.sources import open_source
         from oxbot.robot.session import Robot
@@ -139,13 +138,18 @@ def play(
             err_console.print(notice(store, record_audio), highlight=False)
             joining.append(recorder(store, "terminal", keep_audio=record_audio))
         robot = Robot(config, sheet_camera=source, joining=joining)
+        prepare_voice(config)  # every sentence made in the background: none waits in a game
         TerminalRobot(robot, speakers=Speakers(not mute)).run()
         return
     from oxbot.web.server import serve
 
+    def announce(text: str) -> None:  # the server is about to start: its port was free
+        typer.echo(text)
+        prepare_voice(config)  # every sentence made in the background: none waits in a game
+
     serve(
         config,
-        announce=typer.echo,
+        announce=announce,
         record=record,
         data_dir=data_dir,
         record_audio=record_audio,

@@ -29,6 +29,7 @@ publish, and holding nothing of the robot's.
 
 from __future__ import annotations
 
+import atexit
 import functools
 import logging
 import os
@@ -151,24 +152,33 @@ def robot_sentences(domain: Domain | None = None) -> list[str]:
 
 
 def prepare_voice(config: OxbotConfig) -> threading.Thread | None:
-    """Make every sentence the robot can say with Piper in a background thread, greetings
-    first (the voice keeps them), so that no sentence of a game waits for the network; None
-    when the robot speaks with espeak-ng, which needs no preparing."""
-    voice = robot_voice(config.speech)
-    if not isinstance(voice, PiperVoice):
+    """Load the robot's voice and make every sentence it can say with Piper in a background
+    thread, greetings first (the voice keeps them), so that no sentence of a game waits for
+    the network; None when the config chooses espeak-ng, which needs no preparing. When the
+    process ends first, the thread stops after the sentence in hand."""
+    if config.speech.voice != "piper":
         return None
+    stop = threading.Event()
 
     def prepare() -> None:
+        voice = robot_voice(config.speech)  # the one load the robots share
+        if not isinstance(voice, PiperVoice):
+            return  # espeak-ng, after robot_voice's warning
         started = time.perf_counter()
         try:
-            made = voice.prepare(robot_sentences())
+            made = voice.prepare(robot_sentences(), stop)
         except OxbotError as exc:  # the game will say it in text, with its own warning
             log.warning("the robot's sentences could not be prepared: %s", exc)
             return
         log.info("%d sentences prepared in %.1f s", made, time.perf_counter() - started)
 
+    def finish() -> None:  # ONNX Runtime aborts the process if it ends under a load or a run
+        stop.set()
+        thread.join(timeout=30)
+
     thread = threading.Thread(target=prepare, name="oxbot-voice-prepare", daemon=True)
     thread.start()
+    atexit.register(finish)
     return thread
 
 

@@ -20,6 +20,7 @@ thread; it makes one sentence at a time.
 
 from __future__ import annotations
 
+import atexit
 import functools
 import hashlib
 import io
@@ -112,6 +113,7 @@ class PiperVoice:
         self._said: OrderedDict[str, list[PhonemeSentence]] = OrderedDict()
         self._lock = threading.Lock()
         self._making = threading.Lock()
+        self._closed = False
 
     @classmethod
     def load(
@@ -158,11 +160,13 @@ class PiperVoice:
                 spoken = _with_silence(spoken, quiet)
             yield spoken
 
-    def prepare(self, texts: Iterable[str]) -> int:
-        """Make and keep every sentence of `texts` not kept yet (at most `CACHED_SENTENCES`);
-        how many were made."""
+    def prepare(self, texts: Iterable[str], stop: threading.Event | None = None) -> int:
+        """Make and keep every sentence of `texts` not kept yet (at most `CACHED_SENTENCES`),
+        until `stop` is set; how many were made."""
         made = 0
         for text in texts:
+            if stop is not None and stop.is_set():
+                break
             for sentence in self._phonemes(text):
                 if self._remembered(self._made, sentence.phonemes) is None:
                     self._made_once(sentence)
@@ -195,6 +199,12 @@ class PiperVoice:
                 spoken = self.speak_phonemes(sentence.text, sentence.phonemes)
                 self._remember(self._made, sentence.phonemes, spoken)
         return spoken
+
+    def close(self, timeout: float = 10.0) -> None:
+        """Wait for the sentence being made and make no more: ONNX Runtime must not be torn
+        down under a run in another thread when the process ends (it aborts)."""
+        if self._making.acquire(timeout=timeout):
+            self._closed = True  # the lock stays taken: any later sentence waits for ever
 
     def forget(self) -> None:
         """Drop the sentences kept (a benchmark's cold start)."""
@@ -243,6 +253,7 @@ def load_piper_voice(threads: int = 1) -> PiperVoice:
     started = time.perf_counter()
     voice = PiperVoice.load(threads=threads)
     log.info("Piper's joe voice loaded in %.2f s", time.perf_counter() - started)
+    atexit.register(voice.close)  # background threads may be making a sentence at exit
     return voice
 
 
