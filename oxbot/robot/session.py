@@ -167,8 +167,8 @@ def prepare_voice(config: OxbotConfig) -> threading.Thread | None:
         started = time.perf_counter()
         try:
             made = voice.prepare(robot_sentences(), stop)
-        except OxbotError as exc:  # the game will say it in text, with its own warning
-            log.warning("the robot's sentences could not be prepared: %s", exc)
+        except OxbotError as exc:  # Ctrl-C stops espeak-ng too; a game makes its sentences itself
+            log.info("the robot's sentences were not all prepared: %s", exc)
             return
         log.info("%d sentences prepared in %.1f s", made, time.perf_counter() - started)
 

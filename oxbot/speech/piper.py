@@ -165,11 +165,16 @@ class PiperVoice:
         until `stop` is set; how many were made."""
         made = 0
         for text in texts:
-            if stop is not None and stop.is_set():
-                break
             for sentence in self._phonemes(text):
+                if self._closed or (stop is not None and stop.is_set()):
+                    return made
                 if self._remembered(self._made, sentence.phonemes) is None:
-                    self._made_once(sentence)
+                    try:
+                        self._made_once(sentence)
+                    except SpeechUnavailable:
+                        if self._closed:
+                            return made
+                        raise
                     made += 1
         return made
 
@@ -194,6 +199,8 @@ class PiperVoice:
         if spoken is not None:
             return spoken
         with self._making:
+            if self._closed:
+                raise SpeechUnavailable("the robot's voice is closed: the process is ending")
             spoken = self._remembered(self._made, sentence.phonemes)
             if spoken is None:
                 spoken = self.speak_phonemes(sentence.text, sentence.phonemes)
@@ -201,10 +208,11 @@ class PiperVoice:
         return spoken
 
     def close(self, timeout: float = 10.0) -> None:
-        """Wait for the sentence being made and make no more: ONNX Runtime must not be torn
-        down under a run in another thread when the process ends (it aborts)."""
+        """Wait for the sentence being made and make no more (SpeechUnavailable): ONNX Runtime
+        must not be torn down under a run in another thread when the process ends (it aborts)."""
         if self._making.acquire(timeout=timeout):
-            self._closed = True  # the lock stays taken: any later sentence waits for ever
+            self._closed = True
+            self._making.release()
 
     def forget(self) -> None:
         """Drop the sentences kept (a benchmark's cold start)."""
@@ -247,9 +255,25 @@ class PiperVoice:
         return SpokenSentence(text, samples, self.rate, kept, durations, lead)
 
 
-@functools.cache
+_loading = threading.Lock()
+
+
 def load_piper_voice(threads: int = 1) -> PiperVoice:
-    """The installed joe voice, loaded once per process (63 MB of weights)."""
+    """The installed joe voice, loaded once per process (63 MB of weights); threads asking at
+    once wait for the one load."""
+    with _loading:
+        return _load_once(threads)
+
+
+@atexit.register
+def _let_a_load_finish() -> None:
+    """A process ending under a load in another thread waits for it (ONNX Runtime aborts)."""
+    if _loading.acquire(timeout=30):
+        _loading.release()
+
+
+@functools.cache
+def _load_once(threads: int) -> PiperVoice:
     started = time.perf_counter()
     voice = PiperVoice.load(threads=threads)
     log.info("Piper's joe voice loaded in %.2f s", time.perf_counter() - started)
