@@ -166,7 +166,8 @@ def prepare_voice(config: OxbotConfig) -> threading.Thread | None:
             return  # espeak-ng, after robot_voice's warning
         started = time.perf_counter()
         try:
-            made = voice.prepare(robot_sentences(), stop)
+            domain = load_domain(config.dialogue.domain or None)  # --domain's templates
+            made = voice.prepare(robot_sentences(domain), stop)
         except OxbotError as exc:  # Ctrl-C stops espeak-ng too; a game makes its sentences itself
             log.info("the robot's sentences were not all prepared: %s", exc)
             return
