@@ -602,8 +602,13 @@ class SpeechConfig:
     fallback when Whisper cannot load), or `module:factory` for another."""
     nbest: int = 5
     """Paper §3.1: the recogniser's N-best list is passed on; oxbot keeps this many entries."""
-    voice: str = "en-us"
-    """Paper §3.1 used MARY TTS; oxbot: the espeak-ng voice of the robot."""
+    voice: str = "piper"
+    """Paper §3.1 used MARY TTS; oxbot: `piper` (Piper's joe voice on ONNX Runtime, a neural
+    voice; espeak-ng when it cannot load) or `espeak` (espeak-ng, a formant synthesiser)."""
+    espeak_voice: str = "en-us"
+    """oxbot: the espeak-ng voice when the robot speaks with espeak-ng."""
+    piper_threads: int = 2
+    """oxbot: CPU threads of one Piper sentence (the machines this runs on have two cores)."""
     min_move_confidence: float = 0.3
     """oxbot: a move said in words ("top left", `oxbot.dialogue.cells_in_words`) is played
     when heard at least this surely (the recogniser's confidence, times the N-best's agreement
@@ -618,12 +623,17 @@ class SpeechConfig:
     """oxbot: the Whisper recogniser's settings."""
 
     def __post_init__(self) -> None:
-        _require_positive(self, "nbest")
+        _require_positive(self, "nbest", "piper_threads")
         _require_range(self, "min_move_confidence", "[0, 1]")
         _require_finite(self)
         if not self.recognizer.strip():
             raise ConfigError(
                 "speech.recognizer is empty; use whisper, pocketsphinx or module:factory"
+            )
+        if self.voice not in ("piper", "espeak"):
+            raise ConfigError(
+                f"speech.voice is {self.voice!r}; use piper or espeak (an espeak-ng voice "
+                "such as en-gb goes in speech.espeak_voice)"
             )
 
 

@@ -100,10 +100,15 @@ def play(
             "to play instead of the shipped one; its policy must be trained on it."
         ),
     ] = None,
+    voice: Annotated[
+        str | None,
+        typer.Option(help="The robot's voice: piper (neural) or espeak (default: config)."),
+    ] = None,
 ) -> None:
     """Play with the whole robot: the web page at http(s)://HOST:PORT, or --terminal."""
     changes = {
         "game": {"robot_starts": robot_starts},
+        "speech": {"voice": voice},
         "robot": {"speed_factor": speed, "manager": manager, "policy": policy},
         "dialogue": {"domain": domain},
         "web": {"host": host, "port": port, "https": {True: "on", False: "off"}.get(https)},
@@ -115,7 +120,7 @@ def play(
             for section, values in changes.items()
         },
     )
-    from oxbot.robot.session import shared_policy
+    from oxbot.robot.session import prepare_voice, shared_policy
 
     shared_policy(config.robot.manager, config)  # a policy that does not fit: said before serving
     if terminal:
@@ -133,13 +138,18 @@ def play(
             err_console.print(notice(store, record_audio), highlight=False)
             joining.append(recorder(store, "terminal", keep_audio=record_audio))
         robot = Robot(config, sheet_camera=source, joining=joining)
+        prepare_voice(config)  # every sentence made in the background: none waits in a game
         TerminalRobot(robot, speakers=Speakers(not mute)).run()
         return
     from oxbot.web.server import serve
 
+    def announce(text: str) -> None:  # the server is about to start: its port was free
+        typer.echo(text)
+        prepare_voice(config)  # every sentence made in the background: none waits in a game
+
     serve(
         config,
-        announce=typer.echo,
+        announce=announce,
         record=record,
         data_dir=data_dir,
         record_audio=record_audio,

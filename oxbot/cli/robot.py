@@ -57,11 +57,18 @@ def robot_command(
     terminal: Annotated[bool, typer.Option("--terminal", help="Drive it from here.")] = False,
     web: Annotated[bool, typer.Option("--web", help="Serve the page for it ([web]).")] = False,
     security: Annotated[Path | None, _SECURITY] = None,
+    voice: Annotated[
+        str | None,
+        typer.Option(help="The voice component's: piper (neural) or espeak (default: config)."),
+    ] = None,
 ) -> None:
     """A robot as processes: --launch FILE starts them; --terminal / --web drive one."""
+    from oxbot.config import with_overrides
     from oxbot.robot.launch import endpoints_of, load_launch_file, run_robot
 
     config = config_of(ctx)
+    if voice is not None:
+        config = with_overrides(config, {"speech": {"voice": voice}})
     plan = load_launch_file(launch) if launch is not None else None
     drive: Callable[[Any], None] | None = None
     if terminal:

@@ -121,9 +121,9 @@ def build_component(
     if name == "recognition":
         return cls(bus, None, config.speech)
     if name == "voice":
-        from oxbot.speech.synthesis import Voice
+        from oxbot.speech.synthesis import robot_voice
 
-        return cls(bus, Voice(config.speech.voice), speed_factor=body.speed_factor)
+        return cls(bus, robot_voice(config.speech), speed_factor=body.speed_factor)
     if name == "arm":
         return cls(bus, body.arm, rng=rng, speed_factor=body.speed_factor)
     if name == "head-tracking":

@@ -4,7 +4,8 @@ Any Zenoh peer can publish on a robot's keys, so what arrives is checked: the JS
 nesting before it is parsed (`check_json`), then every field against its type hint (str, int,
 float, bool, bytes, Literal, tuples, None) and its limits (`MAX_TEXT`, `MAX_ITEMS`,
 `MAX_BYTES`, finite numbers), then what the game gives meaning to: cell names, the board's 9
-cells of 0/1/2, a reading's 9 cells, confidences in [0, 1], stroke points near their cell.
+cells of 0/1/2, a reading's 9 cells, confidences in [0, 1], stroke points near their cell, the
+mouth's visemes.
 A message that fails is an InvalidInputError; the bus drops it with one log line.
 """
 
@@ -21,6 +22,7 @@ from typing import Any
 
 from oxbot.errors import InvalidInputError
 from oxbot.game.board import CELL_NAMES
+from oxbot.speech.visemes import VISEMES
 
 log = logging.getLogger(__name__)
 
@@ -146,6 +148,8 @@ def _rule(field: str, value: Any) -> str | None:
         return "a confidence outside [0, 1]"
     if field == "points" and not all(-1.0 <= c <= 2.0 for p in value for c in p):
         return "a point far outside its cell"
+    if field == "visemes" and not all(0 <= t <= 3600 and v in VISEMES for t, v in value):
+        return f"not (seconds, one of {', '.join(VISEMES)}) pairs"
     if field in ("agreeing", "seconds") and not 0 <= value <= 3600:
         return f"{value} is out of range"
     if field == "shape" and (

@@ -182,13 +182,30 @@ class Utterance(Message):
 
 @dataclass(frozen=True)
 class SpeakingStarted(Message):
-    """The robot's speech audio starts now; `audio` is the WAV, for a page to play."""
+    """The robot's speech audio starts now; `audio` is the WAV of its first sentence (of all of
+    `text` with espeak-ng), for a page to play; more sentences follow as SpeakingContinued.
+    `visemes` are the mouth's shapes, (start seconds into `audio`, viseme) each
+    (`oxbot.speech.visemes`); none with espeak-ng, whose mouth follows the loudness."""
 
     topic: ClassVar[str] = "speech/started"
     text: str
     audio: bytes = b""
     format: Literal["wav"] = "wav"
     seconds: float = 0.0
+    visemes: tuple[tuple[float, str], ...] = ()
+
+
+@dataclass(frozen=True)
+class SpeakingContinued(Message):
+    """The next sentence of the utterance `text`, to play as soon as the one before ends (it is
+    sent when it is ready, usually while the one before plays)."""
+
+    topic: ClassVar[str] = "speech/continued"
+    text: str
+    audio: bytes = b""
+    format: Literal["wav"] = "wav"
+    seconds: float = 0.0
+    visemes: tuple[tuple[float, str], ...] = ()
 
 
 @dataclass(frozen=True)

@@ -29,19 +29,21 @@ publish, and holding nothing of the robot's.
 
 from __future__ import annotations
 
+import atexit
 import functools
 import logging
 import os
 import threading
+import time
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from oxbot.config import DialogueConfig, OxbotConfig, RewardConfig, RobotConfig
-from oxbot.dialogue.domain import words_of
+from oxbot.dialogue.domain import Domain, load_domain, words_of
 from oxbot.dialogue.policy import Policy
 from oxbot.dialogue.state import Turn
-from oxbot.errors import InvalidInputError, SpeechUnavailable
+from oxbot.errors import InvalidInputError, OxbotError, SpeechUnavailable
 from oxbot.game.board import (
     CELL_NAMES,
     EMPTY_BOARD,
@@ -59,7 +61,19 @@ from oxbot.robot.frames import frame_message
 from oxbot.robot.game_moves import GameMoveComponent
 from oxbot.robot.head_movement import HeadMovementComponent
 from oxbot.robot.head_tracking import HeadTracker, HeadTrackingComponent
-from oxbot.robot.manager import InteractionManagerComponent, say_goodbye
+from oxbot.robot.manager import (
+    GUIDANCE_SENTENCES,
+    LOST_SENTENCES,
+    NOBODY_SENTENCE,
+    PAPER_MOVE,
+    STOPPED_SENTENCE,
+    TAKEN_IN_WORDS,
+    WHICH_CELL,
+    InteractionManagerComponent,
+    cell_in_words,
+    say_goodbye,
+    spoken,
+)
 from oxbot.robot.messages import (
     DialogueAct,
     DialogueEnded,
@@ -74,8 +88,9 @@ from oxbot.robot.messages import (
 )
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
 from oxbot.speech.audio import read_wav
+from oxbot.speech.piper import PiperVoice
 from oxbot.speech.recognition import Recognizer, load_recognizer
-from oxbot.speech.synthesis import Voice
+from oxbot.speech.synthesis import robot_voice
 
 log = logging.getLogger(__name__)
 
@@ -102,7 +117,7 @@ def _loaded_policy(
 
 @functools.cache
 def warm_up(config: OxbotConfig | None = None) -> None:
-    """Load the shared models once (policy, classifier, recogniser: a few seconds), so that
+    """Load the shared models once (policy, classifier, voice, recogniser: a few seconds), so that
     the first game does not wait for them mid-sentence. A recogniser the config names but that
     cannot be built is a ConfigError here; one that is not installed only a warning."""
     from oxbot.perception.board import default_reader
@@ -110,10 +125,62 @@ def warm_up(config: OxbotConfig | None = None) -> None:
     config = config if config is not None else OxbotConfig()
     shared_policy(config.robot.manager, config)
     default_reader(config.perception)
+    robot_voice(config.speech)
     try:
         load_recognizer(config.speech)
     except SpeechUnavailable as exc:
         log.warning("speech recognition is off, type your answers instead: %s", exc)
+
+
+ESSENTIAL_PARTS = ("voice", "arm", "eyes", "mind")
+"""The parts a game cannot go on without, as the robot's goodbye names them."""
+
+
+def robot_sentences(domain: Domain | None = None) -> list[str]:
+    """Every distinct sentence the robot can say, the greetings first: each template's words
+    (`domain`'s, the shipped by default), and the interaction manager's own sentences with
+    every cell and part name and its guidance about the camera."""
+    domain = domain if domain is not None else load_domain()
+    sentences = [spoken(t) for act in domain.templates for t in domain.templates_for(act)]
+    cells = [cell_in_words(c) for c in range(N_CELLS)]
+    sentences += [PAPER_MOVE.format(cell=c) for c in cells]
+    sentences += [TAKEN_IN_WORDS.format(cell=c[0].upper() + c[1:]) for c in cells]
+    sentences += [STOPPED_SENTENCE.format(part=p) for p in ESSENTIAL_PARTS]
+    sentences += [*GUIDANCE_SENTENCES.values(), *LOST_SENTENCES.values()]
+    sentences += [NOBODY_SENTENCE, WHICH_CELL]
+    return list(dict.fromkeys(s for s in sentences if s.strip()))
+
+
+def prepare_voice(config: OxbotConfig) -> threading.Thread | None:
+    """Load the robot's voice and make every sentence it can say with Piper in a background
+    thread, greetings first (the voice keeps them), so that no sentence of a game waits for
+    the network; None when the config chooses espeak-ng, which needs no preparing. When the
+    process ends first, the thread stops after the sentence in hand."""
+    if config.speech.voice != "piper":
+        return None
+    stop = threading.Event()
+
+    def prepare() -> None:
+        voice = robot_voice(config.speech)  # the one load the robots share
+        if not isinstance(voice, PiperVoice):
+            return  # espeak-ng, after robot_voice's warning
+        started = time.perf_counter()
+        try:
+            domain = load_domain(config.dialogue.domain or None)  # --domain's templates
+            made = voice.prepare(robot_sentences(domain), stop)
+        except OxbotError as exc:  # Ctrl-C stops espeak-ng too; a game makes its sentences itself
+            log.info("the robot's sentences were not all prepared: %s", exc)
+            return
+        log.info("%d sentences prepared in %.1f s", made, time.perf_counter() - started)
+
+    def finish() -> None:  # ONNX Runtime aborts the process if it ends under a load or a run
+        stop.set()
+        thread.join(timeout=30)
+
+    thread = threading.Thread(target=prepare, name="oxbot-voice-prepare", daemon=True)
+    thread.start()
+    atexit.register(finish)
+    return thread
 
 
 class Robot:
@@ -159,7 +226,7 @@ class Robot:
             ),
             SpeechRecognitionComponent(self.bus, recognizer, self.config.speech),
             SpeechSynthesisComponent(
-                self.bus, Voice(self.config.speech.voice), speed_factor=body.speed_factor
+                self.bus, robot_voice(self.config.speech), speed_factor=body.speed_factor
             ),
             ArmComponent(
                 self.bus,

@@ -44,6 +44,7 @@ from oxbot.robot.messages import (
     DialogueEnded,
     GameState,
     Message,
+    SpeakingContinued,
     SpeakingStarted,
     SpeechHypotheses,
 )
@@ -65,10 +66,13 @@ class _Quit(Exception):
 
 
 class Speakers:
-    """Plays WAVs with sox's `play`, one at a time; off after one warning if it cannot."""
+    """Plays WAVs with sox's `play`, one after another in the order given (a sentence waits for
+    the one before); off after one warning if it cannot."""
 
     def __init__(self, enabled: bool = True) -> None:
         self.enabled = enabled and self._available()
+        self._queue: queue.Queue[bytes] = queue.Queue()
+        self._player: threading.Thread | None = None
         self._lock = threading.Lock()
 
     @staticmethod
@@ -81,13 +85,22 @@ class Speakers:
     def play(self, wav: bytes) -> None:
         if not self.enabled or not wav:
             return
-        threading.Thread(target=self._play, args=(wav,), daemon=True).start()
+        self._queue.put(wav)
+        with self._lock:
+            if self._player is None:
+                self._player = threading.Thread(target=self._play_queued, daemon=True)
+                self._player.start()
+
+    def _play_queued(self) -> None:
+        while True:
+            self._play(self._queue.get())
 
     def _play(self, wav: bytes) -> None:
-        with self._lock:
-            result = subprocess.run(
-                ["play", "-q", "-t", "wav", "-"], input=wav, capture_output=True, check=False
-            )
+        if not self.enabled:
+            return
+        result = subprocess.run(
+            ["play", "-q", "-t", "wav", "-"], input=wav, capture_output=True, check=False
+        )
         if result.returncode != 0 and self.enabled:
             self.enabled = False
             lines = result.stderr.decode(errors="replace").strip().splitlines()
@@ -234,6 +247,7 @@ class TerminalRobot:
             ComponentFailed,
             ComponentLost,
             SpeakingStarted,
+            SpeakingContinued,
             SpeechHypotheses,
         )
         self._printer = threading.Thread(target=self._print_events, daemon=True)
@@ -349,7 +363,7 @@ class TerminalRobot:
             c.print(f"[yellow]On the sheet: {escape(message.reason)}[/]")
         elif isinstance(message, SpeechHypotheses) and message.source == "microphone":
             c.print(f"[dim]{escape(heard_line(message.nbest))}[/]")
-        elif isinstance(message, SpeakingStarted):
+        elif isinstance(message, SpeakingStarted | SpeakingContinued):
             self.speakers.play(message.audio)
         elif isinstance(message, ComponentFailed):
             c.print(f"[red]{escape(message.component)} failed ({escape(message.error)})[/]")

@@ -1,10 +1,11 @@
 """The robot's voice and ears: speech synthesis and speech recognition as components.
 
-Synthesis (paper §3.1: MARY TTS from templates; oxbot: espeak-ng) turns each Utterance into
-WAV audio and brackets it with SpeakingStarted and SpeakingFinished, so that a face can move
-its mouth while the audio plays and nobody talks over the robot. Utterances queue: the robot
-never says two things at once. Without espeak-ng the robot still "speaks" in text, after one
-clear warning.
+Synthesis (paper §3.1: MARY TTS from templates; oxbot: Piper's neural voice, or espeak-ng)
+turns each Utterance into WAV audio, sentence by sentence so that the first plays while the
+next is made, and brackets it with SpeakingStarted and SpeakingFinished, so that a face can
+move its mouth while the audio plays and nobody talks over the robot. Utterances queue: the
+robot never says two things at once. Without espeak-ng the robot still "speaks" in text, after
+one clear warning.
 
 Recognition (paper: Google ASR, push-to-talk, N-best lists; oxbot: offline pocketsphinx)
 turns each push-to-talk SpeechAudio into SpeechHypotheses. Typed text needs no component:
@@ -14,12 +15,15 @@ other code publishes it directly as SpeechHypotheses(nbest=((text, 1.0),), sourc
 from __future__ import annotations
 
 import logging
+import time
+from collections.abc import Iterator
 
 from oxbot.config import SpeechConfig
 from oxbot.errors import ConfigError, SpeechUnavailable
 from oxbot.robot.bus import Bus, Component
 from oxbot.robot.messages import (
     Message,
+    SpeakingContinued,
     SpeakingFinished,
     SpeakingStarted,
     SpeechAudio,
@@ -28,19 +32,28 @@ from oxbot.robot.messages import (
 )
 from oxbot.speech.audio import read_wav
 from oxbot.speech.nbest import Recognizer
+from oxbot.speech.piper import PiperVoice
 from oxbot.speech.recognition import load_recognizer
 from oxbot.speech.sphinx import PocketsphinxRecognizer
 from oxbot.speech.synthesis import Voice, espeak_available, synthesize
+from oxbot.speech.visemes import Viseme
 
 log = logging.getLogger(__name__)
 
+SPOKEN_CHARS_PER_SECOND = 14.0
+"""About how fast the robot speaks, in characters of text: making a sentence may take as long
+as saying it (20 tabs at once on 2 cores) before the watchdog calls it hung."""
+
 
 class SpeechSynthesisComponent(Component):
-    """On Utterance: SpeakingStarted(text, audio, seconds), the audio's duration, SpeakingFinished.
+    """On Utterance: SpeakingStarted with the first sentence's audio, SpeakingContinued with each
+    further sentence as soon as it is made, then SpeakingFinished when the last has played.
 
-    `realtime=False` skips the wait (for batch runs); `speed_factor` shortens it (tests). The
-    audio itself is played by whoever shows the robot (the web page, the terminal); this
-    component keeps the time, so every listener agrees on when the robot is speaking.
+    The voice is Piper's (`PiperVoice`: sentence by sentence, each with its visemes) or
+    espeak-ng's (`Voice`, the default: the whole text in one piece). `realtime=False` skips the
+    wait (for batch runs); `speed_factor` shortens it (tests). The audio itself is played by
+    whoever shows the robot (the web page, the terminal), each sentence after the one before;
+    this component keeps the time, so every listener agrees on when the robot is speaking.
     """
 
     listens_to = (Utterance,)
@@ -50,7 +63,7 @@ class SpeechSynthesisComponent(Component):
     def __init__(
         self,
         bus: Bus,
-        voice: Voice | None = None,
+        voice: Voice | PiperVoice | None = None,
         realtime: bool = True,
         speed_factor: float = 1.0,
         name: str | None = None,
@@ -66,39 +79,59 @@ class SpeechSynthesisComponent(Component):
 
     def handle(self, message: Message) -> None:
         assert isinstance(message, Utterance)
-        audio, seconds = self._speak(message.text)
+        text = message.text
         self.speaking = True
+        if isinstance(self.voice, PiperVoice):  # a crowded machine makes sentences slowly
+            self.expect(len(text) / SPOKEN_CHARS_PER_SECOND)
         try:
-            self.bus.publish(SpeakingStarted(text=message.text, audio=audio, seconds=seconds))
-            if self.realtime:
-                self.expect(seconds / self.speed_factor)  # a long sentence is not a hang
-            if self.realtime and self._stop.wait(seconds / self.speed_factor):
+            ends = time.monotonic()  # when the audio sent so far has played
+            for i, (audio, seconds, visemes) in enumerate(self._sentences(text)):
+                if self._stop.is_set():
+                    return  # stopped between sentences: the rest is not said
+                kind = SpeakingStarted if i == 0 else SpeakingContinued
+                self.bus.publish(kind(text=text, audio=audio, seconds=seconds, visemes=visemes))
+                # a sentence made after the one before ended starts late: the clock waits for it
+                ends = max(ends, time.monotonic()) + seconds / self.speed_factor
+                if self.realtime:
+                    self.expect(seconds / self.speed_factor)  # a long sentence is not a hang
+            if self.realtime and self._stop.wait(max(0.0, ends - time.monotonic())):
                 return  # stopped while speaking: the sentence is cut off
         finally:
             self.speaking = False
-        self.bus.publish(SpeakingFinished(text=message.text))
+        self.bus.publish(SpeakingFinished(text=text))
 
     def restart(self) -> None:
         self.speaking = False
 
-    def _speak(self, text: str) -> tuple[bytes, float]:
-        """The WAV and its duration; no audio (and no wait) when it cannot be synthesised."""
+    def _sentences(self, text: str) -> Iterator[tuple[bytes, float, tuple[Viseme, ...]]]:
+        """Each sentence's WAV, duration and visemes, as it is made; one silent piece when the
+        text cannot be synthesised (so that SpeakingStarted and SpeakingFinished still come)."""
         if not text.strip():
-            return b"", 0.0
-        if not espeak_available():
+            yield b"", 0.0, ()
+            return
+        if not espeak_available():  # Piper phonemises with it too
             if not self._warned:
                 self._warned = True
                 log.warning(
                     "espeak-ng is not installed, so the robot's speech is text only; install "
                     "it with `apt-get install espeak-ng` (make run does this)"
                 )
-            return b"", 0.0
+            yield b"", 0.0, ()
+            return
+        said = False
         try:
-            wav = synthesize(text, self.voice)
+            if isinstance(self.voice, PiperVoice):
+                for sentence in self.voice.stream(text):
+                    said = True
+                    yield sentence.wav(), sentence.seconds, sentence.visemes()
+            else:
+                wav = synthesize(text, self.voice)
+                said = True
+                yield wav, read_wav(wav).seconds, ()
         except SpeechUnavailable as exc:
             log.warning("saying this in text only: %s", exc)
-            return b"", 0.0
-        return wav, read_wav(wav).seconds
+        if not said:
+            yield b"", 0.0, ()
 
 
 class SpeechRecognitionComponent(Component):

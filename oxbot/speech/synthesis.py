@@ -1,16 +1,25 @@
-"""Speech synthesis with espeak-ng: the robot's words as WAV audio.
+"""Speech synthesis: the robot's words as WAV audio, and which voice says them.
 
-The paper used MARY TTS from templates; oxbot uses espeak-ng (a Debian package the setup
-installs), called as a subprocess that writes the WAV to standard output.
+The paper used MARY TTS from templates. oxbot's robot speaks with Piper's neural joe voice
+(`oxbot.speech.piper`) and falls back on espeak-ng (a Debian package the setup installs, called
+as a subprocess that writes the WAV to standard output) when Piper cannot load
+(`robot_voice`). The held-out voices of the listening tests are espeak-ng's.
 """
 
 from __future__ import annotations
 
+import functools
+import logging
 import shutil
 import subprocess
+import threading
 from dataclasses import dataclass
 
-from oxbot.errors import SpeechUnavailable
+from oxbot.config import SpeechConfig
+from oxbot.errors import ModelFileError, SpeechUnavailable
+from oxbot.speech.piper import PiperVoice, load_piper_voice
+
+log = logging.getLogger(__name__)
 
 ESPEAK = "espeak-ng"
 
@@ -50,6 +59,36 @@ def synthesize(text: str, voice: Voice = Voice()) -> bytes:
             f"espeak-ng could not say {text!r} with voice {voice.name!r}: {message}"
         )
     return _fix_stream_header(result.stdout)
+
+
+def robot_voice(config: SpeechConfig) -> Voice | PiperVoice:
+    """The voice the robot speaks with: Piper's joe voice (loaded once per process) when
+    `config.voice` is piper and it loads, else espeak-ng's `config.espeak_voice`; one warning
+    per process says why Piper is not used."""
+    if config.voice == "piper":
+        piper = _piper_once(config.piper_threads)
+        if isinstance(piper, PiperVoice):
+            return piper
+    return Voice(config.espeak_voice)
+
+
+_loading = threading.Lock()
+
+
+def _piper_once(threads: int) -> PiperVoice | str:
+    """The loaded voice, or why it cannot load (kept, so that a bad file is hashed once);
+    robots starting together (the server's warm-up and the first tab) wait for one load."""
+    with _loading:
+        return _load_piper(threads)
+
+
+@functools.cache
+def _load_piper(threads: int) -> PiperVoice | str:
+    try:
+        return load_piper_voice(threads)
+    except (SpeechUnavailable, ModelFileError) as exc:
+        log.warning("the robot speaks with espeak-ng, as Piper cannot load: %s", exc)
+        return str(exc)
 
 
 def _fix_stream_header(wav: bytes) -> bytes:

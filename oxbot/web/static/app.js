@@ -238,8 +238,9 @@ const handlers = {
   },
   SpeakingStarted(d) {
     state.stats.speaking.push(performance.now());
-    $("bubble").textContent = d.text; speak(d.audio, d.seconds);
+    $("bubble").textContent = d.text; speak(d, true);
   },
+  SpeakingContinued(d) { speak(d, false); },
   SpeakingFinished() { state.speaking = false; },
   // Another game, from the button or asked for in words ("one more game"): a clean sheet on
   // the page too (paper is the person's to change), listening again, and the robot shown it.
@@ -542,26 +543,72 @@ function ensureAudio() {
   requestAnimationFrame(animateMouth);
 }
 
-async function speak(audioB64, seconds) {
+// Speech comes a sentence at a time: SpeakingStarted's plays at once (cutting off anything
+// still playing), each SpeakingContinued's right after the one before, on the audio clock.
+// A sentence with visemes (Piper) moves the mouth through them on that clock; one without
+// (espeak-ng) moves it with the loudness of what plays.
+const VISEME_SHAPES = {   // [rx, ry] of the mouth's ellipse; ry <= 3 is a closed mouth
+  rest: [28, 3], closed: [30, 1.5], rounded: [15, 12], open: [28, 20], mid: [28, 11],
+  spread: [34, 6], teeth: [30, 5], narrow: [29, 8],
+};
+function speechClock() {   // seconds: the audio's own clock, or the page's without audio
+  return state.audio ? state.audio.currentTime : performance.now() / 1000;
+}
+state.sentences = [];      // {start, end, visemes} on speechClock(), oldest first
+state.speechChain = Promise.resolve();
+
+function speak(d, first) {
   state.speaking = true;
+  state.speechChain = state.speechChain.then(() => playSentence(d, first));
+}
+
+async function playSentence(d, first) {
   const speed = state.hello ? state.hello.speed_factor : 1;
-  state.mouthUntil = performance.now() + 1000 * (seconds || 0.5) / speed;
-  if (!audioB64 || !state.audio) return;
-  try {
-    const bytes = Uint8Array.from(atob(audioB64), (c) => c.charCodeAt(0));
-    const buffer = await state.audio.decodeAudioData(bytes.buffer);
-    if (state.source) { try { state.source.stop(); } catch (_) { /* already ended */ } }
-    const src = state.audio.createBufferSource(); src.buffer = buffer;
-    src.connect(state.analyser); src.start(); state.source = src;
-    state.mouthUntil = performance.now() + 1000 * buffer.duration;
-    src.onended = () => { if (state.source === src) state.source = null; };
-  } catch (err) { console.warn("cannot play the robot's speech", err); }
+  if (first) {
+    for (const src of state.sources || []) { try { src.stop(); } catch (_) { /* ended */ } }
+    state.sources = []; state.sentences = []; state.source = null;
+  }
+  const last = state.sentences[state.sentences.length - 1];
+  let start = Math.max(speechClock(), last ? last.end : 0), seconds = (d.seconds || 0.5) / speed;
+  if (d.audio && state.audio) {
+    try {
+      const bytes = Uint8Array.from(atob(d.audio), (c) => c.charCodeAt(0));
+      const buffer = await state.audio.decodeAudioData(bytes.buffer);
+      start = Math.max(state.audio.currentTime, last ? last.end : 0); seconds = buffer.duration;
+      const src = state.audio.createBufferSource(); src.buffer = buffer;
+      src.connect(state.analyser); src.start(start);
+      state.sources = [...(state.sources || []), src]; state.source = src;
+      src.onended = () => {
+        state.sources = state.sources.filter((s) => s !== src);
+        if (state.source === src) state.source = null;
+      };
+    } catch (err) { console.warn("cannot play the robot's speech", err); }
+  }
+  state.sentences.push({ start, end: start + seconds, visemes: d.visemes || [],
+                         scale: d.audio && state.audio ? 1 : 1 / speed });
+  state.mouthUntil = performance.now() + 1000 * (start + seconds - speechClock());
+}
+
+// The viseme the mouth shows at `t` (speechClock seconds), or null when no sentence with
+// visemes plays then.
+function visemeAt(t) {
+  const s = state.sentences.find((x) => x.start <= t && t < x.end);
+  if (!s || !s.visemes.length) return null;
+  const into = (t - s.start) / s.scale;
+  let name = "rest";
+  for (const [at, v] of s.visemes) { if (at <= into) name = v; else break; }
+  return name;
 }
 
 const level = new Uint8Array(256);
 function animateMouth(now) {
-  let open = 0;
-  if (state.source && state.analyser) {
+  let rx = 30, open = 0;
+  // what is heard now left the audio clock outputLatency ago
+  const t = speechClock() - (state.audio ? state.audio.outputLatency || 0 : 0);
+  const viseme = visemeAt(t);
+  if (viseme) {
+    [rx, open] = VISEME_SHAPES[viseme] || VISEME_SHAPES.narrow; open = (open - 3) / 17;
+  } else if (state.source && state.analyser) {
     // the mouth follows the loudness of the audio playing (muted or not)
     state.analyser.getByteTimeDomainData(level);
     let sum = 0; for (const v of level) sum += (v - 128) * (v - 128);
@@ -569,7 +616,9 @@ function animateMouth(now) {
   } else if (now < state.mouthUntil) {
     open = 0.5 + 0.5 * Math.sin(now / 60);   // no audio: a steady babble for the time it takes
   }
+  $("mouth").setAttribute("rx", rx.toFixed(1));
   $("mouth").setAttribute("ry", (3 + 17 * open).toFixed(1));
+  $("face").dataset.viseme = viseme || "";
   $("face").dataset.talking = open > 0.05 ? "yes" : "no";
   if (open > 0.05) state.stats.mouthMoves++;
   requestAnimationFrame(animateMouth);
