@@ -53,6 +53,7 @@ from oxbot.robot.messages import (
     GameState,
     Message,
     NewGame,
+    SheetMode,
     SourceEnded,
 )
 
@@ -136,10 +137,10 @@ class GameMoveComponent(Component):
     handed over by `push(frame)` or a Frame message.
     """
 
-    listens_to = (Frame, ArmCommand, NewGame, DialogueAct, GameState)
-    # the tracker must know the robot's drawings, the person's moves made in words and whether
-    # the game is on; not frames
-    retries = (ArmCommand, NewGame, DialogueAct, GameState)
+    listens_to = (Frame, ArmCommand, NewGame, DialogueAct, GameState, SheetMode)
+    # the tracker must know the robot's drawings, the person's moves made in words, whether
+    # the game is on and whether a camera shows the sheet; not frames
+    retries = (ArmCommand, NewGame, DialogueAct, GameState, SheetMode)
     part = "eyes"
 
     def __init__(
@@ -164,6 +165,11 @@ class GameMoveComponent(Component):
         self._lock = threading.Lock()
         self._latest: np.ndarray | None = None
         self._version = 0  # counts pushed frames, so a frame is read only once
+        # a camera's frames (SheetMode paper) keep coming: one read twice is no second reading
+        # (a half-drawn circle seen thrice in one slow frame was taken as drawn); a drawn
+        # sheet's frame is the view until the pen lifts again, and is read at every tick
+        self._camera = False
+        self._last_version = -1
         self._cached: tuple[int, Read] | None = None
         self._last_seen: tuple | None = None
         self._off = False
@@ -200,6 +206,8 @@ class GameMoveComponent(Component):
             if message.speaker == "sys":  # a robot that talks: its game starts when it says so
                 self._talking = True
                 self.tracker.playing = game_started(message.act, self.tracker.playing)
+        elif isinstance(message, SheetMode):
+            self._camera = message.paper
         elif isinstance(message, NewGame):
             with self._lock:
                 self._latest = None
@@ -213,10 +221,13 @@ class GameMoveComponent(Component):
         current = self._next_frame()
         if current is None:
             return
-        frame = current[0]
-        read = self._read(*current)
+        frame, version = current
+        if self._camera and version >= 0 and version == self._last_version:
+            return  # the camera's next frame has not come yet
+        read = self._read(frame, version)
         if read is None:
             return  # the machine is busy reading other sheets: this frame next tick
+        self._last_version = version
         reading, cells, guidance, grid = read
         refusal = guidance.text if guidance is not None else ""
         if reading is None:

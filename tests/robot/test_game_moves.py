@@ -21,6 +21,7 @@ from oxbot.robot.messages import (
     Frame,
     GameMove,
     NewGame,
+    SheetMode,
 )
 from oxbot.testing.render import TUNING_STYLE, random_scene
 from tests.robot.helpers import collect
@@ -57,6 +58,29 @@ def test_a_pushed_sheet_becomes_one_move_after_three_readings(scene):
     )
     assert 0.2 <= elapsed < 1.0  # 3 readings at 100 ms
     assert not [m for m in got if isinstance(m, BoardProblem)]
+
+
+def test_a_cameras_frame_read_again_before_the_next_comes_is_no_second_reading(scene):
+    sheet, rng = scene
+    bus = LocalBus()
+    events = bus.subscribe(GameMove, BoardSeen)
+    with GameMoveComponent(bus, robot_starts=True) as vision:
+        bus.publish(SheetMode(paper=True))
+        bus.publish(ArmCommand(where="middle", symbol="circle"))
+        time.sleep(0.05)
+        photo = sheet.with_symbol(4, "circle", rng).with_symbol(0, "cross", rng).photo(rng)
+        vision.push(photo)
+        time.sleep(0.6)  # six ticks of one slow frame: one reading
+        early = []
+        while (message := events.get(timeout=0.05)) is not None:
+            early.append(message)
+        assert not [m for m in early if isinstance(m, GameMove)], early
+        assert [m.agreeing for m in early if isinstance(m, BoardSeen)][-1] == 1
+        for _ in range(2):  # the camera's next frames, the pen still: the 2nd and 3rd readings
+            vision.push(photo)
+            time.sleep(0.15)
+        got = collect(events, lambda m: isinstance(m, GameMove))
+    assert (got[-1].who, got[-1].where) == ("usr", "upperleft")
 
 
 def test_a_frame_without_a_grid_is_seen_with_the_reason_and_then_with_confidences(scene):
