@@ -204,18 +204,10 @@ def train_agent(
                 actions = _epsilon_greedy(learner.q_network, obs, masks, epsilon, rng)
 
                 # 2. step the dialogues and store the experiences
-                next_obs, rewards, terminated, truncated, info = envs.step(actions)
-                ended = terminated | truncated
-                last_obs, last_masks = _last_observations(next_obs, info, ended)
-                learner.replay.add_batch(
-                    obs[:n], actions[:n], rewards[:n], last_obs[:n], last_masks[:n], terminated[:n]
-                )
-                recent_rewards.extend(rewards[:n].tolist())
-                for i in np.flatnonzero(ended[:n]):
-                    outcome = info["final_info"]["outcome"][i]
-                    result = outcome if terminated[i] and outcome else "unfinished"
-                    _count_outcome(run, recent_outcomes, result)
-                obs, masks = next_obs, info["action_mask"]
+                transition = envs.step(actions)
+                _store(transition, obs, actions, n, learner.replay, run, recent_outcomes)
+                recent_rewards.extend(transition[1][:n].tolist())
+                obs, masks = transition[0], transition[4]["action_mask"]
 
                 # 3. learn from minibatches
                 for k in _due(step, n, cfg.train_frequency, cfg.learning_starts):
@@ -257,6 +249,27 @@ def _add_laps(run: TrainingState, clock: _Clock) -> None:
     wall, cpu = clock.lap()
     run.elapsed_s += wall
     run.cpu_s += cpu
+
+
+def _store(
+    transition: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]],
+    obs: np.ndarray,
+    actions: np.ndarray,
+    n: int,
+    replay: ReplayBuffer,
+    run: TrainingState,
+    recent_outcomes: deque[str],
+) -> None:
+    """Store the first `n` dialogues' experiences of one vector step; count those that ended."""
+    next_obs, rewards, terminated, truncated, info = transition
+    ended = terminated | truncated
+    last_obs, last_masks = _last_observations(next_obs, info, ended)
+    replay.add_batch(
+        obs[:n], actions[:n], rewards[:n], last_obs[:n], last_masks[:n], terminated[:n]
+    )
+    for i in np.flatnonzero(ended[:n]):
+        outcome = info["final_info"]["outcome"][i]
+        _count_outcome(run, recent_outcomes, outcome if terminated[i] and outcome else "unfinished")
 
 
 def _due(start: int, n: int, every: int, first: int = 0) -> list[int]:
