@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 
 from oxbot.cli.context import config_of, err_console
-from oxbot.config import with_overrides
+from oxbot.config import OxbotConfig, with_overrides
 
 
 def game(
@@ -120,27 +120,47 @@ def play(
             for section, values in changes.items()
         },
     )
-    from oxbot.robot.session import prepare_voice, shared_policy
+    from oxbot.robot.session import shared_policy
 
     shared_policy(config.robot.manager, config)  # a policy that does not fit: said before serving
     if terminal:
-        from oxbot.perception.sources import open_source
-        from oxbot.robot.session import Robot
-        from oxbot.robot.terminal import Speakers, TerminalRobot
-
-        source = open_source(camera) if camera is not None else None
-        joining = []
-        if record:  # opt-in, and the person is told what is kept
-            from oxbot.recording import RecordingStore, notice
-            from oxbot.recording.recorder import joining as recorder
-
-            store = RecordingStore(data_dir)
-            err_console.print(notice(store, record_audio), highlight=False)
-            joining.append(recorder(store, "terminal", keep_audio=record_audio))
-        robot = Robot(config, sheet_camera=source, joining=joining)
-        prepare_voice(config)  # every sentence made in the background: none waits in a game
-        TerminalRobot(robot, speakers=Speakers(not mute)).run()
+        _play_in_the_terminal(config, camera, record, data_dir, record_audio, mute)
         return
+    _serve_the_page(config, record, data_dir, record_audio)
+
+
+def _play_in_the_terminal(
+    config: OxbotConfig,
+    camera: str | None,
+    record: bool,
+    data_dir: Path | None,
+    record_audio: bool,
+    mute: bool,
+) -> None:
+    """The whole robot in the terminal: typed or spoken answers, a sheet camera if given."""
+    from oxbot.perception.sources import open_source
+    from oxbot.robot.session import Robot, prepare_voice
+    from oxbot.robot.terminal import Speakers, TerminalRobot
+
+    source = open_source(camera) if camera is not None else None
+    joining = []
+    if record:  # opt-in, and the person is told what is kept
+        from oxbot.recording import RecordingStore, notice
+        from oxbot.recording.recorder import joining as recorder
+
+        store = RecordingStore(data_dir)
+        err_console.print(notice(store, record_audio), highlight=False)
+        joining.append(recorder(store, "terminal", keep_audio=record_audio))
+    robot = Robot(config, sheet_camera=source, joining=joining)
+    prepare_voice(config)  # every sentence made in the background: none waits in a game
+    TerminalRobot(robot, speakers=Speakers(not mute)).run()
+
+
+def _serve_the_page(
+    config: OxbotConfig, record: bool, data_dir: Path | None, record_audio: bool
+) -> None:
+    """The web page; every sentence the robot can say made in the background once it starts."""
+    from oxbot.robot.session import prepare_voice
     from oxbot.web.server import serve
 
     def announce(text: str) -> None:  # the server is about to start: its port was free
