@@ -105,9 +105,10 @@ CONNECT_TIMEOUT = 3.0
 """Seconds to reach the `connect` endpoints before BusUnreachable."""
 QUERY_TIMEOUT = 1.0
 """Seconds to wait for the answers of a liveliness or state query."""
-REJOIN_SECONDS = 5.0
+REJOIN_SECONDS = 10.0
 """How long a component whose process ended may take to come back (respawned by
-`oxbot robot --launch` within about 1 s) before the robot takes it as lost."""
+`oxbot robot --launch` within about 1 s, then its models loaded: Piper's voice takes 1.3 s on
+a quiet machine and more than 5 s beside other jobs) before the robot takes it as lost."""
 MAX_RECORD_BYTES = 16 * 1024 * 1024
 """The most a game record (the answer to a state query) may take; a whole game's is ~100 KB."""
 NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
