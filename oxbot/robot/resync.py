@@ -86,20 +86,23 @@ def catch_up(name: str, component: Component, history: Sequence[Message]) -> Non
     if name == "perception":
         eyes_catch_up(component, game)
     elif name == "manager":
-        component.resume(game)  # type: ignore[attr-defined]
+        from oxbot.robot.manager import InteractionManagerComponent
+
+        assert isinstance(component, InteractionManagerComponent)
+        component.resume(game)
         component.bus.publish(ComponentJoined(component=component.name, part=component.part))
 
 
 def eyes_catch_up(component: Component, game: Sequence[Message]) -> None:
     """The eyes of a game under way: the cells drawn, who starts, whether the game is on."""
     from oxbot.perception.tracker import MoveTracker
-    from oxbot.robot.game_moves import game_started
+    from oxbot.robot.game_moves import GameMoveComponent, game_started
 
+    assert isinstance(component, GameMoveComponent)
     states = [m for m in game if isinstance(m, GameState)]
     board = states[-1].board if states else EMPTY_BOARD
-    eyes: object = component
-    starts = states[-1].robot_starts if states else eyes.tracker.robot_starts  # type: ignore[attr-defined]
-    tracker = MoveTracker(starts, eyes.config)  # type: ignore[attr-defined]
+    starts = states[-1].robot_starts if states else component.tracker.robot_starts
+    tracker = MoveTracker(starts, component.config)
     for cell, who in enumerate(board):
         if who == ROBOT:
             tracker.robot_draws(cell)
@@ -111,6 +114,6 @@ def eyes_catch_up(component: Component, game: Sequence[Message]) -> None:
         for act in turns:
             playing = game_started(act, playing)
         tracker.playing = playing
-        eyes._talking = True  # type: ignore[attr-defined]
-    eyes.tracker = tracker  # type: ignore[attr-defined]
-    eyes.manager_board = board  # type: ignore[attr-defined]
+        component._talking = True
+    component.tracker = tracker
+    component.manager_board = board
