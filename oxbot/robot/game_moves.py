@@ -34,7 +34,7 @@ import numpy as np
 from oxbot.config import PerceptionConfig, TrackerConfig
 from oxbot.dialogue.domain import GREETING, starts_game
 from oxbot.errors import FrameSourceError, NoGridFound
-from oxbot.game.board import CELL_NAMES, SIZE, USER
+from oxbot.game.board import CELL_NAMES, EMPTY, EMPTY_BOARD, SIZE, USER, Board
 from oxbot.perception.board import BoardReader, BoardReading, default_reader
 from oxbot.perception.cells import CELL_SIZE, SHEET_CELL
 from oxbot.perception.classifier import CellReading, ink_share
@@ -47,6 +47,7 @@ from oxbot.robot.messages import (
     ArmCommand,
     BoardProblem,
     BoardSeen,
+    ComponentJoined,
     DialogueAct,
     Frame,
     GameMove,
@@ -137,10 +138,18 @@ class GameMoveComponent(Component):
     handed over by `push(frame)` or a Frame message.
     """
 
-    listens_to = (Frame, ArmCommand, NewGame, DialogueAct, GameState, SheetMode)
+    listens_to = (
+        Frame,
+        ArmCommand,
+        NewGame,
+        DialogueAct,
+        GameState,
+        SheetMode,
+        ComponentJoined,
+    )
     # the tracker must know the robot's drawings, the person's moves made in words, whether
-    # the game is on and whether a camera shows the sheet; not frames
-    retries = (ArmCommand, NewGame, DialogueAct, GameState, SheetMode)
+    # the game is on, whether a camera shows the sheet and when a manager rejoins; not frames
+    retries = (ArmCommand, NewGame, DialogueAct, GameState, SheetMode, ComponentJoined)
     part = "eyes"
 
     def __init__(
@@ -161,6 +170,8 @@ class GameMoveComponent(Component):
         self.reader = reader
         self.source = source
         self.tracker = MoveTracker(robot_starts, self.config)
+        self.manager_board: Board = EMPTY_BOARD
+        """The board as the manager last announced it (GameState)."""
         self._talking = False  # a dialogue manager speaks on this bus (its acts start games)
         self._lock = threading.Lock()
         self._latest: np.ndarray | None = None
@@ -197,7 +208,11 @@ class GameMoveComponent(Component):
             self.push(frame_pixels(message))
         elif isinstance(message, ArmCommand):
             self.tracker.robot_draws(message.where)
+        elif isinstance(message, ComponentJoined):
+            if message.part == "mind":
+                self._hand_over_moves()
         elif isinstance(message, GameState):
+            self.manager_board = message.board
             # the moves the manager took: typed or said in words too (its own drawings it knew)
             for cell, mark in enumerate(message.board):
                 if mark == USER:
@@ -213,9 +228,21 @@ class GameMoveComponent(Component):
                 self._latest = None
                 self._cached = None
             self.tracker = MoveTracker(message.robot_starts, self.config)
+            self.manager_board = EMPTY_BOARD
             self.tracker.playing = not self._talking  # without a dialogue, drawings are moves
             self._last_seen = None
             self._refused, self._told = 0, {}
+
+    def _hand_over_moves(self) -> None:
+        """A respawned manager process never got the moves accepted while its predecessor was
+        dead: each one the tracker holds and the manager's board lacks is published again."""
+        tracker = self.tracker
+        for cell, label in enumerate(tracker.board):
+            if label == tracker.user_symbol and self.manager_board[cell] == EMPTY:
+                log.info("handing %s again to the manager that rejoined", CELL_NAMES[cell])
+                self.bus.publish(
+                    GameMove(who="usr", what="draw", where=CELL_NAMES[cell], symbol=label)
+                )
 
     def tick(self) -> None:
         current = self._next_frame()

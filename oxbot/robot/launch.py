@@ -55,6 +55,7 @@ from oxbot.robot.children import (
     shared_memory_of,
     write_pids,
 )
+from oxbot.robot.resync import catch_up
 from oxbot.robot.zenoh_bus import NAME, Endpoints, PartsWatcher, ZenohBus
 
 if TYPE_CHECKING:
@@ -133,33 +134,6 @@ def build_component(
     return cls(bus)
 
 
-def catch_up(name: str, component: Component, bus: ZenohBus) -> None:
-    """A component joining mid-game takes up the game so far: the eyes learn which cells are
-    drawn already; a manager that lost the dialogue (its predecessor died) ends it in words."""
-    from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, outcome
-    from oxbot.robot.manager import say_goodbye
-    from oxbot.robot.messages import DialogueEnded, GameState
-
-    history = bus.game_so_far()
-    if not history or any(isinstance(m, DialogueEnded) for m in history):
-        return
-    states = [m for m in history if isinstance(m, GameState)]
-    board = states[-1].board if states else EMPTY_BOARD
-    if name == "perception":
-        from oxbot.perception.tracker import MoveTracker
-
-        starts = states[-1].robot_starts if states else component.tracker.robot_starts  # type: ignore[attr-defined]
-        tracker = MoveTracker(starts, component.config)  # type: ignore[attr-defined]
-        for cell, who in enumerate(board):
-            if who == ROBOT:
-                tracker.robot_draws(cell)
-            elif who == USER:
-                tracker._board[cell] = tracker.user_symbol  # accepted before this process
-        component.tracker = tracker  # type: ignore[attr-defined]
-    elif name == "manager":
-        say_goodbye(bus, component.part, outcome(board))
-
-
 def run_component(
     name: str,
     robot: str,
@@ -203,7 +177,7 @@ def run_component(
             bus.check_running(name)  # before seconds of model loading
         component = build_component(name, bus, config, camera, seed)
         bus.join(name, replace=replace)
-        catch_up(name, component, bus)
+        catch_up(name, component, bus.game_so_far())
         on_lost = None
         if name == "manager":
             watcher = PartsWatcher(bus, {n: p for n, p in parts().items() if n != name}).start()

@@ -170,6 +170,9 @@ LOST_SENTENCES = {"hearing": "Sorry, my hearing has stopped working. Please type
 WHICH_CELL = "Which cell do you mean? Say it like top left, the middle, or number five."
 """What the robot asks (as the act PROBLEM) when the person seems to name their cell in words
 but not surely enough to play it (`speech.min_move_confidence`), or among other words."""
+RESUMED_DRAWING_SECONDS = 8.0
+"""How long a manager that took up a game mid-drawing (`resume`) waits for the arm's ArmDone,
+at speed factor 1: the drawing's end may have gone with its predecessor process."""
 TAKEN_IN_WORDS = "{cell} is already taken. Please pick an empty cell."
 """What the robot says (as the act PROBLEM) to a move in words on an occupied cell."""
 
@@ -305,6 +308,9 @@ class InteractionManagerComponent(Component):
             self._listen()
 
     def tick(self) -> None:
+        if self.phase is Phase.DRAWING and time.monotonic() >= self._drawing_until:
+            self._listen()  # a resumed drawing whose end went with the predecessor process
+            return
         if self.phase is Phase.LISTENING and time.monotonic() >= self._deadline:
             # nothing came since the robot's act, or it would have decided already
             self._unanswered_in_a_row += (
@@ -342,7 +348,34 @@ class InteractionManagerComponent(Component):
             "_move_in_words",
         ):
             setattr(self, name, getattr(old, name))
-        self._deadline = old._deadline
+        self._deadline, self._drawing_until = old._deadline, old._drawing_until
+
+    def resume(self, game: Sequence[Message]) -> None:
+        """Take up the game under way that a predecessor process left (oxbot.robot.resync):
+        the dialogue replayed from `game`, then on from the robot's last act as if it had just
+        been said. Its move is drawn if the arm had not started it; nothing said yet, it
+        greets."""
+        from oxbot.robot.resync import arm_started, replay_dialogue
+
+        starts = [m.robot_starts for m in game if isinstance(m, (NewGame, GameState))]
+        self._reset(starts[-1] if starts else True, publish=False)
+        replay_dialogue(self.state, game)
+        said = [t["text"] for t in self.state.transcript if t["speaker"] == "sys"]
+        if not said:
+            self._decide()
+            return
+        self._speaking = spoken(said[-1])
+        self._arm_cell = game_move_cell(self.state.last_act)
+        if self._arm_cell is None or self.state.board[self._arm_cell] != ROBOT:
+            self._arm_cell = None
+            self._listen()
+            return
+        self.phase = Phase.DRAWING
+        # its ArmDone may be gone with the predecessor: wait for the arm only so long
+        self._drawing_until = time.monotonic() + RESUMED_DRAWING_SECONDS / self.timing.speed_factor
+        if not arm_started(game, self._arm_cell):
+            symbol = symbol_of(ROBOT, self.state.robot_starts)
+            self.bus.publish(ArmCommand(where=CELL_NAMES[self._arm_cell], symbol=symbol))
 
     # --- the turn ---
 
@@ -358,6 +391,7 @@ class InteractionManagerComponent(Component):
         self._move_in_words: tuple[MoveHeard, Sequence[tuple[str, float]]] | None = None
         self._deferred: list[str] = []
         self._deadline = 0.0
+        self._drawing_until = float("inf")  # only a resumed drawing has an end of its own
         self._unanswered_in_a_row = 0
         self._broken = False  # a part was lost: only Robot.new_game, which revives it, replays
         if publish:
@@ -401,13 +435,14 @@ class InteractionManagerComponent(Component):
         if self._arm_cell is None:
             self._listen()
             return
-        self.phase = Phase.DRAWING
+        self.phase, self._drawing_until = Phase.DRAWING, float("inf")
         symbol = symbol_of(ROBOT, self.state.robot_starts)
         self.bus.publish(ArmCommand(where=CELL_NAMES[self._arm_cell], symbol=symbol))
 
     def _listen(self) -> None:
         """The robot has finished its act: wait for the person, or end the dialogue."""
         last_act = self.state.last_act
+        self._drawing_until = float("inf")
         if last_act == CLOSING:
             self.phase = Phase.DONE
             self.bus.publish(DialogueEnded(outcome=self.state.ending))

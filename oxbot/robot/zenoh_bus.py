@@ -109,6 +109,11 @@ REJOIN_SECONDS = 10.0
 """How long a component whose process ended may take to come back (respawned by
 `oxbot robot --launch` within about 1 s, then its models loaded: Piper's voice takes 1.3 s on
 a quiet machine and more than 5 s beside other jobs) before the robot takes it as lost."""
+MAX_WATCHED_CHANGES = 1_000
+"""The most liveliness changes `PartsWatcher` holds unread (a robot's seven parts make a few a
+respawn; only a peer flooding tokens makes more). Beyond it a new change is dropped, with a log
+line per burst, and once the queue has drained the watcher re-reads who is up (`alive`), so
+that no death or comeback is missed for good."""
 MAX_RECORD_BYTES = 16 * 1024 * 1024
 """The most a game record (the answer to a state query) may take; a whole game's is ~100 KB."""
 NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
@@ -532,29 +537,47 @@ class PartsWatcher:
         self._up: dict[str, set[str]] = {}
         self._down: dict[str, float] = {}  # name -> when its last process went
         self._lost: set[str] = set()
-        self._events: queue.SimpleQueue[tuple[Peer, bool] | None] = queue.SimpleQueue()
+        self._events: queue.Queue[tuple[Peer, bool]] = queue.Queue(MAX_WATCHED_CHANGES)
+        self._dropped = 0  # changes dropped since the last re-reading of who is up
+        self._dropped_lock = threading.Lock()
+        self._stopping = threading.Event()
         self._thread = threading.Thread(target=self._run, name="oxbot-parts-watcher", daemon=True)
 
     def start(self) -> PartsWatcher:
         self._thread.start()
         # publishing from Zenoh's own callback thread could wait on itself: a queue between
-        self.bus.watch(lambda peer, up: self._events.put((peer, up)))
+        self.bus.watch(self._queue)
         return self
 
     def stop(self) -> None:
-        self._events.put(None)
+        self._stopping.set()
         self._thread.join(2.0)
 
+    def _queue(self, peer: Peer, up: bool) -> None:
+        """A liveliness change, from Zenoh's thread: queued, or dropped when the queue is full
+        (see MAX_WATCHED_CHANGES)."""
+        if peer.name not in self.parts:
+            return  # none of the robot's parts: never looked at
+        try:
+            self._events.put_nowait((peer, up))
+        except queue.Full:
+            with self._dropped_lock:
+                self._dropped += 1
+                first = self._dropped == 1
+            if first:
+                log.warning(
+                    "over %d liveliness changes unread (a peer flooding tokens?): dropping "
+                    "new ones until they are read, then reading who is up",
+                    MAX_WATCHED_CHANGES,
+                )
+
     def _run(self) -> None:
-        while True:
+        while not self._stopping.is_set():
             try:
-                event = self._events.get(timeout=0.05)
+                self._changed(*self._events.get(timeout=0.05))
             except queue.Empty:
-                event = ()  # type: ignore[assignment]
-            if event is None:
-                return
-            if event:
-                self._changed(*event)
+                if self._dropped:
+                    self._reread()
             now = time.monotonic()
             for name, since in list(self._down.items()):
                 if now - since >= self.rejoin_seconds and name not in self._lost:
@@ -583,6 +606,19 @@ class PartsWatcher:
                 "%s's process (pid %d) is gone; waiting for it to come back", peer.name, peer.pid
             )
             self.bus.publish(ComponentFailed(component=component, error="its process ended"))
+
+    def _reread(self) -> None:
+        """After dropped changes: who is up now, told as the changes that lead there."""
+        with self._dropped_lock:
+            dropped, self._dropped = self._dropped, 0
+        log.warning("dropped %d liveliness changes; reading who is up", dropped)
+        alive = [p for p in self.bus.alive() if p.name in self.parts]
+        for name, zids in list(self._up.items()):
+            for zid in zids - {p.zid for p in alive if p.name == name}:
+                self._changed(Peer(name=name, format="", zid=zid, pid=0), False)
+        for peer in alive:
+            if peer.zid not in self._up.get(peer.name, set()):
+                self._changed(peer, True)
 
     def _give_up(self, name: str) -> None:
         component, part, essential = self.parts[name]

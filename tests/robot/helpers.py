@@ -40,8 +40,10 @@ class ManagerAtHand:
         from oxbot.robot.manager import InteractionManagerComponent
         from oxbot.robot.messages import (
             ArmCommand,
+            DialogueAct,
             DialogueEnded,
             GameMove,
+            GameState,
             NewGame,
             Utterance,
         )
@@ -51,6 +53,8 @@ class ManagerAtHand:
         config = load_config(None, [*quick, *settings])
         self.bus = LocalBus()
         self.out = self.bus.subscribe(Utterance, ArmCommand, DialogueEnded, GameMove, NewGame)
+        self.record = self.bus.subscribe(NewGame, GameState, DialogueAct, DialogueEnded)
+        """What a component process would answer a state query with (the game so far)."""
         self.manager = InteractionManagerComponent(
             self.bus, policy=shared_policy(), config=config, rng=np.random.default_rng(seed)
         )

@@ -1,0 +1,119 @@
+"""What a respawned component process takes up from the game so far (across processes).
+
+A component process killed mid-game takes its state with it. Its successor asks the other
+processes for the game so far (`ZenohBus.game_so_far`: NewGame, GameStates, DialogueActs,
+ArmStrokes, DialogueEnded) and takes it up here, so that the game goes on:
+
+- the eyes (perception) learn which cells are drawn and whether the game is on;
+- the interaction manager replays the dialogue into a fresh `DialogueState` and carries on
+  from the robot's last act (`InteractionManagerComponent.resume`); it then announces itself
+  (`ComponentJoined`, part "mind"), so that the eyes hand it again a move it never got.
+
+The voice and the arm hold nothing between requests: the manager asks them again what their
+predecessor never finished when they rejoin (`ComponentJoined`). The recogniser and the head's
+two components hold nothing a game needs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from oxbot.dialogue.domain import SYSTEM_ACTS, game_move_cell, words_of
+from oxbot.dialogue.state import DialogueState
+from oxbot.game.board import EMPTY, EMPTY_BOARD, ROBOT, USER, cell_index
+from oxbot.robot.bus import Component
+from oxbot.robot.messages import (
+    ArmStroke,
+    ComponentJoined,
+    DialogueAct,
+    DialogueEnded,
+    GameState,
+    Message,
+    NewGame,
+)
+
+
+def current_game(history: Sequence[Message]) -> list[Message]:
+    """The game under way in `history` (from its last NewGame on), or [] when none is: no game
+    started, or the last one ended (DialogueEnded)."""
+    starts = [i for i, m in enumerate(history) if isinstance(m, NewGame)]
+    game = list(history[starts[-1] :]) if starts else list(history)
+    if not game or any(isinstance(m, DialogueEnded) for m in game):
+        return []
+    return game
+
+
+def replay_dialogue(state: DialogueState, game: Sequence[Message]) -> None:
+    """Replay the turns of `game` (DialogueActs, in order) into a fresh `state`.
+
+    The person's words come back as the transcript has them, understood as their act with
+    full confidence (the recogniser's N-best is not kept); turns outside the policy's acts and
+    moves that no longer fit the board are kept in the transcript only."""
+    for message in game:
+        if not isinstance(message, DialogueAct):
+            continue
+        act, text = message.act, message.text
+        cell = game_move_cell(act)
+        if message.speaker == "sys":
+            if act in SYSTEM_ACTS and state.can_do(act):
+                state.robot_says(act, text)
+            else:
+                state.robot_informs(act, text)
+        elif cell is not None:
+            if state.board[cell] == EMPTY and state.person_to_move:
+                state.person_says(act, text)
+            else:
+                state.person_informs(act, text)
+        elif text.startswith("["):
+            state.person_informs(act, text)
+        else:
+            words = tuple((w, 1.0) for w in words_of(text))
+            state.person_says(act, text, words, (act, 1.0))
+
+
+def arm_started(game: Sequence[Message], cell: int) -> bool:
+    """Whether the arm drew a stroke in `cell` after the robot's last turn in `game`."""
+    turns = [i for i, m in enumerate(game) if isinstance(m, DialogueAct) and m.speaker == "sys"]
+    after = game[turns[-1] + 1 :] if turns else game
+    return any(isinstance(m, ArmStroke) and cell_index(m.where) == cell for m in after)
+
+
+def catch_up(name: str, component: Component, history: Sequence[Message]) -> None:
+    """Component process `name`, joining mid-game, takes up the game `history` holds."""
+    game = current_game(history)
+    if not game:
+        return
+    if name == "perception":
+        eyes_catch_up(component, game)
+    elif name == "manager":
+        from oxbot.robot.manager import InteractionManagerComponent
+
+        assert isinstance(component, InteractionManagerComponent)
+        component.resume(game)
+        component.bus.publish(ComponentJoined(component=component.name, part=component.part))
+
+
+def eyes_catch_up(component: Component, game: Sequence[Message]) -> None:
+    """The eyes of a game under way: the cells drawn, who starts, whether the game is on."""
+    from oxbot.perception.tracker import MoveTracker
+    from oxbot.robot.game_moves import GameMoveComponent, game_started
+
+    assert isinstance(component, GameMoveComponent)
+    states = [m for m in game if isinstance(m, GameState)]
+    board = states[-1].board if states else EMPTY_BOARD
+    starts = states[-1].robot_starts if states else component.tracker.robot_starts
+    tracker = MoveTracker(starts, component.config)
+    for cell, who in enumerate(board):
+        if who == ROBOT:
+            tracker.robot_draws(cell)
+        elif who == USER:
+            tracker.person_drew(cell)
+    turns = [m.act for m in game if isinstance(m, DialogueAct) and m.speaker == "sys"]
+    if turns:  # a robot that talks: its game is on once it said so
+        playing = False
+        for act in turns:
+            playing = game_started(act, playing)
+        tracker.playing = playing
+        component._talking = True
+    component.tracker = tracker
+    component.manager_board = board
