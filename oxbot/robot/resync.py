@@ -17,6 +17,7 @@ two components hold nothing a game needs.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Protocol, runtime_checkable
 
 from oxbot.dialogue.domain import SYSTEM_ACTS, game_move_cell, words_of
 from oxbot.dialogue.state import DialogueState
@@ -78,6 +79,13 @@ def arm_started(game: Sequence[Message], cell: int) -> bool:
     return any(isinstance(m, ArmStroke) and cell_index(m.where) == cell for m in after)
 
 
+@runtime_checkable
+class Resumable(Protocol):
+    """A component that takes up a game under way (the interaction manager: `resume`)."""
+
+    def resume(self, game: Sequence[Message]) -> None: ...
+
+
 def catch_up(name: str, component: Component, history: Sequence[Message]) -> None:
     """Component process `name`, joining mid-game, takes up the game `history` holds."""
     game = current_game(history)
@@ -86,9 +94,8 @@ def catch_up(name: str, component: Component, history: Sequence[Message]) -> Non
     if name == "perception":
         eyes_catch_up(component, game)
     elif name == "manager":
-        from oxbot.robot.manager import InteractionManagerComponent
-
-        assert isinstance(component, InteractionManagerComponent)
+        if not isinstance(component, Resumable):
+            raise TypeError(f"the manager's component {component!r} cannot resume a game")
         component.resume(game)
         component.bus.publish(ComponentJoined(component=component.name, part=component.part))
 
