@@ -39,6 +39,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from oxbot.errors import OxbotError
+from oxbot.testing.hostile import HTTP_ROUTES, break_an_index
 
 OUTCOMES = ("error", "held", "traceback", "hang", "lost", "leak")
 Probe = tuple[str, str, Callable[[Path], str]]  # group, name, probe(folder) -> outcome
@@ -234,15 +235,7 @@ def _fails_integrity(data: Path) -> None:
     with RecordingStore(data) as store:
         _session(store)
         with store.transaction() as db:
-            db.executemany(
-                "INSERT INTO crops VALUES (1, ?, 0, ?, x'89', 'cross', 1.0, 2, 'cross')",
-                [(i, 10.0 - i) for i in range(3)],
-            )
-            db.execute("CREATE INDEX extra ON crops(label)")
-            db.execute("PRAGMA writable_schema=ON")
-            db.execute(
-                "UPDATE sqlite_master SET sql='CREATE INDEX extra ON crops(t)' WHERE name='extra'"
-            )
+            break_an_index(db)
 
 
 DAMAGES: dict[str, Callable[[Path], None]] = {
@@ -368,16 +361,6 @@ def web_probes() -> list[Probe]:
     from oxbot.web.recording import RecordingSetup
     from oxbot.web.server import create_app
 
-    routes = [
-        "/",
-        "/static/app.js",
-        "/health",
-        "/tls",
-        "/learned",
-        "/recording/status",
-        "/recording/learned",
-        "/recording/record.js",
-    ]
     config = load_config(None, [])
 
     def foreign(route: str, headers: dict[str, str]) -> Callable[[Path], str]:
@@ -402,7 +385,7 @@ def web_probes() -> list[Probe]:
 
     probes: list[Probe] = [
         ("web: Host and Origin", f"{route} from {next(iter(h.values()))}", foreign(route, h))
-        for route in routes
+        for route in HTTP_ROUTES
         for h in ({"host": "evil.example:8000"}, {"origin": "http://evil.example"})
     ]
     probes.append(("web: sizes", "10 requests for an oversized crop", oversized))

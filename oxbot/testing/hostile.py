@@ -3,10 +3,12 @@ client might send the robot.
 
     decompression_bomb(20_000)      # a ~48 KB PNG that decodes to 20000x20000 pixels
     nested_json(100_000)            # '[[[[...]]]]' 100,000 deep
+    break_an_index(db)              # a recordings file still readable, failing integrity_check
 """
 
 from __future__ import annotations
 
+import sqlite3
 import struct
 import zlib
 
@@ -32,4 +34,30 @@ def nested_json(depth: int) -> str:
     return "[" * depth + "]" * depth
 
 
-__all__ = ["decompression_bomb", "nested_json"]
+HTTP_ROUTES = (
+    "/",
+    "/static/app.js",
+    "/health",
+    "/tls",
+    "/learned",
+    "/recording/status",
+    "/recording/learned",
+    "/recording/record.js",
+)
+"""The page's HTTP routes a page from another site (DNS rebinding) would read."""
+
+
+def break_an_index(db: sqlite3.Connection) -> None:
+    """Inside an open transaction on a recordings file with session 1: three crops, then an
+    index whose stored definition no longer matches its table. The file still reads, and fails
+    `PRAGMA integrity_check`."""
+    db.executemany(
+        "INSERT INTO crops VALUES (1, ?, 0, ?, x'89', 'cross', 1.0, 2, 'cross')",
+        [(i, 10.0 - i) for i in range(3)],
+    )
+    db.execute("CREATE INDEX extra ON crops(label)")
+    db.execute("PRAGMA writable_schema=ON")
+    db.execute("UPDATE sqlite_master SET sql='CREATE INDEX extra ON crops(t)' WHERE name='extra'")
+
+
+__all__ = ["HTTP_ROUTES", "break_an_index", "decompression_bomb", "nested_json"]

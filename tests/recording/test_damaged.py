@@ -17,6 +17,7 @@ from oxbot.errors import DataError
 from oxbot.recording import RecordingStore
 from oxbot.recording.export import export
 from oxbot.recording.perceiver import decode_crops, learn_perceiver
+from oxbot.testing.hostile import break_an_index
 from tests.recording.test_forget import one_session
 
 runner = CliRunner()
@@ -81,16 +82,8 @@ def test_garbage_in_the_middle_of_the_file_is_a_clear_error(tmp_path):
 def test_learning_refuses_a_file_that_fails_the_integrity_check(tmp_path):
     with RecordingStore(tmp_path) as store:
         one_session(store)
-        with store.transaction() as db:  # an index that no longer matches its table
-            db.executemany(
-                "INSERT INTO crops VALUES (1, ?, 0, ?, x'89', 'cross', 1.0, 2, 'cross')",
-                [(i, 10.0 - i) for i in range(3)],
-            )
-            db.execute("CREATE INDEX extra ON crops(label)")
-            db.execute("PRAGMA writable_schema=ON")
-            db.execute(
-                "UPDATE sqlite_master SET sql='CREATE INDEX extra ON crops(t)' WHERE name='extra'"
-            )
+        with store.transaction() as db:
+            break_an_index(db)
     with RecordingStore(tmp_path, create=False) as store:
         assert len(store.sessions()) == 1  # readable, yet damaged
         with pytest.raises(DataError, match="integrity check"):

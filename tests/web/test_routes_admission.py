@@ -15,20 +15,10 @@ from oxbot.game.board import EMPTY_BOARD
 from oxbot.recording import Recorder, RecordingStore
 from oxbot.robot.bus import LocalBus
 from oxbot.robot.messages import GameState
-from oxbot.testing.hostile import decompression_bomb
+from oxbot.testing.hostile import HTTP_ROUTES, decompression_bomb
 from oxbot.web.recording import RecordingSetup
 from oxbot.web.server import create_app, page_url
 
-ROUTES = [
-    "/",
-    "/static/app.js",
-    "/health",
-    "/tls",
-    "/learned",
-    "/recording/status",
-    "/recording/learned",
-    "/recording/record.js",
-]
 CONFIG = load_config(None, ['web.allowed_origins="http://oxbot.lan:8000"'])
 
 
@@ -39,14 +29,14 @@ def client(tmp_path_factory) -> TestClient:
     return TestClient(create_app(CONFIG, recording=recording), base_url="http://127.0.0.1:8000")
 
 
-@pytest.mark.parametrize("route", ROUTES)
+@pytest.mark.parametrize("route", HTTP_ROUTES)
 def test_every_route_answers_its_own_host_and_origin(client, route):
     assert client.get(route).status_code == 200
     assert client.get(route, headers={"origin": "http://127.0.0.1:8000"}).status_code == 200
     assert client.get(route, headers={"origin": "http://oxbot.lan:8000"}).status_code == 200
 
 
-@pytest.mark.parametrize("route", ROUTES)
+@pytest.mark.parametrize("route", HTTP_ROUTES)
 @pytest.mark.parametrize(
     "headers",
     [
