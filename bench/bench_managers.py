@@ -9,9 +9,9 @@
   cell for a move (`oxbot.dialogue.baselines.scripted_policy`).
 - tabular Q: Q-learning with a table over the states read as 0/1, given the DQN's budget in
   experiences (its metadata's, a fine-tune's and the runs it started from, unless
-  `--experiences`), the same training conditions and the
-  same checkpoint selection (`oxbot.dialogue.training.evaluate_checkpoint`); its CPU time is
-  printed beside the DQN's.
+  `--experiences`), the same training conditions and the same checkpoint selection
+  (`oxbot.dialogue.checkpoint_evaluation.evaluate_checkpoint`); its CPU time is printed beside
+  the DQN's.
 
 Each is measured on the same simulated people, seeded alike: the default people (who decline
 once or for good, stop, chatter, say nothing) heard through the default recogniser noise (0.2)

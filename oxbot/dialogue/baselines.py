@@ -358,8 +358,8 @@ def train_tabular_q(
     """Q-learning for `experiences` steps in the DQN's training conditions (`config.agent`:
     seed, discount, opponents, who starts, `eval_every`; epsilon falling linearly over half
     the run), keeping the best evaluated table as the DQN keeps its best network
-    (`oxbot.dialogue.training.evaluate_checkpoint`)."""
-    from oxbot.dialogue.training import evaluate_checkpoint
+    (`oxbot.dialogue.checkpoint_evaluation.evaluate_checkpoint`)."""
+    from oxbot.dialogue.checkpoint_evaluation import evaluate_checkpoint
 
     cfg = config.agent
     started = time.process_time()

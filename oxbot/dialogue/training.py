@@ -38,20 +38,12 @@ from oxbot import artifacts
 from oxbot.atomic import save_figure, write_text_atomic
 from oxbot.config import AgentConfig, OxbotConfig
 from oxbot.dialogue.agent import DQNPolicy, QNetwork, masked_argmax
-from oxbot.dialogue.checkpoint_evaluation import (
-    Checkpoint,
-    CheckpointJudge,
-    Judged,
-    evaluate_checkpoint,
-    evaluation_score,
-)
+from oxbot.dialogue.checkpoint_evaluation import Checkpoint, CheckpointJudge, Judged
 from oxbot.dialogue.env import InteractiveGameEnv
 from oxbot.dialogue.replay import Batch, BatchAugmenter, ReplayBuffer
 from oxbot.dialogue.vector_env import training_envs
 from oxbot.errors import ModelFileError, TrainingInterrupted
 from oxbot.interrupt import deferred_interrupt
-
-__all__ = ["TrainingResult", "evaluate_checkpoint", "evaluation_score", "train_agent"]
 
 log = logging.getLogger(__name__)
 

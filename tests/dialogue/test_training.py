@@ -4,7 +4,8 @@ import pytest
 
 from oxbot.config import load_config
 from oxbot.dialogue.agent import load_policy
-from oxbot.dialogue.training import epsilon_at, evaluation_score, train_agent
+from oxbot.dialogue.checkpoint_evaluation import evaluation_score
+from oxbot.dialogue.training import epsilon_at, train_agent
 from oxbot.errors import ModelFileError
 
 TINY = [
