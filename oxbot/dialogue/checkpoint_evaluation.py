@@ -9,7 +9,6 @@ or in this one. Judging never changes what training does next, so both give the 
 
 from __future__ import annotations
 
-import dataclasses
 import multiprocessing
 import signal
 from collections.abc import Iterator
@@ -106,7 +105,8 @@ class Checkpoint:
     weights: dict[str, Any]
 
     def as_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        """Its fields, the weights as they are (`dataclasses.asdict` would copy every tensor)."""
+        return dict(vars(self))
 
 
 @dataclass

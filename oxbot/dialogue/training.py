@@ -198,8 +198,9 @@ def train_agent(
                 # 2. step the dialogues and store the experiences
                 transition = envs.step(actions)
                 _store(transition, obs, actions, n, learner.replay, run, recent_outcomes)
-                recent_rewards.extend(transition[1][:n].tolist())
-                obs, masks = transition[0], transition[4]["action_mask"]
+                obs, rewards, _, _, info = transition
+                recent_rewards.extend(rewards[:n].tolist())
+                masks = info["action_mask"]
 
                 # 3. learn from minibatches
                 for k in _due(step, n, cfg.train_frequency, cfg.learning_starts):
