@@ -42,10 +42,6 @@ class ReplayBuffer:
         self.size = 0
         self.position = 0
 
-    def add(self, s: np.ndarray, a: int, r: float, s2: np.ndarray, m2: np.ndarray, done: bool):
-        """Store one experience."""
-        self.add_batch(s[None], np.array([a]), np.array([r]), s2[None], m2[None], np.array([done]))
-
     def add_batch(
         self,
         s: np.ndarray,
