@@ -156,6 +156,11 @@ class BoardReader:
         self.classifier = classifier
         self.config = config if config is not None else PerceptionConfig()
         self.find_grid = grid_finder(self.config.grid_finder)
+        self.rejector = None
+        if self.config.rejector:
+            from oxbot.perception.rejector import load_rejector
+
+            self.rejector = load_rejector(self.config.rejector_path or None)
 
     def read(self, frame: np.ndarray) -> BoardReading:
         """Find the grid in `frame`, cut the 9 cells and classify them in one batch.
@@ -194,6 +199,8 @@ class BoardReader:
             readings = veto_partial(
                 cells, readings, self.config.max_circle_gap, self.config.plus_is_cross, painted
             )
+        if self.rejector is not None:
+            readings = self.rejector.veto(cells, readings, painted)
         return readings
 
 
