@@ -32,6 +32,9 @@ from __future__ import annotations
 import argparse
 import tempfile
 import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
@@ -40,7 +43,8 @@ from oxbot.errors import LearningRefused
 from oxbot.perception.board import BoardReader
 from oxbot.perception.classifier import SymbolClassifier, load_classifier
 from oxbot.recording import RecordingStore
-from oxbot.recording.perceiver import learn_perceiver
+from oxbot.recording.perceiver import LearnPerceiverConfig, learn_perceiver
+from oxbot.recording.store import DB_NAME
 from oxbot.testing.hands import plus_strokes
 from oxbot.testing.recorded_game import play_recorded_game
 from oxbot.testing.sheet import Sheet
@@ -90,71 +94,109 @@ def main() -> None:
 
 
 def bench_perceiver(args: argparse.Namespace) -> None:
-
-    crops, labels = later_drawings(args.sheets, args.seed)
-    shipped = load_classifier()
-    before = accuracy(shipped, crops, labels)
+    """The perceiver part for `args.seed`, with every figure printed."""
+    run = perceiver_run(args.games, args.sheets, args.seed, say=print)
     print(
-        f"new hand, later drawings ({len(labels)} cells, {int((labels != 'nothing').sum())} "
-        f"symbols), shipped model: {before[0]:.2%} of cells, {before[1]:.2%} of symbols"
-    )
-    with tempfile.TemporaryDirectory() as folder, RecordingStore(folder) as store:
-        started = time.perf_counter()
-        for game in range(args.games):
-            record = play_recorded_game(
-                store, seed=args.seed * 100 + game, hand=plus_strokes, robot_starts=game % 2 == 0
-            )
-            print(
-                f"game {game + 1}: {record.outcome}, the person drew in {len(record.drawn)} "
-                f"cells, {len(record.typed)} of them typed because the robot did not see them"
-            )
-        played = time.perf_counter() - started
-        summaries = store.sessions()
-        print(
-            f"recorded {sum(s.crops for s in summaries)} crops, "
-            f"{sum(s.labelled for s in summaries)} labelled, in {played:.0f} s"
-        )
-        started = time.perf_counter()
-        try:
-            result = learn_perceiver(store, f"{folder}/perceiver.pt", show_progress=False)
-            metrics, learnt, refused = result.metrics, result.classifier, ""
-        except LearningRefused as exc:
-            metrics, learnt, refused = exc.result.metrics, exc.result.classifier, str(exc)
-        learn_s = time.perf_counter() - started
-    after = accuracy(learnt, crops, labels)
-    print(
-        f"learn perceiver: {metrics['crops']['train']} crops learnt from, "
-        f"{metrics['crops']['held_back']} held back, in {learn_s:.1f} s"
+        f"learn perceiver: {run['learnt']} crops learnt from, "
+        f"{run['held_back']} held back, in {run['learn_s']:.1f} s"
     )
     for key, name in (
         ("held_back", "held-back recorded crops"),
         ("generated", "generated test set (1,000)"),
         ("fonts", "handwriting-font set"),
     ):
-        b, a = metrics["before"][key]["accuracy"], metrics["after"][key]["accuracy"]
+        b, a = run["before"][key], run["after"][key]
         print(f"{name:30s} before {b:.2%}  after {a:.2%}")
-    print(
-        f"new hand, later drawings, learnt model: {after[0]:.2%} of cells, "
-        f"{after[1]:.2%} of symbols"
+    cells, symbols = run["after"]["later"]
+    print(f"new hand, later drawings, learnt model: {cells:.2%} of cells, {symbols:.2%} of symbols")
+    print(f"refused: {run['refused']}" if run["refused"] else "the learnt model was accepted")
+
+
+def perceiver_run(
+    games: int,
+    sheets: int,
+    seed: int,
+    say: Callable[[str], object] = print,
+    config: LearnPerceiverConfig | None = None,
+    keep: Path | None = None,
+) -> dict[str, Any]:
+    """Record `games` games of the new hand, `learn perceiver` on them, and measure: accuracy
+    on the later drawings ("later": cells, symbols) and the learning's own sets ("held_back",
+    "generated", "fonts"), "before" and "after"; crops recorded and labelled; the refusal.
+
+    With `keep`, the recordings are kept in that folder, and taken from it when it has them
+    already (so that learning settings can be compared on the same games: games played again
+    differ, since they run in real time)."""
+    crops, labels = later_drawings(sheets, seed)
+    shipped = load_classifier()
+    before = accuracy(shipped, crops, labels)
+    say(
+        f"new hand, later drawings ({len(labels)} cells, {int((labels != 'nothing').sum())} "
+        f"symbols), shipped model: {before[0]:.2%} of cells, {before[1]:.2%} of symbols"
     )
-    print(f"refused: {refused}" if refused else "the learnt model was accepted")
+    with tempfile.TemporaryDirectory() as temporary:
+        folder = keep if keep is not None else Path(temporary)
+        folder.mkdir(parents=True, exist_ok=True)
+        played_before = (folder / DB_NAME).exists()
+        with RecordingStore(folder) as store:
+            if not played_before:
+                _record(store, games, seed, say)
+            summaries = store.sessions()
+            recorded = sum(s.crops for s in summaries), sum(s.labelled for s in summaries)
+            say(f"recorded {recorded[0]} crops, {recorded[1]} labelled")
+            started = time.perf_counter()
+            out = Path(temporary) / "perceiver.pt"
+            try:
+                result = learn_perceiver(store, out, config, show_progress=False)
+                metrics, learnt, refused = result.metrics, result.classifier, ""
+            except LearningRefused as exc:
+                metrics, learnt, refused = exc.result.metrics, exc.result.classifier, str(exc)
+            learn_s = time.perf_counter() - started
+    sets = ("held_back", "generated", "fonts")
+    return {
+        "recorded": recorded,
+        "learnt": metrics["crops"]["train"],
+        "held_back": metrics["crops"]["held_back"],
+        "learn_s": learn_s,
+        "before": {"later": before, **{k: metrics["before"][k]["accuracy"] for k in sets}},
+        "after": {
+            "later": accuracy(learnt, crops, labels),
+            **{k: metrics["after"][k]["accuracy"] for k in sets},
+        },
+        "refused": refused,
+    }
 
 
-def bench_agent(args: argparse.Namespace) -> None:
+def _record(store: RecordingStore, games: int, seed: int, say: Callable[[str], object]) -> None:
+    """Play `games` recorded games of the new hand (the robot starts in the 1st and 3rd)."""
+    started = time.perf_counter()
+    for game in range(games):
+        record = play_recorded_game(
+            store, seed=seed * 100 + game, hand=plus_strokes, robot_starts=game % 2 == 0
+        )
+        say(
+            f"game {game + 1}: {record.outcome}, the person drew in {len(record.drawn)} "
+            f"cells, {len(record.typed)} of them typed because the robot did not see them"
+        )
+    say(f"played {games} games in {time.perf_counter() - started:.0f} s")
+
+
+def learn_agent_before_after(
+    seed: int, dialogues: int, steps: int, eval_games: int
+) -> tuple[dict, dict, dict, float, str]:
+    """`learn agent` on `dialogues` recorded dialogues of the twice-declining, twice-noisy
+    population: its metrics, the shipped and the learnt policy measured against the true
+    population (`eval_games` per who-starts condition), its seconds, and why it was refused
+    ("" if kept)."""
     from oxbot.dialogue.agent import load_policy
     from oxbot.recording.agent import LearnAgentConfig, learn_agent, measure
     from oxbot.testing.simulated_people import population, record_simulated_dialogues
 
     people = population()
-    d = people.dialogue
-    print(
-        f"population: decline {d.decline_probability}, refuse {d.refuse_probability}, "
-        f"asr_noise {d.asr_noise} (default 0.1, 0.05, 0.2)"
-    )
     shipped = load_policy()
-    config = LearnAgentConfig(seed=args.seed, steps=args.steps, eval_games=args.eval_games)
+    config = LearnAgentConfig(seed=seed, steps=steps, eval_games=eval_games)
     with tempfile.TemporaryDirectory() as folder, RecordingStore(folder) as store:
-        record_simulated_dialogues(store, shipped, people, args.dialogues, seed=args.seed)
+        record_simulated_dialogues(store, shipped, people, dialogues, seed=seed)
         started = time.perf_counter()
         try:
             result = learn_agent(store, folder, config, show_progress=False)
@@ -162,16 +204,31 @@ def bench_agent(args: argparse.Namespace) -> None:
         except LearningRefused as exc:
             metrics, policy, refused = exc.result.metrics, exc.result.policy, str(exc)
         seconds = time.perf_counter() - started
+    before = measure(shipped, people, eval_games, seed + 1)
+    after = measure(policy, people, eval_games, seed + 1)
+    return metrics, before, after, seconds, refused
+
+
+def bench_agent(args: argparse.Namespace) -> None:
+    from oxbot.testing.simulated_people import population
+
+    d = population().dialogue
+    print(
+        f"population: decline {d.decline_probability}, refuse {d.refuse_probability}, "
+        f"asr_noise {d.asr_noise} (default 0.1, 0.05, 0.2)"
+    )
+    metrics, true_before, true_after, seconds, refused = learn_agent_before_after(
+        args.seed, args.dialogues, args.steps, args.eval_games
+    )
     fitted = metrics["person"]["probabilities"]
     print("fitted person: " + ", ".join(f"{k} {v:.3f}" for k, v in fitted.items()))
     print(
         f"learn agent: {args.steps} steps in {len(metrics['pieces'])} pieces, kept after "
         f"{metrics['kept']} steps (0: none beat the shipped policy); {seconds:.0f} s with "
-        f"every measurement; pieces (losses, ill-formed, repeats per dialogue, on other people): "
+        "every measurement; pieces (losses, ill formed by the policy, all ill formed, repeats "
+        f"per dialogue, on other people): "
         f"{[(p['steps'], p['score']) for p in metrics['pieces']]}"
     )
-    true_before = measure(shipped, people, args.eval_games, args.seed + 1)
-    true_after = measure(policy, people, args.eval_games, args.seed + 1)
     for name, before, after in (
         ("fitted people", metrics["before"], metrics["after"]),
         ("true population", true_before, true_after),

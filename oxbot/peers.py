@@ -4,7 +4,8 @@
   the CNN+SVM is trained on (`train_pixel_svm`).
 - Learning to interact: Stable-Baselines3's DQN and sb3-contrib's MaskablePPO (with the
   environment's action mask) on `oxbot/NoughtsAndCrosses-v0`, trained for a wall-clock budget
-  against the same opponents and who-starts conditions as oxbot's agent (`train_peer_agent`).
+  or a number of experiences against the same opponents and who-starts conditions as oxbot's
+  agent (`train_peer_agent`).
   Both are evaluated with `oxbot.dialogue.evaluation.evaluate`, oxbot's own protocol.
 - Playing on the robot: `SB3Policy` makes a saved SB3 DQN or MaskablePPO model the robot's
   `oxbot.dialogue.policy.Policy`, and `load_robot_policy` loads whichever policy the config
@@ -221,11 +222,13 @@ def zero_losses(results: dict[str, dict[str, Any]]) -> bool:
 
 @dataclass
 class PeerRun:
-    """A peer's training run: its model, steps, greedy evaluations and final figures."""
+    """A peer's training run: its model, steps, greedy evaluations and final figures; its
+    budget in training seconds (`budget_s`) or in experiences (`budget_steps`)."""
 
     algorithm: str
     model: Any
-    budget_s: float
+    budget_s: float | None
+    budget_steps: int | None = None
     train_s: float = 0.0
     steps: int = 0
     evaluations: list[dict[str, Any]] = field(default_factory=list)
@@ -238,7 +241,8 @@ class PeerRun:
     def to_dict(self) -> dict[str, Any]:
         return {
             "algorithm": self.algorithm,
-            "budget_s": round(self.budget_s, 1),
+            "budget_s": None if self.budget_s is None else round(self.budget_s, 1),
+            "budget_steps": self.budget_steps,
             "train_s": round(self.train_s, 1),
             "steps": self.steps,
             "time_to_zero_losses_s": self.time_to_zero_losses,
@@ -249,22 +253,33 @@ class PeerRun:
 def train_peer_agent(
     algorithm: str,
     config: OxbotConfig,
-    budget_s: float,
-    eval_every_s: float,
-    eval_games: int,
+    budget_s: float | None = None,
+    eval_every_s: float | None = None,
+    eval_games: int = 300,
     seed: int = 0,
     on_progress: Callable[[float], None] | None = None,
+    *,
+    budget_steps: int | None = None,
+    eval_every_steps: int | None = None,
 ) -> PeerRun:
-    """Train an SB3 peer for `budget_s` seconds of training (its evaluations not counted).
+    """Train an SB3 peer for `budget_s` seconds of training (its evaluations not counted), or
+    for `budget_steps` experiences: one budget or the other, each with its evaluation period.
 
-    Every `eval_every_s` training seconds, and at the end, the greedy peer plays `eval_games`
-    games in each of the six conditions. The schedules SB3 ties to the total steps (DQN's
-    exploration) are fitted to the steps the peer makes in its budget, measured over its first
-    tenth, so that it explores as much of its run as oxbot's agent does of its own.
+    Every `eval_every_s` training seconds (`eval_every_steps` experiences), and at the end, the
+    greedy peer plays `eval_games` games in each of the six conditions; `on_progress` is told
+    the seconds (experiences) spent after each. The schedules SB3 ties to the total steps
+    (DQN's exploration) span the run: on a step budget, its experiences; on a time budget, the
+    steps the peer makes in it, measured over its first tenth. Either way it explores as much
+    of its run as oxbot's agent does of its own.
     """
     if algorithm not in PEER_AGENTS:
         raise ConfigError(f"unknown peer {algorithm!r}; choose one of {', '.join(PEER_AGENTS)}")
-    if budget_s <= 0 or eval_every_s <= 0 or eval_games <= 0:
+    if (budget_steps is None) == (budget_s is None):
+        raise ConfigError("a peer needs one budget: training seconds or experiences, not both")
+    by_steps = budget_steps is not None
+    budget = float(budget_steps) if budget_steps is not None else float(budget_s or 0)
+    every = eval_every_steps if by_steps else eval_every_s
+    if budget <= 0 or every is None or every <= 0 or eval_games <= 0:
         raise ConfigError("a peer needs a positive budget, evaluation period and game count")
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
@@ -272,7 +287,7 @@ def train_peer_agent(
     torch.set_num_threads(1)  # as oxbot's agent: small MLPs are fastest on one thread
     env = make_peer_env(algorithm, config, seed)
     model = build_peer(algorithm, env, config, seed)
-    run = PeerRun(algorithm, model, budget_s)
+    run = PeerRun(algorithm, model, budget_s, budget_steps)
     policy = peer_batch_policy(algorithm, model)
     eval_seed = 20_000 + seed  # the same people at every evaluation, for every learner
 
@@ -282,38 +297,42 @@ def train_peer_agent(
         def _on_training_start(self) -> None:
             self.clock = 0.0
             self.tick = time.perf_counter()
-            self.next_eval = eval_every_s
-            self.rescaled = False
+            self.next_eval = float(every)
+            self.rescaled = by_steps  # a step budget's schedules are right from the start
 
         def _on_step(self) -> bool:
             now = time.perf_counter()
             self.clock += now - self.tick
             self.tick = now
-            if not self.rescaled and self.clock >= budget_s / 10:
-                steps = int(self.num_timesteps * budget_s / self.clock)
+            if not self.rescaled and self.clock >= budget / 10:
+                steps = int(self.num_timesteps * budget / self.clock)
                 self.model._total_timesteps = max(steps, self.num_timesteps + 1)
                 self.rescaled = True
-            if self.clock >= self.next_eval or self.clock >= budget_s:
-                self.next_eval += eval_every_s
+            spent = float(self.num_timesteps) if by_steps else self.clock
+            if spent >= self.next_eval or spent >= budget:
+                self.next_eval += every
                 was_training = self.model.policy.training
                 self.model.policy.set_training_mode(False)
                 results = evaluate_conditions(policy, eval_games, config, eval_seed)
                 self.model.policy.set_training_mode(was_training)
                 run.evaluations.append(
                     {
-                        "train_s": round(min(self.clock, budget_s), 1),
+                        "train_s": round(self.clock if by_steps else min(self.clock, budget), 1),
                         "steps": self.num_timesteps,
                         "results": results,
                     }
                 )
                 if on_progress is not None:
-                    on_progress(min(self.clock, budget_s))
+                    on_progress(min(spent, budget))
                 self.tick = time.perf_counter()  # evaluating is not training
             run.train_s, run.steps = self.clock, self.num_timesteps
-            return self.clock < budget_s
+            # PPO collects whole rollouts: stopping here keeps its experiences to the budget
+            return spent < budget
 
-    # Far more steps than fit in any budget: the callback ends the run.
-    model.learn(total_timesteps=10**9, callback=Budget(), progress_bar=False)
+    # On a time budget, far more steps than fit in it: the callback ends the run.
+    model.learn(
+        total_timesteps=budget_steps if by_steps else 10**9, callback=Budget(), progress_bar=False
+    )
     env.close()
     return run
 

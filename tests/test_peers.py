@@ -99,8 +99,30 @@ def test_a_peer_trains_for_its_budget_and_is_evaluated_in_every_condition(algori
     assert masks[np.arange(64), acts].all()
 
 
+@pytest.mark.parametrize("algorithm", ["dqn", "maskable_ppo"])
+def test_a_peer_trains_for_exactly_its_experiences_when_given_a_step_budget(algorithm):
+    # PPO collects 2,048 steps a rollout: the budget cuts its rollout short
+    progress = []
+    run = train_peer_agent(
+        algorithm,
+        OxbotConfig(),
+        eval_games=2,
+        on_progress=progress.append,
+        budget_steps=300,
+        eval_every_steps=100,
+    )
+    assert run.steps == 300 and run.budget_steps == 300 and run.budget_s is None
+    assert [e["steps"] for e in run.evaluations] == [100, 200, 300]
+    assert progress == [100, 200, 300]
+    assert run.to_dict()["budget_steps"] == 300
+
+
 def test_peers_refuse_unknown_algorithms_and_empty_budgets():
     with pytest.raises(ConfigError, match="unknown peer"):
         train_peer_agent("a2c", OxbotConfig(), budget_s=1, eval_every_s=1, eval_games=1)
     with pytest.raises(ConfigError, match="positive"):
         train_peer_agent("dqn", OxbotConfig(), budget_s=0, eval_every_s=1, eval_games=1)
+    with pytest.raises(ConfigError, match="one budget"):
+        train_peer_agent("dqn", OxbotConfig(), budget_s=1, eval_every_s=1, budget_steps=10)
+    with pytest.raises(ConfigError, match="positive"):
+        train_peer_agent("dqn", OxbotConfig(), budget_steps=10, eval_every_s=1)

@@ -24,8 +24,10 @@ from sklearn.naive_bayes import BernoulliNB
 
 from oxbot.dialogue.domain import (
     ACTION_INDEX,
+    FEEDBACK_ACTS,
     GAME_MOVE_TEMPLATE,
     MOVE_ACT_TYPE,
+    MOVE_REQUEST,
     N_ACTIONS,
     SILENCE,
     SYSTEM_ACTS,
@@ -34,7 +36,7 @@ from oxbot.dialogue.domain import (
 )
 from oxbot.dialogue.features import FeatureLayout
 from oxbot.dialogue.state import DialogueState
-from oxbot.game.board import EMPTY, N_CELLS, Board
+from oxbot.game.board import EMPTY, N_CELLS, Board, outcome
 
 GAME_MOVE_CLASS = MOVE_ACT_TYPE
 """The action model's one class for the moves: it says whether to draw; every empty cell is then
@@ -171,17 +173,42 @@ def action_mask(
 ) -> np.ndarray:
     """The actions offered in a state: Pr(a|s) > threshold, and all valid GameMoves if any is.
 
-    A GameMove is valid only on an empty cell while it is the robot's turn. If nothing passes
-    the threshold, the most likely act that can be done is offered, so the set is never empty.
+    A GameMove is valid only on an empty cell while it is the robot's turn; the person's move is
+    asked for only on their turn (on its own the robot draws; a game won has no next move); the
+    feedback says the game's real outcome, once it is over. Where the learnt model offered only
+    acts these rules forbid, what carries the game on is offered instead: the robot's moves,
+    asking for the person's, the right feedback (words heard as a move with nothing drawn once
+    left only "it's a draw" mid-game). If nothing passes the threshold, the most likely act that
+    can be done is offered, so the set is never empty.
     """
     offered = probs > threshold
     valid_moves = np.array([c == EMPTY for c in board]) & robot_to_move
     offered[:N_CELLS] = valid_moves if offered[:N_CELLS].any() else False
+    ending = outcome(board)
+    forbidden = _WRONG_FEEDBACK[ending].copy()
+    forbidden[_ASKS_FOR_A_MOVE] = robot_to_move or ending is not None
+    if (offered & forbidden).any():
+        offered &= ~forbidden
+        if not offered.any():
+            offered[:N_CELLS] = valid_moves
+            offered[_ASKS_FOR_A_MOVE] = ending is None and not robot_to_move
+            if ending is not None:
+                offered |= _FEEDBACK_FOR[ending]
     if not offered.any():
-        others = np.ones(N_ACTIONS - N_CELLS, dtype=bool)
-        candidates = np.where(np.r_[valid_moves, others], probs, -1.0)
-        offered[int(np.argmax(candidates))] = True
+        can_do = np.r_[valid_moves, np.ones(N_ACTIONS - N_CELLS, dtype=bool)] & ~forbidden
+        offered[int(np.argmax(np.where(can_do, probs, -1.0)))] = True
     return offered
+
+
+_FEEDBACK_FOR = {
+    ending: np.array([a == act for a in SYSTEM_ACTS]) for ending, act in FEEDBACK_ACTS.items()
+}
+_WRONG_FEEDBACK: dict[str | None, np.ndarray] = {
+    ending: np.logical_or.reduce([f for e, f in _FEEDBACK_FOR.items() if e != ending])
+    for ending in (None, *FEEDBACK_ACTS)
+}
+"""The feedback acts that would not say the game's real outcome (None: the game goes on)."""
+_ASKS_FOR_A_MOVE = SYSTEM_ACTS.index(MOVE_REQUEST)
 
 
 __all__ = ["ACTION_INDEX", "ActionModel", "act_class", "action_mask", "seed_examples"]

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol
@@ -148,10 +149,9 @@ may still take it back). To be tuned on development people only, as `SURE_YES`."
 CLEAR_STOP = 0.4
 """A stop mid-game understood with a score of at least this is let go at once ("Okay, let's
 stop here.", then the goodbye); below it the robot asks for the move once more. At most
-`wellformed.SURE_NO`, as `CLEAR_NO`. The state does not say whether an unsure stop is the first
-(`person:stopped` is set by this one too), so a person heard unsure twice in a row is asked
-twice, which the rules forbid: lower, fewer are. To be tuned on development people only, as
-`SURE_YES` (and so chosen: 0.2, 0.4 and 0.6 tried)."""
+`wellformed.SURE_NO`, as `CLEAR_NO`. A second stop is let go whatever its score
+(`person:stop_is_final`). To be tuned on development people only, as `SURE_YES` (and so
+chosen: 0.2, 0.4 and 0.6 tried)."""
 _ASKING = (INVITATION, ASK_AGAIN)
 
 
@@ -167,13 +167,14 @@ class RuleBasedManager(ScriptedManager):
     - asked to play, on a yes understood at least `sure_yes` surely it says "Nice, let's play",
       below that it asks again once (`Request(repeat)`) and then takes the answer as heard;
       a clear "no thanks" (at least `clear_no`) it lets go ("Okay, maybe another time."), an
-      unsure one it asks about once; after a "later" it invites once more; a no after it has
+      unsure one it asks about once, and lets go a no once asking would not
+      (`person:no_is_final`); after a "later" it invites once more; a no after it has
       asked twice (a no before it asked counts as one) it lets go; when it made nothing out
       (silence, chatter) it asks again, then invites again, never asking again twice in a row;
     - in the game it draws the exact solver's cell (`solver_move`, as the script) and asks
       for the person's move after each of its own; with no drawing it asks for the move again;
       a stop understood at least `clear_stop` surely it lets go ("Okay, let's stop here."), an
-      unsure one it asks for the move once more;
+      unsure one it asks for the move once more, and lets the second go;
     - once the game is over, the feedback of its outcome, then the goodbye; after letting a no
       or a stop go, the goodbye, unless the person takes it back with a yes ("Yes, I want to
       play."): then it plays on.
@@ -255,7 +256,8 @@ class RuleBasedManager(ScriptedManager):
             if robot_to_move:  # the person drew
                 return (MOVE_ACT_TYPE,)
             if heard == STOP:
-                return (GRANT_STOP,) if score >= self.clear_stop else (MOVE_REQUEST, GRANT_STOP)
+                final = score >= self.clear_stop or said["person:stop_is_final"]
+                return (GRANT_STOP,) if final else (MOVE_REQUEST, GRANT_STOP)
             return (MOVE_REQUEST,)
         if not said["dialogue:introduced"]:
             return (INTRODUCTION,)
@@ -274,7 +276,8 @@ class RuleBasedManager(ScriptedManager):
             sure = score >= self.sure_yes or again or said["person:refused"]
             return (LETS_PLAY,) if sure else (ASK_AGAIN, LETS_PLAY)
         if heard in REFUSALS:
-            if said["dialogue:asked_twice"] or (heard == DECLINE and score >= self.clear_no):
+            final = said["dialogue:asked_twice"] or said["person:no_is_final"]
+            if final or (heard == DECLINE and score >= self.clear_no):
                 # where the mask offers no acknowledgement (an unsure yes asked about, then a
                 # no) the question once more: a goodbye to a no must acknowledge it
                 return (GRANT_REFUSAL, ASK_AGAIN)
@@ -347,6 +350,8 @@ class TabularQ:
 
 
 _ZEROS = np.zeros(N_ACTIONS)
+PROGRESS_EVERY = 1_000
+"""Experiences between two progress reports of `train_tabular_q`."""
 
 
 def train_tabular_q(
@@ -354,11 +359,13 @@ def train_tabular_q(
     experiences: int,
     learning_rate: float = 0.2,
     epsilon: tuple[float, float] = (1.0, 0.01),
+    on_progress: Callable[[int], None] | None = None,
 ) -> TabularQ:
     """Q-learning for `experiences` steps in the DQN's training conditions (`config.agent`:
     seed, discount, opponents, who starts, `eval_every`; epsilon falling linearly over half
     the run), keeping the best evaluated table as the DQN keeps its best network
-    (`oxbot.dialogue.checkpoint_evaluation.evaluate_checkpoint`)."""
+    (`oxbot.dialogue.checkpoint_evaluation.evaluate_checkpoint`); `on_progress` is told the
+    experiences so far every `PROGRESS_EVERY` and at the end."""
     from oxbot.dialogue.checkpoint_evaluation import evaluate_checkpoint
 
     cfg = config.agent
@@ -396,6 +403,10 @@ def train_tabular_q(
         obs = next_obs
         if terminated or truncated:
             obs, info = env.reset(options=next_episode())
+        if on_progress is not None and (
+            (step + 1) % PROGRESS_EVERY == 0 or step + 1 == experiences
+        ):
+            on_progress(step + 1)
         if cfg.eval_every and (step + 1) % cfg.eval_every == 0:
             candidate = TabularQ({k: v.copy() for k, v in table.items()}, step + 1)
             _, score = evaluate_checkpoint(config, candidate.act_batch, step + 1)

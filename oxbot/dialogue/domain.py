@@ -82,6 +82,15 @@ UNKNOWN = "Unknown"
 
 PROBLEM = "Inform(problem)"
 """The robot's fixed sentences about impossible drawings: said, never chosen by the policy."""
+ANSWER = "Inform(answer)"
+"""The robot's answer to a question asked in passing ("who starts?", "what's your name?",
+"can you repeat that?": `oxbot.dialogue.asides`): said, never chosen by the policy."""
+OFFER_ANOTHER = "Request(anotherGame)"
+"""oxbot: "Would you like another game?" after a game, before the goodbye the policy chose:
+said, never chosen by the policy. A yes to it starts the next game without a goodbye, a
+greeting or an introduction."""
+SAID_OUTSIDE_THE_POLICY = (PROBLEM, ANSWER, OFFER_ANOTHER)
+"""The robot's acts that its interaction manager says around the policy's."""
 
 MOVE_ACT_TYPE = "GameMove"
 """The type of every move act, whatever its cell."""
@@ -143,6 +152,19 @@ USER_ACTS: tuple[str, ...] = (
 """The person's acts; `GameMove(gridloc=$loc)` stands for a drawing on any cell."""
 REFUSALS = frozenset({DECLINE, POSTPONE})
 """The person's answers that mean no to a game."""
+Turn = dict[str, str]
+"""One transcript entry (`info["transcript"]`):
+`{"speaker": "sys" | "usr", "act": ..., "text": ...}`."""
+
+SURE_NO = 0.6
+"""A "no thanks" or a stop understood with at least this score is clear: the robot lets it go
+at once. Below it (an accept misheard as a no keeps a lower score 92-100% of the time on the
+simulated recogniser at noise 0.2-0.4) the robot may check once. See docs/dialogue.md."""
+ANSWERS_ABOUT_PLAYING = frozenset({ACCEPT, STOP, *REFUSALS})
+"""A yes, a no or a stop: the answers whose last one says what the person wants."""
+ANSWERS_TO_PLAY = frozenset({ACCEPT, STOP, CLOSING, *REFUSALS})
+"""What answers a question to play; anything else (silence, chatter, a "thank you", a greeting)
+it could not make out as an answer, and asking again about it does not count."""
 _ACCEPT_FAMILY = ACCEPT.split("=", 1)[0]
 _REFUSAL_FAMILY = DECLINE.split("=", 1)[0]
 

@@ -19,7 +19,7 @@ happens but -DL.
 
 ## Observation Space
 
-`Box(0, 1, (150,), float32)`, the layout in `oxbot.dialogue.features`: word features of the last
+`Box(0, 1, (152,), float32)`, the layout in `oxbot.dialogue.features`: word features of the last
 system and user responses, game-move features that keep the board, game flags, the act the
 person's answer was understood as (with its score), the robot's last act and dialogue flags. The
 state behind it is a `DialogueState` (`oxbot.dialogue.state`), the same the robot's
@@ -172,7 +172,10 @@ class InteractiveGameEnv(gym.Env):
         did = state.can_do(act)
         if did:
             reward = step_reward(state.board, action, float(self._probs[action]), rcfg)
-            last = state.transcript[-1]["text"] if state.transcript else ""
+            # never the robot's own last sentence again, whatever the person said between
+            last = next(
+                (t["text"] for t in reversed(state.transcript) if t["speaker"] == "sys"), ""
+            )
             state.robot_says(act, self.model.template(act, self.np_random, last))
         else:  # a GameMove that cannot be drawn: a wasted turn
             reward = -rcfg.length_penalty

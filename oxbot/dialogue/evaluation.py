@@ -25,13 +25,13 @@ from oxbot.dialogue.domain import (
     LETS_PLAY,
     MOVE_REQUEST,
     SYSTEM_ACTS,
+    Turn,
     game_move_cell,
     is_game_move,
 )
 from oxbot.dialogue.env import InteractiveGameEnv, format_turn
 from oxbot.dialogue.model import DialogueModel, build_dialogue_model
 from oxbot.dialogue.simulator import UserSimulator
-from oxbot.dialogue.state import Turn
 from oxbot.dialogue.wellformed import blame, check_dialogue
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, legal_moves, play, winner
 from oxbot.game.board import outcome as game_outcome
@@ -90,6 +90,10 @@ class EvaluationResult:
     asked_again: float = 0.0
     """Times per dialogue the robot asked the person to say it again (Request(repeat))."""
     transcripts: list[list[Turn]] = field(default_factory=list)
+    own_faults: list[dict[str, Any]] = field(default_factory=list)
+    """The first `KEPT_OWN_FAULTS` of the policy's own faults, each with its problem, the
+    person's kind, the outcome, the transcript and what was understood with what score: to
+    read them one by one (`bench/bench_own_faults.py`)."""
 
     @property
     def ill_formed(self) -> int:
@@ -100,6 +104,7 @@ class EvaluationResult:
         """The figures as a plain dict (for --json), without the transcripts."""
         data = asdict(self)
         data.pop("transcripts")
+        data.pop("own_faults")
         return data
 
 
@@ -112,6 +117,10 @@ def as_wanted(person: str, outcome: str | None) -> bool:
     """True if a dialogue with this kind of person ended as they wanted."""
     ended = "game" if outcome in ("win", "draw", "loss") else outcome
     return WANTED[person] == ended
+
+
+KEPT_OWN_FAULTS = 20
+"""The policy's own faults an evaluation keeps whole (`EvaluationResult.own_faults`)."""
 
 
 @dataclass
@@ -131,6 +140,7 @@ class _Tally:
     problems: dict[str, int] = field(default_factory=dict)
     policy_faults: int = 0
     kept: list[list[Turn]] = field(default_factory=list)
+    own_faults: list[dict[str, Any]] = field(default_factory=list)
 
     def add(self, info: dict[str, Any], terminated: bool, episode_return: float) -> None:
         self.finished += 1
@@ -158,6 +168,17 @@ class _Tally:
             heard = understood is not None and scores is not None and terminated
             if not heard or blame(problem, transcript, understood, scores) == "policy":
                 self.policy_faults += 1
+                if len(self.own_faults) < KEPT_OWN_FAULTS:
+                    self.own_faults.append(
+                        {
+                            "problem": problem,
+                            "person": info["person"],
+                            "outcome": result,
+                            "transcript": transcript,
+                            "understood": understood,
+                            "scores": scores,
+                        }
+                    )
         if len(self.kept) < self.keep_transcripts:
             self.kept.append(transcript)
 
@@ -181,6 +202,7 @@ class _Tally:
             problems=self.problems,
             policy_faults=self.policy_faults,
             transcripts=self.kept,
+            own_faults=self.own_faults,
             reward_std=math.sqrt(
                 max(0.0, self.total_squared_reward / n - (self.total_reward / n) ** 2)
             ),

@@ -1,6 +1,6 @@
 """The state the interaction manager sees: word features plus game and dialogue context.
 
-Layout (paper §2.2 "State Space") with the shipped vocabulary of 84 words, 150 features:
+Layout (paper §2.2 "State Space") with the shipped vocabulary of 84 words, 152 features:
 
     index    name                     value
     0-83     word:<w>, vocabulary     system words of the last response: 1 if present; user
@@ -23,6 +23,10 @@ Layout (paper §2.2 "State Space") with the shipped vocabulary of 84 words, 150 
                                       a no said before it first asked counting as once
     147-149  person:agreed, refused, stopped
                                       1 once an answer was understood as that (any refusal)
+    150      person:no_is_final       1 while asking to play would not let a no go: a clear
+                                      no to the question, or a no after asking once more
+    151      person:stop_is_final     1 while asking for a move would not let a stop go: two
+                                      stops, or one clear, with no yes or drawing since
 
 The paper had 57 features (about 40 words plus game moves); the words, cells and game flags here
 are exactly that kind. The word features are reset every turn; the others keep the history
@@ -31,7 +35,8 @@ resetting them at every turn"). oxbot adds the rest for the same reason, and bec
 answer in hundreds of ways the words alone cannot tell apart: the understood act and its score,
 the robot's own last act (its words vary with its templates), and what the dialogue has been
 through — whether the robot introduced itself, gave feedback, asked twice; whether the person
-agreed, refused or asked to stop (see docs/deviations.md).
+agreed, refused or asked to stop, and whether their no or stop is final, counted as the rules
+of a well-formed dialogue count them (`oxbot.dialogue.wellformed`; see docs/deviations.md).
 """
 
 from __future__ import annotations
@@ -98,7 +103,11 @@ ASKED_TWICE = "dialogue:asked_twice"
 """1 once the robot has asked to play (invited or asked again) twice or more; a no the person
 said before the robot first asked counts as one asking, so that a no to the greeting and a no to
 the invitation look like two noes to two invitations (the rule: ask once more after a no)."""
-DIALOGUE_FLAGS: tuple[str, ...] = (*SAID_FLAGS, ASKED_TWICE, *HEARD_FLAGS)
+FINAL_FLAGS: tuple[str, ...] = ("person:no_is_final", "person:stop_is_final")
+"""1 while asking to play (asking for a move) would not let the person's no (stop) go: the
+counts the rules of a well-formed dialogue keep, which the flags above cannot tell (one unsure
+stop from two)."""
+DIALOGUE_FLAGS: tuple[str, ...] = (*SAID_FLAGS, ASKED_TWICE, *HEARD_FLAGS, *FINAL_FLAGS)
 _SAID: dict[str, int] = {act: k for k, acts in enumerate(SAID_FLAGS.values()) for act in acts}
 _HEARD: dict[str, int] = {
     act: len(SAID_FLAGS) + 1 + k for k, acts in enumerate(HEARD_FLAGS.values()) for act in acts
@@ -134,6 +143,10 @@ class EncodableState(Protocol):
     def refused_unasked(self) -> bool: ...
     @property
     def person_acts(self) -> Sequence[str]: ...
+    @property
+    def no_is_final(self) -> bool: ...
+    @property
+    def stop_is_final(self) -> bool: ...
 
 
 class FeatureLayout:
@@ -201,6 +214,7 @@ class FeatureLayout:
             k = _HEARD.get(act)
             if k is not None:
                 flags[k] = 1.0
+        flags[-2:] = state.no_is_final, state.stop_is_final
         return vector
 
     def encode_game(self, state: np.ndarray, board: Board, robot_starts: bool) -> None:

@@ -27,19 +27,28 @@ import numpy as np
 from oxbot.dialogue.domain import (
     ACCEPT,
     ACTION_INDEX,
+    ANSWERS_ABOUT_PLAYING,
+    ANSWERS_TO_PLAY,
     ASK_AGAIN,
+    CLOSING,
+    DECLINE,
     GRANT_REFUSAL,
     GRANT_STOP,
     INVITATION,
+    MOVE_REQUEST,
     REFUSALS,
     STOP,
+    SURE_NO,
     SYSTEM_ACTS,
+    Turn,
     acts_on_an_answer,
     game_move_cell,
+    is_feedback,
     plays,
     starts_game,
     words_of,
 )
+from oxbot.dialogue.wellformed import as_heard, ignores_the_person
 from oxbot.errors import IllegalMoveError
 from oxbot.game.board import (
     EMPTY,
@@ -64,16 +73,21 @@ _GRANTS = (
     (ACTION_INDEX[GRANT_STOP], frozenset({STOP})),
 )
 """The acknowledgements and the answers each acts on ("Okay, maybe another time." a no)."""
+_LEAVING = np.array([act in (GRANT_REFUSAL, CLOSING) for act in SYSTEM_ACTS])
+"""What lets a person go before a game: acknowledging a no, the goodbye."""
 
 if TYPE_CHECKING:
     from oxbot.dialogue.features import FeatureLayout
 
 Heard = tuple[tuple[str, float], ...]
 """Words as the recogniser heard them, each with its confidence in [0, 1]."""
-Turn = dict[str, str]
-"""One transcript entry (`info["transcript"]`):
-`{"speaker": "sys" | "usr", "act": ..., "text": ...}`."""
 ASKING_TO_PLAY = frozenset({INVITATION, ASK_AGAIN})
+
+_NO_OR_STOP = frozenset({STOP, *REFUSALS})
+_CLOSING = ACTION_INDEX[CLOSING]
+_ANSWERING = np.array([act in (*ASKING_TO_PLAY, CLOSING, MOVE_REQUEST) for act in SYSTEM_ACTS])
+"""The acts that can break a rule about a no or a stop heard: asking to play, the goodbye,
+asking for a move."""
 
 
 class OffersActs(Protocol):
@@ -128,6 +142,14 @@ class DialogueState:
         self.refused_unasked = False
         """Whether the person said no before the robot first asked to play ("no thanks" to
         its greeting): the robot may then ask once, as after any no."""
+        self.heard_a_no_or_stop = False
+        """Whether the person was ever understood saying no or asking to stop."""
+        self.stop_is_final = False
+        """Whether asking for the person's move would not let their stop go: they asked to stop
+        twice, or once clearly (`SURE_NO`), with no yes and no drawing since. Counted as
+        `wellformed` counts it."""
+        self._no_count = _NoCount()
+        self._stops_in_a_row = 0
         self.transcript: list[Turn] = []
         self.understood_turns: list[str] = []
         """For each turn of the transcript, the act it was understood as (the robot's own turns
@@ -187,6 +209,7 @@ class DialogueState:
         if act == ASK_AGAIN:
             self.answers_from = len(self.person_acts)
         self.acted_on_answer = self.acted_on_answer or acts_on_an_answer(act)
+        self._no_count.robot(act)
         self.system_words = _words(text)
         self.heard, self.understood = (), None
         self._turn("sys", act, text)
@@ -194,12 +217,14 @@ class DialogueState:
     def robot_informs(self, act: str, text: str) -> None:
         """The robot says something outside the policy's acts (about an impossible drawing):
         in the transcript, not in what the policy sees."""
+        self._no_count.robot(act)
         self._turn("sys", act, text)
 
     def person_informs(self, act: str, text: str, score: float = 1.0) -> None:
         """The person said something the robot answers outside the policy's acts (a move in
         words it asks about): in the transcript, as understood as `act` with `score`, not in
         what the policy sees."""
+        self._count_answer(act, score, drew=game_move_cell(act) is not None)
         self._turn("usr", act, text, act, score)
 
     def robot_skips(self) -> None:
@@ -231,11 +256,25 @@ class DialogueState:
             self.person_acts.append(understood[0])
             if understood[0] in REFUSALS and self.invitations == 0:
                 self.refused_unasked = True
-        self._turn("usr", act, text, *(understood if understood is not None else (act, 1.0)))
+        heard_as, score = understood if understood is not None else (act, 1.0)
+        self._count_answer(heard_as, score, drew=cell is not None)
+        self._turn("usr", act, text, heard_as, score)
+
+    def _count_answer(self, act: str, score: float, drew: bool) -> None:
+        """Keep `no_is_final` and `stop_is_final` up to date with an answer understood as `act`
+        with `score` (`drew`: the person drew on the sheet, whatever was heard)."""
+        self._no_count.person(act, score >= SURE_NO)
+        if act == ACCEPT or drew:
+            self._stops_in_a_row, self.stop_is_final = 0, False
+        elif act == STOP:
+            self._stops_in_a_row += 1
+            self.stop_is_final = self._stops_in_a_row >= 2 or score >= SURE_NO or self.stop_is_final
 
     def _turn(
         self, speaker: str, act: str, text: str, understood: str = "", score: float = 1.0
     ) -> None:
+        if speaker == "usr":
+            self.heard_a_no_or_stop |= (understood or act) in _NO_OR_STOP
         self.transcript.append({"speaker": speaker, "act": act, "text": text})
         self.understood_turns.append(understood or act)
         self.understood_scores.append(float(score))
@@ -248,6 +287,22 @@ class DialogueState:
         if self._features is None:
             self._features = self.layout.encode(self)
         return self._features
+
+    @property
+    def _yes_heard_last(self) -> bool:
+        """Whether the person's last answer about playing (a yes, a no, a stop) was understood
+        as a yes, counted or not: leaving then walks away from someone who said they would play
+        (`wellformed.blame` puts that on the policy)."""
+        answers = [act for act in self.person_acts if act in ANSWERS_ABOUT_PLAYING]
+        return bool(answers) and answers[-1] == ACCEPT
+
+    @property
+    def no_is_final(self) -> bool:
+        """Whether asking to play now would not let the person's no go: they said a clear no
+        to the question ("no thanks" understood at `SURE_NO` or more), or the robot already
+        asked once more after a no and they answered that too. Counted as `wellformed` counts
+        it."""
+        return self._no_count.final
 
     @property
     def game_started(self) -> bool:
@@ -288,7 +343,11 @@ class DialogueState:
         (`counted_answers`): a yes before it agrees to nothing (above), and a no or a stop
         before it is not acknowledged, the robot asks about it again instead. Once it acted on
         the person's last answer or drawing (`acted_on_answer`), asking again is not offered
-        until they say something new."""
+        until they say something new. Before a game, a person whose last answer about playing
+        was understood as yes is not let go (a no acknowledged, the goodbye): the robot plays,
+        or asks, as it heard. Once it heard a no or a stop, it never asks again after a clear
+        no or two, nor says goodbye before acknowledging them (`_letting_them_go`). (The rules
+        about the board live in `action_mask`.)"""
         if self.action_model is None:
             raise TypeError("this DialogueState has no action model to offer acts with")
         probs, mask = self.action_model.offered(self.encode(), self.board, self.robot_to_move)
@@ -304,10 +363,55 @@ class DialogueState:
             if mask[grant] and needed.isdisjoint(counted):
                 mask = mask.copy()
                 mask[grant], mask[ACTION_INDEX[ASK_AGAIN]] = False, True
+        if self._yes_heard_last and not self.game_started and (mask & ~_LEAVING).any():
+            mask = mask & ~_LEAVING
         if self.acted_on_answer and mask[ACTION_INDEX[ASK_AGAIN]]:
             mask = mask.copy()
             mask[ACTION_INDEX[ASK_AGAIN]] = False
+        if self.heard_a_no_or_stop and (mask & _ANSWERING).any():
+            mask = self._letting_them_go(mask)
         return probs, mask
+
+    def _letting_them_go(self, mask: np.ndarray) -> np.ndarray:
+        """`mask` without the questions, requests for a move and goodbyes that, said now, would
+        not let a no or a stop go as the robot understood them (`wellformed.ignores_the_person`
+        read as heard): asking again after a clear no or two, a goodbye before the no or the
+        stop is acknowledged. The acknowledgement is offered instead where nothing else is
+        left. The policy once asked a third time after two unsure noes, and said goodbye
+        straight after a stop heard, in about one dialogue of 5,000 with people who decline
+        often and are heard badly."""
+        heard = as_heard(self.transcript, self.understood_turns)
+        understood, scores = self.understood_turns, self.understood_scores
+        if ignores_the_person(heard, understood, scores) is not None:
+            return mask  # a rule already broken, by a mishearing: no act can mend it
+
+        def breaks(*acts: str) -> bool:
+            said = [{"speaker": "sys", "act": act, "text": ""} for act in acts]
+            problem = ignores_the_person(
+                [*heard, *said], [*understood, *acts], [*scores, *[1.0] * len(acts)]
+            )
+            return problem is not None
+
+        kept = mask.copy()
+        for index in np.flatnonzero(mask & _ANSWERING):
+            kept[index] = not breaks(SYSTEM_ACTS[index])
+        if kept[_CLOSING] == mask[_CLOSING] and kept.any():
+            return kept
+        # the goodbye held back, or nothing left: the acknowledgement the robot may say (of an
+        # answer it did not ask again about) after which it may say goodbye, and not another
+        # (said again and again, "Okay, maybe another time" let no stop go). None (a stop it
+        # asked again about, heard long before): the policy's own choice, though it break a rule
+        counted = set(self.counted_answers)
+        useful = [
+            grant
+            for grant, needed in _GRANTS
+            if not needed.isdisjoint(counted) and not breaks(SYSTEM_ACTS[grant], CLOSING)
+        ]
+        if not useful:
+            return kept if kept.any() else mask
+        for grant, _ in _GRANTS:
+            kept[grant] = grant in useful
+        return kept
 
     def at(self, board: Board) -> DialogueState:
         """A copy of this state with the game at `board` (walking the game tree)."""
@@ -323,8 +427,43 @@ class DialogueState:
         twin.transcript = list(self.transcript)
         twin.understood_turns = list(self.understood_turns)
         twin.understood_scores = list(self.understood_scores)
+        twin._no_count = copy.copy(self._no_count)
         twin._features = None
         return twin
+
+
+class _NoCount:
+    """Whether a question to play would no longer let the person's no go, counted turn by turn
+    as `wellformed` reads a finished dialogue: after a no (any refusal understood), one more
+    question is allowed; a question about silence or chatter does not count. A clear "no
+    thanks" to a question is final at once; a no after the game's feedback that answers no
+    question ("oh no") counts for nothing."""
+
+    def __init__(self) -> None:
+        self.refused = self.answered = self.asked = self.over = self.clear_no = False
+        self.asked_after_no = 0
+
+    @property
+    def final(self) -> bool:
+        """True if asking to play now would break the rule."""
+        return self.clear_no or (self.asked_after_no >= 1 and self.refused and self.answered)
+
+    def robot(self, act: str) -> None:
+        """The robot said `act`."""
+        self.asked = act in ASKING_TO_PLAY
+        self.over = self.over or is_feedback(act)
+        if self.asked and self.refused and self.answered:
+            self.asked_after_no += 1
+        if self.asked:
+            self.answered = False
+
+    def person(self, act: str, clear: bool) -> None:
+        """The person was understood saying `act` (`clear`: at `SURE_NO` or more)."""
+        if self.over and not self.asked and act in REFUSALS:
+            return
+        self.answered = self.answered or act in ANSWERS_TO_PLAY
+        self.refused = self.refused or act in REFUSALS
+        self.clear_no = self.clear_no or (self.asked and act == DECLINE and clear)
 
 
 @functools.lru_cache(maxsize=4096)

@@ -11,6 +11,8 @@ from collections.abc import Callable, Sequence
 
 from oxbot.dialogue.domain import (
     ACCEPT,
+    ANSWERS_ABOUT_PLAYING,
+    ANSWERS_TO_PLAY,
     ASK_AGAIN,
     CLOSING,
     DECLINE,
@@ -22,9 +24,13 @@ from oxbot.dialogue.domain import (
     INVITATION,
     LETS_PLAY,
     MOVE_REQUEST,
+    NEW_GAME,
     PROBLEM,
     REFUSALS,
+    SAID_OUTSIDE_THE_POLICY,
     STOP,
+    SURE_NO,
+    Turn,
     acts_on_an_answer,
     game_move_cell,
     is_feedback,
@@ -32,18 +38,11 @@ from oxbot.dialogue.domain import (
     plays,
     starts_game,
 )
-from oxbot.dialogue.state import Turn
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, play
 from oxbot.game.board import outcome as game_outcome
 
-SURE_NO = 0.6
-"""A "no thanks" or a stop understood with at least this score is clear: the robot lets it go
-at once. Below it (an accept misheard as a no keeps a lower score 92-100% of the time on the
-simulated recogniser at noise 0.2-0.4) the robot may check once. See docs/dialogue.md."""
 _ASKING = (INVITATION, ASK_AGAIN)
-_ANSWERS = frozenset({ACCEPT, STOP, CLOSING, *REFUSALS})
-"""What answers a question to play; anything else (silence, chatter, a "thank you", a greeting)
-it could not make out as an answer, and asking again about it does not count."""
+_ANSWERS = ANSWERS_TO_PLAY
 
 
 def check_dialogue(
@@ -74,8 +73,13 @@ def check_dialogue(
     acted on (`acts_on_what_it_did_not_catch`).
     The person's turns are read as the acts they meant (the environment's transcript) or, where
     `understood` gives one per turn, as the acts the robot understood, with `scores` the
-    understanding's scores (none given: every turn clear).
+    understanding's scores (none given: every turn clear). The sentences the interaction
+    manager says around the policy's acts (`SAID_OUTSIDE_THE_POLICY`: a problem on the sheet,
+    an answer to a question asked in passing, the offer of another game) are no act of the
+    policy and are read past; a game played out may end, instead of with a goodbye, with the
+    person's yes to another game, which the next dialogue takes up.
     """
+    transcript, understood, scores = _policy_turns(transcript, understood, scores)
     sys_acts = [t["act"] for t in transcript if t["speaker"] == "sys"]
     if not sys_acts or sys_acts[0] != GREETING:
         return "does not greet first"
@@ -84,11 +88,40 @@ def check_dialogue(
     )
     if problem is not None:
         return problem
-    if sys_acts[-1] != CLOSING or sys_acts.count(CLOSING) != 1:
+    plays_again = CLOSING not in sys_acts and _plays_again(transcript, outcome, understood)
+    if not plays_again and (sys_acts[-1] != CLOSING or sys_acts.count(CLOSING) != 1):
         return "does not close with a goodbye"
     if outcome in ("declined", "stopped"):
         return None
     return _played_properly(transcript, outcome)
+
+
+def _policy_turns(
+    transcript: list[Turn], understood: Sequence[str] | None, scores: Sequence[float] | None
+) -> tuple[list[Turn], Sequence[str] | None, Sequence[float] | None]:
+    """`transcript` (and `understood`, `scores`, one per turn) without the robot's sentences
+    outside the policy's acts."""
+    keep = [
+        i
+        for i, t in enumerate(transcript)
+        if t["speaker"] != "sys" or t["act"] not in SAID_OUTSIDE_THE_POLICY
+    ]
+    return (
+        [transcript[i] for i in keep],
+        [understood[i] for i in keep] if understood is not None else None,
+        [scores[i] for i in keep] if scores is not None else None,
+    )
+
+
+def _plays_again(
+    transcript: list[Turn], outcome: str | None, understood: Sequence[str] | None
+) -> bool:
+    """Whether a game played out ends with the person's yes to another game (or their asking
+    for one), their last turn, after the robot's last act."""
+    if outcome not in FEEDBACK_ACTS or not transcript or transcript[-1]["speaker"] != "usr":
+        return False
+    last = understood[-1] if understood is not None else transcript[-1]["act"]
+    return last in (ACCEPT, NEW_GAME)
 
 
 def ignores_the_person(
@@ -179,26 +212,36 @@ def blame(
     understood, or in playing (training can remove these; the others only better hearing, or
     asking about every answer, can)."""
     walks_away = problem.startswith("walks away")
-    if walks_away and _last_answer(transcript, understood) == ACCEPT:
+    # what the person said after the robot's last word came too late to act on
+    spoke = [i for i, turn in enumerate(transcript) if turn["speaker"] == "sys"]
+    last_word = spoke[-1] if spoke else len(transcript)
+    if walks_away and _last_answer(transcript[:last_word], understood[:last_word]) == ACCEPT:
         return "policy"  # it heard a yes last, and left
     about_the_person = walks_away or problem == ignores_the_person(transcript, understood, scores)
-    as_heard = [  # a drawing is seen, not heard: it stays a drawing
-        {**turn, "act": act} if turn["speaker"] == "usr" and not is_game_move(turn["act"]) else turn
-        for turn, act in zip(transcript, understood, strict=True)
-    ]
-    if about_the_person and ignores_the_person(as_heard, understood, scores) is None:
+    if (
+        about_the_person
+        and ignores_the_person(as_heard(transcript, understood), understood, scores) is None
+    ):
         return "hearing"
     return "policy"
 
 
+def as_heard(transcript: list[Turn], understood: Sequence[str]) -> list[Turn]:
+    """`transcript` with each of the person's turns the act the robot understood (one per turn
+    in `understood`); a drawing is seen, not heard: it stays a drawing."""
+    return [
+        {**turn, "act": act} if turn["speaker"] == "usr" and not is_game_move(turn["act"]) else turn
+        for turn, act in zip(transcript, understood, strict=True)
+    ]
+
+
 def _last_answer(transcript: list[Turn], understood: Sequence[str]) -> str | None:
     """The last yes, no or stop the person was understood to say, or None."""
-    answers = (ACCEPT, STOP, *REFUSALS)
     return next(
         (
             act
             for turn, act in zip(reversed(transcript), reversed(understood), strict=True)
-            if turn["speaker"] == "usr" and act in answers
+            if turn["speaker"] == "usr" and act in ANSWERS_ABOUT_PLAYING
         ),
         None,
     )

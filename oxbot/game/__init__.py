@@ -26,6 +26,7 @@ from oxbot.game.board import (
     symmetries,
     to_move,
     winner,
+    winning_cells,
 )
 from oxbot.game.opponents import (
     OPPONENTS,
@@ -76,4 +77,5 @@ __all__ = [
     "to_move",
     "win_probability_vs_random",
     "winner",
+    "winning_cells",
 ]

@@ -135,6 +135,11 @@ def is_winning_move(board: Board, cell: int, player: int) -> bool:
     return board[cell] == EMPTY and winner(play(board, cell, player)) == player
 
 
+def winning_cells(board: Board, player: int) -> list[int]:
+    """The empty cells, in order, where `player` would complete a line."""
+    return [cell for cell in legal_moves(board) if is_winning_move(board, cell, player)]
+
+
 def is_drawing_move(board: Board, cell: int, player: int) -> bool:
     """True if `player` marking `cell` fills the board with no line: *about to draw*."""
     if board[cell] != EMPTY:

@@ -24,8 +24,8 @@ from oxbot.game.board import (
     ROBOT,
     USER,
     Board,
-    is_winning_move,
     legal_moves,
+    winning_cells,
 )
 from oxbot.game.solver import best_moves
 
@@ -59,7 +59,7 @@ def blocker_opponent(rng: np.random.Generator | None = None) -> Opponent:
         board = tuple(board)
         cells = _empty_cells(board)
         for player in (USER, ROBOT):  # first our own win, then the robot's threat
-            hits = [c for c in cells if is_winning_move(board, c, player)]
+            hits = winning_cells(board, player)
             if hits:
                 return int(hits[rng.integers(len(hits))])
         return int(cells[rng.integers(len(cells))])

@@ -1,0 +1,96 @@
+"""Questions a person asks the robot in passing, answered in any state of the dialogue.
+
+"Who starts?", "what's your name?" and "can you repeat that?" are no answer to what the robot
+asked, and no act its policy chooses among: the interaction manager answers them itself, in
+the transcript but not in what the policy sees (as it says which cell a move in words meant),
+and then waits for the answer it was waiting for. The domain's understanding reads "who
+starts?" as a yes to "Shall we play?" (the robot's "let's play" and first move answer it);
+asked outright, it is answered and taken for no yes: a question is no consent.
+
+>>> aside_question("who starts")
+'who_starts'
+>>> aside_question("Sorry, what's your name?")
+'name'
+>>> aside_question("pardon")
+'repeat'
+>>> aside_question("could you say that again please")
+'repeat'
+>>> aside_question("sorry no") is None  # an apology before an answer asks nothing
+True
+>>> aside_question("yes let's play") is None
+True
+
+A question is read only when the words are the question and nothing else but a few words that
+come with one ("sorry", "please", "oxbot", "um"): "I don't know who starts" or "yes, who starts?"
+are left to the understanding.
+"""
+
+from __future__ import annotations
+
+import re
+
+from oxbot.dialogue.domain import words_of
+
+MIN_CONFIDENCE = 0.5
+"""A question heard less surely than this is left to the understanding (which asks again
+about words it cannot make out)."""
+
+WHO_STARTS = "who_starts"
+NAME = "name"
+REPEAT = "repeat"
+
+ASIDE_ACTS = {
+    WHO_STARTS: "Request(whoStarts)",
+    NAME: "Request(name)",
+    REPEAT: "Request(sayAgain)",
+}
+"""How the transcript and the page's log show each question (the person's act)."""
+
+_AROUND = r"(?:sorry|excuse me|um|uh|hmm|so|and|but|oh|please|robot|oxbot|then|now|again)"
+"""Words that may come before or after a question without making it something else."""
+_QUESTIONS: dict[str, tuple[str, ...]] = {
+    WHO_STARTS: (
+        r"who (?:starts|starts first|goes first|begins|plays first|moves first|is first"
+        r"|should start|will start|is going to start|is starting)",
+        r"who's (?:first|starting|going first|going to start)",
+        r"(?:whose|who's) (?:turn|go|move) is it",
+        r"is it (?:my|your) (?:turn|go|move)",
+        r"(?:do|shall|should|will) (?:i|you|we) (?:start|go first|begin)",
+        r"(?:are|am) (?:you|i) (?:starting|going first)",
+        r"who goes now",
+    ),
+    NAME: (
+        r"what(?:'s| is) your name",
+        r"what are you called",
+        r"who are you",
+        r"what should i call you",
+        r"do you have a name",
+        r"what's your name again",
+    ),
+    REPEAT: (
+        r"(?:can|could|would|will) you (?:please )?(?:repeat|say) (?:that|it|this)(?: again)?",
+        r"(?:can|could|would|will) you (?:please )?repeat",
+        r"(?:please )?(?:repeat|say) (?:that|it) (?:again|once more)",
+        r"(?:please )?repeat(?: that| it)?",
+        r"(?:pardon|pardon me|come again|sorry what|what was that|what did you say)",
+        r"i (?:didn't|did not|couldn't|could not) (?:hear|catch|get|understand) (?:that|it|you)",
+        r"say again",
+        r"what",
+        r"sorry",
+    ),
+}
+_PATTERNS = {
+    kind: re.compile(rf"^(?:{_AROUND} )*(?:{'|'.join(forms)})(?: {_AROUND})*$")
+    for kind, forms in _QUESTIONS.items()
+}
+
+
+def aside_question(text: str) -> str | None:
+    """Which question (`WHO_STARTS`, `NAME`, `REPEAT`) the words `text` are, or None."""
+    words = " ".join(words_of(text))
+    if not words:
+        return None
+    return next((kind for kind, pattern in _PATTERNS.items() if pattern.match(words)), None)
+
+
+__all__ = ["ASIDE_ACTS", "MIN_CONFIDENCE", "NAME", "REPEAT", "WHO_STARTS", "aside_question"]
