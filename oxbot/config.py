@@ -101,6 +101,13 @@ class PerceptionConfig:
     """oxbot: how the board reader finds the grid: "classical" (hand-written line grouping,
     `oxbot.perception.grid`) or "learned" (a network's heatmaps of the grid's points,
     `oxbot.perception.grid_points`; trained by `oxbot train reader`)."""
+    rejector: bool = False
+    """oxbot: (experimental) after the wholeness check, a learned rejector
+    (`oxbot.perception.rejector`, `oxbot/data/models/rejector.pt`) reads a circle or cross whose
+    ink it does not find a whole symbol as "partial": letters, digits, stars, spirals, polygons,
+    scribbles. Off: the network and the hand-written rules alone."""
+    rejector_path: str = ""
+    """oxbot: the rejector model file; empty: the one shipped with oxbot."""
     plus_is_cross: bool = False
     """oxbot: a plus sign (strokes along the cell's sides) is a cross. Off, the default, it is
     a wrong shape and reads "partial" (whoever drew it may not have meant a move); on for a hand
@@ -467,11 +474,21 @@ class RobotConfig:
     `oxbot train agent` wrote, the folder it wrote it in, or a Stable-Baselines3 DQN or
     sb3-contrib MaskablePPO model's .zip; empty: the shipped oxbot/data/models/agent.pt."""
     answer_timeout: float = 4.0
-    """oxbot: seconds to wait for an optional answer (to a greeting, say) before taking silence."""
+    """oxbot: seconds to wait for an optional answer (to a greeting, say) once the person has
+    begun to answer (PersonAnswering), or from the start where nothing tells when they begin
+    (`pause_timeout` 0)."""
+    pause_timeout: float = 0.8
+    """oxbot: seconds the robot pauses after an act a person may or may not answer (a greeting,
+    its name) before it goes on, unless the person begins to answer meanwhile (speech starting,
+    push-to-talk, a key in the answer box: then `answer_timeout`); 0 waits `answer_timeout`
+    (the terminal, which cannot see a line being typed)."""
     question_timeout: float = 30.0
     """oxbot: seconds to wait for the answer to a question before taking silence."""
     move_timeout: float = 30.0
     """oxbot: seconds to wait for the person's drawing after "Your turn"; then it asks again."""
+    offer_another_game: bool = True
+    """oxbot: after a game, the robot asks whether the person would like another before its
+    goodbye; a yes starts it on a clean sheet without greeting or introducing itself again."""
     give_up_after: int = 3
     """oxbot: questions and requests for a move left unanswered in a row (each waited out to its
     timeout) after which the robot takes it that nobody is there and says goodbye; 0: never."""
@@ -501,7 +518,9 @@ class RobotConfig:
 
     def __post_init__(self) -> None:
         _require_positive(self, "speed_factor", "restart_window", "hang_seconds")
-        _require_at_least(self, 0, "answer_timeout", "question_timeout", "move_timeout")
+        _require_at_least(
+            self, 0, "answer_timeout", "pause_timeout", "question_timeout", "move_timeout"
+        )
         _require_at_least(self, 0, "restart_limit", "hang_limit", "restart_backoff_max")
         _require_at_least(self, 0, "give_up_after")
         _require_finite(self)
@@ -674,6 +693,10 @@ class WebConfig:
     (the page sends about 25: sheet frames, audio pieces and webcam frames)."""
     max_json_depth: int = 16
     """oxbot: deepest nesting of a message's JSON, checked before parsing (messages are 1 deep)."""
+    resume_seconds: float = 60.0
+    """oxbot: seconds a game waits for its tab to come back after the page reloads or loses its
+    connection mid-game (the robot goes on, holding its slot); the page reconnects with the
+    game's resume token and carries on where it was. 0 ends the game with its socket."""
     https: str = "auto"
     """oxbot: serve the page over HTTPS with a self-signed certificate made on first
     start ("on"), or plain HTTP ("off"); "auto" is on when `host` is not a loopback address,
@@ -689,6 +712,7 @@ class WebConfig:
         _require_positive(self, "max_stream_piece_seconds")
         _require_positive(self, "max_sessions", "idle_timeout", "max_session_seconds")
         _require_positive(self, "max_outbox_bytes", "max_messages_per_second", "max_json_depth")
+        _require_at_least(self, 0, "resume_seconds")
         _require_range(self, "port", "[1, 65535]")
         _require_finite(self)
         for origin in filter(None, (o.strip() for o in self.allowed_origins.split(","))):

@@ -13,6 +13,9 @@ ends what an old one left, and their shared memory goes when they do.
 - Zenoh's shared-memory segments (`/dev/shm/*.zenoh`) outlive their processes; the launcher
   notes those its children map, and when they have all ended removes the ones no other process
   maps; `oxbot robot` removes its own likewise when it exits.
+- A child knows its siblings (`Siblings`): the processes of the same fork server named
+  `oxbot-<component>`. Only this machine's process table says which they are, so a peer on the
+  network cannot pass for one, whatever liveliness token it declares.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import tempfile
 import threading
 import time
 from collections.abc import Iterable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 log = logging.getLogger(__name__)
@@ -54,7 +58,7 @@ def hold_child(name: str, launcher: int) -> None:
     """In a launched component process: named `oxbot-<name>`, ended when its parent (the fork
     server) or the `launcher` process is gone."""
     parent = os.getppid()
-    _prctl(PR_SET_NAME, f"oxbot-{name}".encode()[:15])
+    _prctl(PR_SET_NAME, process_name(name).encode())
     _prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
 
     def gone() -> bool:
@@ -68,6 +72,37 @@ def hold_child(name: str, launcher: int) -> None:
         os._exit(1)
 
     threading.Thread(target=watch, name="oxbot-orphan-watch", daemon=True).start()
+
+
+def process_name(component: str) -> str:
+    """The name a launched `component`'s process goes by (/proc/PID/comm: 15 bytes at most)."""
+    return f"oxbot-{component}".encode()[:15].decode(errors="ignore")
+
+
+@dataclass(frozen=True)
+class Siblings:
+    """The component processes one launcher forked beside this one (which is one of them).
+
+    A launcher forks every child from its one fork server, so its children are the processes
+    whose parent is this process's parent; each names itself `process_name(component)`.
+    """
+
+    names: frozenset[str]
+    """The components the launcher runs (its launch file's `components`)."""
+    fork_server: int = field(default_factory=os.getppid)
+    """The parent of this launcher's children."""
+
+    def running(self, name: str, pid: int) -> bool:
+        """Whether process `pid` is this launcher's component `name` and has not ended."""
+        return _comm(pid) == process_name(name) and _parent(pid) == self.fork_server
+
+
+def _parent(pid: int) -> int:
+    """Process `pid`'s parent's pid, 0 when it is gone."""
+    try:
+        return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+    except (OSError, IndexError, ValueError):
+        return 0
 
 
 def pid_file(robot: str) -> Path:

@@ -9,7 +9,8 @@ already imported oxbot and torch, so a respawned component is up again in well u
 instead of the seconds a cold start takes. The launcher owns its children
 (oxbot.robot.children): they die with it, `kill -9` included; a new launcher ends what an old
 one left; their shared memory is removed when they end. A launched child overrides a liveliness
-token that claims its name (any peer may declare one) instead of refusing to start.
+token that claims its name (any peer may declare one) instead of refusing to start, and the
+launched manager tells its siblings' deaths from the process table, not from tokens.
 
 A launch file:
 
@@ -36,7 +37,7 @@ import threading
 import time
 import tomllib
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from multiprocessing.process import BaseProcess
 from pathlib import Path
@@ -47,6 +48,7 @@ from oxbot.errors import ConfigError, OxbotError
 from oxbot.robot.bus import Bus, Component, Supervisor
 from oxbot.robot.bus_security import BusSecurity
 from oxbot.robot.children import (
+    Siblings,
     end_leftovers,
     hold_child,
     pid_file,
@@ -55,8 +57,9 @@ from oxbot.robot.children import (
     shared_memory_of,
     write_pids,
 )
+from oxbot.robot.liveliness import PartsWatcher
 from oxbot.robot.resync import catch_up
-from oxbot.robot.zenoh_bus import NAME, Endpoints, PartsWatcher, ZenohBus
+from oxbot.robot.zenoh_bus import NAME, Endpoints, ZenohBus
 
 if TYPE_CHECKING:
     from oxbot.robot.remote import RemoteRobot  # loads the models: imported when driven
@@ -143,13 +146,16 @@ def run_component(
     stop: threading.Event | None = None,
     seed: int | None = None,
     replace: bool = False,
+    siblings: Iterable[str] = (),
 ) -> None:
     """Run component `name` of robot `robot` in this process until `stop` is set (or SIGTERM
     / SIGINT in the main thread). Raises the BusError or ConfigError that prevents it.
 
     With `replace` (a launcher's child: the launcher starts one process per name, and only once
     the last has ended), a liveliness token that claims the name is up already is logged and
-    overridden, not obeyed: any peer can declare one, and a fake must not block a respawn."""
+    overridden, not obeyed: any peer can declare one, and a fake must not block a respawn.
+    `siblings`, in a launcher's child, are the components the launcher runs beside it: the
+    manager's `PartsWatcher` judges those by this machine's process table, not by tokens."""
     component_class(name)  # an unknown name fails before any network work
     if name in ("manager", "perception"):
         import torch
@@ -159,7 +165,9 @@ def run_component(
     if threading.current_thread() is threading.main_thread():
         for signum in (signal.SIGTERM, signal.SIGINT):
             signal.signal(signum, lambda *_: stop.set())
-    bus = ZenohBus(robot, endpoints)
+    beside = Siblings(frozenset(siblings)) if siblings else None
+    vouched = (lambda peer: beside.running(peer.name, peer.pid)) if beside is not None else None
+    bus = ZenohBus(robot, endpoints, vouched=vouched)
     supervisor = watcher = None
     try:
         if replace:
@@ -180,7 +188,8 @@ def run_component(
         catch_up(name, component, bus.game_so_far())
         on_lost = None
         if name == "manager":
-            watcher = PartsWatcher(bus, {n: p for n, p in parts().items() if n != name}).start()
+            others = {n: p for n, p in parts().items() if n != name}
+            watcher = PartsWatcher(bus, others, siblings=beside).start()
 
             def on_lost(lost: Component) -> None:
                 from oxbot.game.board import outcome
@@ -326,12 +335,14 @@ def _child(
     camera: str | None,
     level: int,
     launcher: int,
+    siblings: tuple[str, ...],
 ) -> None:
-    """A launched component process's main; `launcher` is the launcher's pid."""
+    """A launched component process's main; `launcher` is the launcher's pid, `siblings` the
+    components it runs."""
     hold_child(name, launcher)  # dies with the launcher (oxbot.robot.children)
     logging.basicConfig(level=level, format=f"%(levelname)s {name}: %(message)s")
     try:
-        run_component(name, robot, endpoints, config, camera, replace=True)
+        run_component(name, robot, endpoints, config, camera, replace=True, siblings=siblings)
     except OxbotError as exc:
         log.error("%s", exc)
         raise SystemExit(2) from None
@@ -395,6 +406,7 @@ class Launcher:
             launch.cameras.get(name),
             logging.getLogger().getEffectiveLevel(),
             os.getpid(),
+            launch.components,
         )
         process = self._context.Process(target=_child, args=args, name=f"oxbot-{name}")
         process.start()

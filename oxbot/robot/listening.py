@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from oxbot.config import ListeningConfig
-from oxbot.robot.messages import SpeakingFinished, SpeakingStarted
+from oxbot.robot.messages import PersonAnswering, SpeakingFinished, SpeakingStarted
 from oxbot.speech.audio import RATE, Audio, to_wav_bytes
 from oxbot.speech.vad import FrameClassifier, HeardUtterance, UtteranceCutter
 
@@ -63,7 +63,10 @@ class HandsFreeListener:
             self.cutter.skip(len(samples))
             self.ignored_seconds += len(samples) / RATE
             return []
+        began = self.cutter.in_utterance
         ended = self.cutter.feed(samples)
+        if self.cutter.in_utterance and not began:  # the robot waits for them to finish
+            self.robot.bus.publish(PersonAnswering(how="speaking"))
         for utterance in ended:
             log.debug("heard %.2f s at %.2f s", utterance.seconds, utterance.start / RATE)
             self.robot.hear(to_wav_bytes(Audio(utterance.samples, RATE)))

@@ -19,24 +19,26 @@ user responses:
 - `question_timeout` seconds after questions (silence is not an answer: "Would you like to
   play?"), and `move_timeout` seconds to draw after "Your turn". After `give_up_after` of
   these in a row waited out with no word or drawing, nobody is there: the robot says goodbye.
+After an act a person may or may not answer, the robot pauses `pause_timeout` seconds and goes
+on, unless the person begins to answer meanwhile (PersonAnswering: speech starting,
+push-to-talk, a key in the answer box), when it waits `answer_timeout` for their words.
 Words or a drawing that arrive while the robot is still talking or drawing count for the next
 turn. The robot never talks while its arm moves: the act's words come first, then the arm,
 and anything the robot has to say meanwhile (an impossible drawing) waits for ArmDone.
 
-The manager is the authority on the game: a move that is not legal on its board (typed moves
-bypass the tracker) is refused in words and never changes the board.
+The person's side of a turn (their words and drawings read into the dialogue, moves said in
+words, "new game", the problem sentences) is `oxbot.robot.person_input.PersonInput`, mixed in
+here.
 
-A move said or typed in words when it is the person's turn ("top left", "number five":
-`oxbot.dialogue.cells_in_words`) is played as a typed move is, by a GameMove on the bus (which
-the eyes read too, so that drawing it afterwards is no second move), when heard at least
-`speech.min_move_confidence` surely; below that, or among other words ("I'll go in the middle
-this time", when nothing else was understood), the robot asks which cell (`WHICH_CELL`, like
-the problem sentences outside the policy's acts) and waits for the move as before; a taken cell
-is refused in words. It never plays a cell the person did not name.
-
-"New game" after the outcome starts another game once this dialogue has said goodbye; said
-mid-game, where the simulated people never say it, it is taken as a stop (the policy lets go,
-"Okay, let's stop here") followed by another game.
+Around the games, the visit's conversation (`oxbot.dialogue.asides`):
+- the robot greets and introduces itself once a visit: every later dialogue takes those turns
+  up unsaid (`NewGame.carried`), and so does a manager process respawned mid-visit;
+- who starts, its name, and "say that again" are answered in any state, outside the policy's
+  acts, and the dialogue goes on where it was;
+- after a game played out, it offers another (`robot.offer_another_game`): a clear yes ends
+  this dialogue without a goodbye and starts the next, which takes up the question and the
+  yes; a no or a goodbye gets the closing; anything else gets the offer once more;
+- after its goodbye, a late yes still plays, and other words get `AFTER_GOODBYE`.
 
 On real paper (SheetMode) the robot has no arm that reaches the sheet: it says where
 it plays ("I take the upper left.") instead of "I take this one"; the policy still sees the
@@ -63,52 +65,35 @@ When a part fails (see `oxbot.robot.bus`), the game goes on if it can:
 from __future__ import annotations
 
 import copy
-import dataclasses
-import enum
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from oxbot.config import OxbotConfig, RobotConfig
-from oxbot.dialogue.cells_in_words import MoveHeard, move_in_words, read_cell
+from oxbot.dialogue.asides import NAME, REPEAT
+from oxbot.dialogue.cells_in_words import MoveHeard
 from oxbot.dialogue.domain import (
     ACCEPT,
     CLOSING,
-    GAME_MOVE_TEMPLATE,
-    MOVE_REQUEST,
-    NEW_GAME,
+    GREETING,
+    INTRODUCTION,
+    INVITATION,
+    OFFER_ANOTHER,
     PROBLEM,
     REFUSALS,
     SILENCE,
     STOP,
     SYSTEM_ACTS,
-    UNKNOWN,
-    draw_tag,
-    game_move,
     game_move_cell,
-    is_game_move,
-    words_of,
+    is_feedback,
 )
 from oxbot.dialogue.model import build_dialogue_model
 from oxbot.dialogue.policy import Policy, choose
+from oxbot.dialogue.situated import situated_sentence
 from oxbot.dialogue.state import DialogueState, Turn
-from oxbot.dialogue.understanding import UserAct
-from oxbot.game.board import (
-    CELL_NAMES,
-    COLUMN_NAMES,
-    EMPTY,
-    PLURALS,
-    ROBOT,
-    ROW_NAMES,
-    SIZE,
-    USER,
-    Board,
-    Ending,
-    cell_index,
-    symbol_of,
-)
+from oxbot.game.board import CELL_NAMES, ROBOT, Board, symbol_of
 from oxbot.peers import load_robot_policy
 from oxbot.robot.bus import Bus, Component
 from oxbot.robot.messages import (
@@ -124,92 +109,59 @@ from oxbot.robot.messages import (
     GameState,
     Message,
     NewGame,
+    PersonAnswering,
     SheetMode,
     SpeakingFinished,
     SpeechHypotheses,
     Utterance,
 )
-from oxbot.speech.keywords import answer_to
-from oxbot.speech.nbest import Hypothesis
+from oxbot.robot.person_input import PersonInput, Phase, Understand
+from oxbot.robot.resync import replay_dialogue
+from oxbot.robot.sentences import (
+    GUIDANCE_SENTENCES,
+    LOST_SENTENCES,
+    NOBODY_SENTENCE,
+    OFFER_SENTENCES,
+    PAPER_MOVE,
+    PROBLEM_SENTENCES,
+    SHAPES,
+    STOPPED_SENTENCE,
+    TAKEN_IN_WORDS,
+    WHICH_CELL,
+    WHO_STARTS_SENTENCES,
+    cell_in_words,
+    say_goodbye,
+    spoken,
+    symbol_names,
+)
+
+__all__ = [  # with the names of the modules split from this one, importable from here as before
+    "GUIDANCE_SENTENCES",
+    "LOST_SENTENCES",
+    "NOBODY_SENTENCE",
+    "PAPER_MOVE",
+    "PROBLEM_SENTENCES",
+    "RESUMED_DRAWING_SECONDS",
+    "SHAPES",
+    "STOPPED_SENTENCE",
+    "TAKEN_IN_WORDS",
+    "WHICH_CELL",
+    "InteractionManagerComponent",
+    "Phase",
+    "Understand",
+    "cell_in_words",
+    "say_goodbye",
+    "spoken",
+]
 
 log = logging.getLogger(__name__)
 
-PROBLEM_SENTENCES = {
-    "occupied_cell": "That cell is already taken. Please draw in an empty one.",
-    "two_new_symbols": "I see two new symbols at once. Please draw one at a time.",
-    "wrong_symbol": "You draw {person} and I draw {robot}.",
-    "out_of_turn": "Please wait, it is my turn.",
-    "not_started": "We have not started a game yet.",
-    "game_over": "The game is over.",
-    "unclear_symbol": "I cannot tell what is in {cell}. If it is your move, please draw a "
-    "whole {shape}.",
-}
-"""What the robot says (as the act PROBLEM, not one the policy chooses) about an impossible
-drawing, by the tracker's or the manager's problem kind."""
-SHAPES = {"cross": "cross, two strokes crossing like an X", "circle": "circle, one closed loop"}
-"""The person's symbol as `unclear_symbol` describes it: a plus or an arc is not one."""
-GUIDANCE_SENTENCES = {
-    "no_grid": "I cannot see the grid. Please hold the camera over the whole sheet.",
-    "off_edge": "I can see only part of the sheet. Please move the camera so that I see all of it.",
-    "too_close": "The camera is too close. Please hold it a little higher.",
-    "too_dark": "It is too dark for me to see the sheet. Please turn on a light.",
-    "blurred": "The picture is blurred. Please hold the camera still.",
-    "hand": "A hand is in the way. Please take it off the sheet.",
-}
-"""What the robot says when its camera cannot show it the board (by the guidance's kind,
-`oxbot.perception.guidance`), only while it waits for the person's drawing: at other times the
-page shows it, and a stale instruction is worse than none."""
-PAPER_MOVE = "I take {cell}."
-"""What the robot says for its GameMove on real paper, where nobody sees an arm point."""
-STOPPED_SENTENCE = "Sorry, my {part} stopped working, so we have to stop here. Goodbye."
-"""The robot's goodbye when a part the game needs is lost for good (as the act CLOSING)."""
-NOBODY_SENTENCE = "Nobody seems to be there, so I'll stop here. Goodbye."
-"""The robot's goodbye (as the act CLOSING) after `give_up_after` unanswered questions."""
-LOST_SENTENCES = {"hearing": "Sorry, my hearing has stopped working. Please type your answers."}
-"""What the robot tells the person when a part the game can do without is lost, by part."""
-WHICH_CELL = "Which cell do you mean? Say it like top left, the middle, or number five."
-"""What the robot asks (as the act PROBLEM) when the person seems to name their cell in words
-but not surely enough to play it (`speech.min_move_confidence`), or among other words."""
 RESUMED_DRAWING_SECONDS = 8.0
 """How long a manager that took up a game mid-drawing (`resume`) waits for the arm's ArmDone,
 at speed factor 1: the drawing's end may have gone with its predecessor process."""
-TAKEN_IN_WORDS = "{cell} is already taken. Please pick an empty cell."
-"""What the robot says (as the act PROBLEM) to a move in words on an occupied cell."""
 
 
-def say_goodbye(bus: Bus, part: str, result: Ending | None) -> None:
-    """The game ends in words because `part`, which the game needs, stopped for good."""
-    sentence = STOPPED_SENTENCE.format(part=part)
-    bus.publish(DialogueAct(speaker="sys", act=CLOSING, text=sentence))
-    bus.publish(Utterance(text=sentence, act=CLOSING))
-    bus.publish(DialogueEnded(outcome=result))
-
-
-Understand = Callable[[Sequence[tuple[str, float]], str], UserAct]
-"""Reads what the person said (an N-best list) in the context of the robot's last act as
-their dialogue act with a score (`UserActClassifier.intent_of`)."""
-
-
-def cell_in_words(cell: int) -> str:
-    """A cell as a person says it: "the upper left", "the middle"."""
-    row, column = ROW_NAMES[cell // SIZE], COLUMN_NAMES[cell % SIZE]
-    return "the middle" if row == column == "middle" else f"the {row} {column}"
-
-
-class Phase(enum.Enum):
-    IDLE = "idle"
-    SPEAKING = "speaking"
-    DRAWING = "drawing"
-    LISTENING = "listening"
-    DONE = "done"
-
-
-def spoken(text: str) -> str:
-    """A template's words without its bracketed drawing tag: what the voice says."""
-    return " ".join(text.split("[", 1)[0].split())
-
-
-class InteractionManagerComponent(Component):
+class InteractionManagerComponent(PersonInput, Component):
     """Greedy dialogue and game policy of the robot; starts a dialogue on NewGame.
 
     Its `state` is a `DialogueState`, driven as the training environment drives it; only the
@@ -228,6 +180,7 @@ class InteractionManagerComponent(Component):
         ComponentLost,
         ComponentJoined,
         SheetMode,
+        PersonAnswering,
     )
     retries = (NewGame,)  # else it restarts deciding again from the dialogue so far
     period = 0.02
@@ -255,6 +208,9 @@ class InteractionManagerComponent(Component):
         self.phase = Phase.IDLE
         self.paper = False
         """Whether the sheet is real paper under a camera (SheetMode)."""
+        self._introductions: tuple[tuple[str, str, str], ...] = ()
+        """The greeting and introduction the robot said in this visit: said once, taken up
+        by every dialogue after (`NewGame.carried`)."""
         self._reset(True, publish=False)  # a replacement must not announce an empty board
 
     @property
@@ -282,8 +238,11 @@ class InteractionManagerComponent(Component):
     def handle(self, message: Message) -> None:
         if isinstance(message, SheetMode):
             self.paper = message.paper
+        elif isinstance(message, PersonAnswering):
+            self._person_answering()
         elif isinstance(message, NewGame):
             self._reset(message.robot_starts)
+            self._take_up(message.carried)
             self._decide()
         elif self.phase is Phase.DONE and isinstance(message, SpeechHypotheses):
             self._heard_after_goodbye(message)
@@ -343,9 +302,15 @@ class InteractionManagerComponent(Component):
             "_speaking",
             "_arm_cell",
             "_rematch",
+            "_agreed_words",
             "_unanswered_in_a_row",
             "_early_answer",
             "_move_in_words",
+            "_introductions",
+            "_offers",
+            "_offering",
+            "_answering",
+            "_pausing",
         ):
             setattr(self, name, getattr(old, name))
         self._deadline, self._drawing_until = old._deadline, old._drawing_until
@@ -355,11 +320,20 @@ class InteractionManagerComponent(Component):
         the dialogue replayed from `game`, then on from the robot's last act as if it had just
         been said. Its move is drawn if the arm had not started it; nothing said yet, it
         greets."""
-        from oxbot.robot.resync import arm_started, replay_dialogue
+        from oxbot.robot.resync import arm_started
 
         starts = [m.robot_starts for m in game if isinstance(m, (NewGame, GameState))]
         self._reset(starts[-1] if starts else True, publish=False)
-        replay_dialogue(self.state, game)
+        carried = [m.carried for m in game if isinstance(m, NewGame)]
+        taken_up = carried[-1] if carried else ()
+        acts = [m.act for m in game if isinstance(m, DialogueAct) and m.speaker == "sys"]
+        if not taken_up and acts and acts[0] != GREETING:
+            # the dialogue took up the visit's greeting unsaid, from its predecessor's memory
+            taken_up = tuple(
+                ("sys", act, self.model.template(act, self.rng)) for act in (GREETING, INTRODUCTION)
+            )
+        self._take_up(taken_up)
+        replay_dialogue(self.state, game, self.model.domain.templates_for)
         said = [t["text"] for t in self.state.transcript if t["speaker"] == "sys"]
         if not said:
             self._decide()
@@ -385,14 +359,20 @@ class InteractionManagerComponent(Component):
         self._spoke_since = False
         self._heard_act = ""  # the act of the person's last words
         self._speaking = ""
+        self._spoken_last = ""  # the robot's last sentence as said, never said twice in a row
         self._arm_cell: int | None = None
         self._rematch = False
+        self._agreed_words = "yes"  # how the person asked for another game, when they did
         self._early_answer: SpeechHypotheses | None = None  # a yes or no before "Shall we play?"
         self._move_in_words: tuple[MoveHeard, Sequence[tuple[str, float]]] | None = None
-        self._deferred: list[str] = []
+        self._deferred: list[tuple[str, str]] = []  # (act, sentence) to say after the act
+        self._offers = 0  # times another game was offered after this one
+        self._offering = False  # the robot waits for the answer to its offer
         self._deadline = 0.0
         self._drawing_until = float("inf")  # only a resumed drawing has an end of its own
         self._unanswered_in_a_row = 0
+        self._answering = False  # the person began to answer since the robot's last act
+        self._pausing = False  # the robot waits a pause, not for an answer
         self._broken = False  # a part was lost: only Robot.new_game, which revives it, replays
         if publish:
             self._publish_game()
@@ -410,26 +390,42 @@ class InteractionManagerComponent(Component):
             )
         )
         self._moved_since, self._spoke_since = False, False
-        self._say(SYSTEM_ACTS[action])
+        self._offering, self._answering, self._pausing = False, False, False
+        act = SYSTEM_ACTS[action]
+        if act == CLOSING and self.state.outcome is not None and not self._broken:
+            if self._rematch:  # they asked for another game after this one: no goodbye
+                self._play_again(self._agreed_words)
+                return
+            if self._may_offer():
+                self._offer()
+                return
+        self._say(act)
 
     def _say(self, act: str, text: str | None = None) -> None:
-        text = text if text is not None else self.model.template(act, self.rng)
+        text = text if text is not None else self.model.template(act, self.rng, self._spoken_last)
         self.state.robot_says(act, text)
         self._arm_cell = game_move_cell(act)
         self._speaking = spoken(text)
-        if self.paper and self._arm_cell is not None:
-            # the policy keeps the template's words (above); the person hears the cell
-            self._speaking = PAPER_MOVE.format(cell=cell_in_words(self._arm_cell))
+        if self._arm_cell is not None:
+            # the policy keeps the template's words (above); the person hears why it plays
+            # there, and on paper, where no arm points, the cell too
+            where = PAPER_MOVE.format(cell=cell_in_words(self._arm_cell)) if self.paper else ""
+            self._speaking = situated_sentence(
+                self.state.transcript,
+                where or self._speaking,
+                self.rng,
+                self._spoken_last,
+                says_where=self.paper,
+            )
             text = f"{self._speaking} [{text.split('[', 1)[1]}" if "[" in text else self._speaking
+        self._spoken_last = self._speaking
+        if act in (GREETING, INTRODUCTION) and act not in {a for _, a, _ in self._introductions}:
+            self._introductions += (("sys", act, text),)
         self._publish_turn("sys", act, text)
         if self._arm_cell is not None:
             self._publish_game()
         self.phase = Phase.SPEAKING
         self.bus.publish(Utterance(text=self._speaking, act=act))
-
-    def _last_sentence(self) -> str:
-        robot = [t["text"] for t in self.state.transcript if t["speaker"] == "sys"]
-        return robot[-1] if robot else ""
 
     def _spoke(self) -> None:
         if self._arm_cell is None:
@@ -447,11 +443,12 @@ class InteractionManagerComponent(Component):
             self.phase = Phase.DONE
             self.bus.publish(DialogueEnded(outcome=self.state.ending))
             if self._rematch:
-                self.bus.publish(NewGame(robot_starts=self.state.robot_starts))
+                carried = self._carried(self._agreed_words)
+                self.bus.publish(NewGame(robot_starts=self.state.robot_starts, carried=carried))
             return
         self.phase = Phase.LISTENING
-        for sentence in self._deferred:
-            self._tell(sentence)
+        for act, sentence in self._deferred:
+            self._tell(sentence, act)
         self._deferred.clear()
         if self._early_answer is not None and self.state.invitations:
             early, self._early_answer = self._early_answer, None
@@ -459,185 +456,38 @@ class InteractionManagerComponent(Component):
             return
         if self._expects_move():
             wait = self.timing.move_timeout
+        elif self._offering:
+            wait = self.timing.question_timeout
         elif last_act in self._unanswered:
             wait = 0.0
         elif last_act in self._questions:
             wait = self.timing.question_timeout
+        elif self.timing.pause_timeout and not self._answering:
+            wait, self._pausing = self.timing.pause_timeout, True  # on, unless they begin
         else:
             wait = self.timing.answer_timeout
         self._deadline = time.monotonic() + wait / self.timing.speed_factor
         if self._moved_since or (self._spoke_since and self._words_need_an_answer()):
             self._decide()  # the answer came while the robot was still busy
 
-    def _words_need_an_answer(self) -> bool:
-        """Whether words heard while the robot was busy are answered now: always, except while
-        it waits for a move, where only a stop, a no or a goodbye is ("stop" over "Your move");
-        chatter then needs no second request for the move."""
-        if not self._expects_move():
-            return True
-        return self._heard_act in (STOP, CLOSING) or self._heard_act in REFUSALS
-
-    def _expects_move(self) -> bool:
-        return (
-            self.state.last_act == MOVE_REQUEST
-            and not self._moved_since
-            and self.state.person_to_move
-        )
-
-    # --- the person ---
-
-    def _heard(self, message: SpeechHypotheses) -> None:
-        if not message.nbest:
-            return  # the recogniser heard nothing: as if nobody spoke
-        nbest, words = message.nbest, message.words
-        # the answer to a yes/no question: a "hi" the keyword model is sure was "no" is a no
-        heard = [Hypothesis(t, c) for t, c in nbest]
-        read = answer_to(self.state.last_act, heard, message.keywords)
-        if read is not heard:
-            nbest, words = tuple((h.text, h.confidence) for h in read), read[0].words
-        text, confidence = nbest[0]
-        # per-word confidences when the recogniser gives them (paper §2.2), else the utterance's
-        words = words or tuple((w, confidence) for w in words_of(text))
-        if self._persons_turn():
-            move = move_in_words(nbest)
-            if move is not None:  # "top left": the person's move, said instead of drawn
-                self._moved_in_words(move, words)
-                return
-        reading = self._understand(nbest, self.state.last_act)
-        if (
-            self._persons_turn()
-            and reading.act in (UNKNOWN, GAME_MOVE_TEMPLATE)
-            and read_cell(text) is not None
-        ):
-            # a cell among other words ("I'll go in the middle this time"): which one, if any?
-            self._ask_which_cell(UNKNOWN, text)
+    def _person_answering(self) -> None:
+        """The person began to answer: a pause after an act they may answer becomes a wait
+        for their answer."""
+        if self.phase in (Phase.IDLE, Phase.DONE):
             return
-        if (
-            (reading.act in (ACCEPT, STOP, CLOSING) or reading.act in REFUSALS)
-            and not self.state.invitations
-            and not self.state.game_started
-        ):
-            # "yes, let's play", "no thanks" or "bye" to the greeting: kept until the robot has
-            # asked, then taken as the answer (the policy never met an answer to a question it
-            # had not asked: a yes was met with "Pardon?", a no or a goodbye ignored and the
-            # question asked three times)
-            self._early_answer = message
-            if self.phase is Phase.LISTENING:
-                self._decide()  # what it would say had the person kept quiet: go on to ask
-            return
-        if reading.act == NEW_GAME and (self.state.game_started or self.state.outcome is not None):
-            self._rematch = True  # after this dialogue's goodbye, another game
-            if self.state.outcome is None:  # mid-game: this one stops first (a stop it knows)
-                reading = dataclasses.replace(reading, act=STOP)
-        self.state.person_says(reading.act, text, words, (reading.act, reading.score))
-        self._publish_turn("usr", reading.act, text)
-        self._spoke_since, self._heard_act = True, reading.act
-        self._unanswered_in_a_row = 0
-        if self.phase is Phase.LISTENING and not (
-            self._expects_move() and is_game_move(reading.act)
-        ):
-            self._decide()
+        self._answering = True
+        if self.phase is Phase.LISTENING and self._pausing:
+            self._pausing = False
+            answer = self.timing.answer_timeout / self.timing.speed_factor
+            self._deadline = max(self._deadline, time.monotonic() + answer)
 
-    def _heard_after_goodbye(self, message: SpeechHypotheses) -> None:
-        """After the goodbye the robot only listens for a new game ("again!", "new game")."""
-        if (
-            message.nbest
-            and not self._broken
-            and self._understand(message.nbest, "").act == NEW_GAME
-        ):
-            self.bus.publish(NewGame(robot_starts=self.state.robot_starts))
-
-    def _moved(self, message: GameMove) -> None:
-        if message.who != "usr":
-            return
-        cell = cell_index(message.where)
-        said, self._move_in_words = self._move_in_words, None
-        if said is not None and said[0].cell != cell:
-            said = None  # a drawing, or a typed move, came first: the words wait no longer
-        problem = self._illegal(cell, message.symbol)
-        if problem is not None:
-            if said is not None and problem == "occupied_cell":
-                self._aside(TAKEN_IN_WORDS.format(cell=cell_in_words(cell).capitalize()))
-            else:
-                self._problem(problem)
-            return
-        self._moved_since = True
-        self._unanswered_in_a_row = 0
-        text = draw_tag("usr", cell)
-        if said is None:
-            self.state.person_says(game_move(cell), text)  # heard words stay
-        else:  # heard as the simulated people's drawings are, with their words
-            move, words = said
-            text = move.words  # as heard, like every answer (the recorder links the two)
-            self.state.person_says(game_move(cell), text, words, (GAME_MOVE_TEMPLATE, move.score))
-        self._publish_turn("usr", game_move(cell), text)
-        self._publish_game()
+    def _aside(self, sentence: str, act: str = PROBLEM) -> None:
+        """Say `sentence` (as `act`, outside the policy's acts) now if the robot is listening,
+        else after its act."""
         if self.phase is Phase.LISTENING:
-            self._decide()
-
-    def _persons_turn(self) -> bool:
-        """Whether the game is on and waits for the person's move."""
-        return self.state.game_started and self.state.person_to_move
-
-    def _moved_in_words(self, move: MoveHeard, words: Sequence[tuple[str, float]]) -> None:
-        """A move said in words: played, through the path of a typed move (a GameMove on the
-        bus, which the eyes also learn from), when heard surely enough; else asked about."""
-        self._unanswered_in_a_row = 0
-        if not move.played_at(self.config.speech.min_move_confidence):
-            self._ask_which_cell(GAME_MOVE_TEMPLATE, move.words, move.score)
-            return
-        self._move_in_words = (move, words)
-        symbol = symbol_of(USER, self.state.robot_starts)
-        self.bus.publish(
-            GameMove(who="usr", what="draw", where=CELL_NAMES[move.cell], symbol=symbol)
-        )
-
-    def _ask_which_cell(self, act: str, text: str, score: float = 0.0) -> None:
-        """The person seemed to name a cell, not surely: in the transcript, not in what the
-        policy sees, and the robot asks which cell (it waits for the move as before)."""
-        self._unanswered_in_a_row = 0
-        self.state.person_informs(act, text, score)
-        self._publish_turn("usr", act, text)
-        self._aside(WHICH_CELL)
-
-    def _aside(self, sentence: str) -> None:
-        """Say `sentence` (as PROBLEM) now if the robot is listening, else after its act."""
-        if self.phase is Phase.LISTENING:
-            self._tell(sentence)
+            self._tell(sentence, act)
         else:
-            self._deferred.append(sentence)  # never over the robot's own words or arm
-
-    def _illegal(self, cell: int, symbol: str) -> str | None:
-        """Why the person may not draw `symbol` in `cell` now, as a problem kind, or None."""
-        state = self.state
-        if not self.state.game_started:
-            return "not_started"  # a drawing before the person agreed is no move
-        if state.outcome is not None:
-            return "game_over"
-        if state.board[cell] != EMPTY:
-            return "occupied_cell"
-        if not state.person_to_move:
-            return "out_of_turn"
-        if symbol != symbol_of(USER, state.robot_starts):
-            return "wrong_symbol"
-        return None
-
-    def _problem(self, kind: str, cells: tuple[str, ...] = ()) -> None:
-        if kind in GUIDANCE_SENTENCES:
-            if self.phase is Phase.LISTENING and self._expects_move():
-                self._tell(GUIDANCE_SENTENCES[kind])
-            return
-        self._unanswered_in_a_row = 0  # someone is drawing
-        if kind == "out_of_turn" and not self.state.game_started:
-            kind = "not_started"  # "it is my turn" is wrong before anyone agreed to play
-        starts = self.state.robot_starts
-        sentence = PROBLEM_SENTENCES.get(kind, "Something is wrong on the sheet.").format(
-            person=PLURALS[symbol_of(USER, starts)],
-            robot=PLURALS[symbol_of(ROBOT, starts)],
-            shape=SHAPES[symbol_of(USER, starts)],
-            cell=cell_in_words(CELL_NAMES.index(cells[0])) if cells else "a cell",
-        )
-        self._aside(sentence)
+            self._deferred.append((act, sentence))  # never over the robot's own words or arm
 
     def _lost(self, message: ComponentLost) -> None:
         """A part is gone for good: say goodbye now if the game needs it, else tell the person."""
@@ -648,7 +498,7 @@ class InteractionManagerComponent(Component):
             if sentence is not None and self.phase is Phase.LISTENING:
                 self._tell(sentence)
             elif sentence is not None:
-                self._deferred.append(sentence)
+                self._deferred.append((PROBLEM, sentence))
             return
         sentence = STOPPED_SENTENCE.format(part=message.part)
         self.state.robot_says(CLOSING, sentence)
@@ -667,10 +517,71 @@ class InteractionManagerComponent(Component):
             symbol = symbol_of(ROBOT, self.state.robot_starts)
             self.bus.publish(ArmCommand(where=CELL_NAMES[self._arm_cell], symbol=symbol))
 
-    def _tell(self, sentence: str) -> None:
-        self.state.robot_informs(PROBLEM, sentence)
-        self._publish_turn("sys", PROBLEM, sentence)
-        self.bus.publish(Utterance(text=sentence, act=PROBLEM))
+    def _tell(self, sentence: str, act: str = PROBLEM) -> None:
+        self.state.robot_informs(act, sentence)
+        self._spoken_last = sentence
+        self._publish_turn("sys", act, sentence)
+        self.bus.publish(Utterance(text=sentence, act=act))
+
+    # --- the visit's conversation around the games ---
+
+    def _take_up(self, carried: Sequence[tuple[str, str, str]]) -> None:
+        """Put the turns a new dialogue takes up (`NewGame.carried`; none: the visit's greeting
+        and introduction, if it had them) in its state, unsaid: the policy goes on from them."""
+        said = carried or self._introductions
+        turns = [DialogueAct(speaker=speaker, act=act, text=text) for speaker, act, text in said]
+        replay_dialogue(self.state, turns)
+        self._introductions = tuple(t for t in said if t[1] in (GREETING, INTRODUCTION))
+
+    def _carried(self, words: str) -> tuple[tuple[str, str, str], ...]:
+        """What the next dialogue takes up when the person agreed to it in `words`."""
+        invitation = self.model.template(INVITATION, self.rng)
+        return (*self._introductions, ("sys", INVITATION, invitation), ("usr", ACCEPT, words))
+
+    def _may_offer(self) -> bool:
+        """Whether the robot asks about another game before its goodbye: the game was played
+        out, and the person has not taken their leave since the feedback."""
+        if not self.timing.offer_another_game or self._offers:
+            return False
+        turns = self.state.transcript
+        told = max((i for i, t in enumerate(turns) if is_feedback(t["act"])), default=len(turns))
+        leaving = {CLOSING, STOP, *REFUSALS}
+        after = self.state.understood_turns[told + 1 :]
+        return not any(act in leaving for act in after)
+
+    def _offer(self) -> None:
+        self._offers += 1
+        sentence = next(
+            (s for s in self.rng.permutation(OFFER_SENTENCES) if s != self._spoken_last),
+            OFFER_SENTENCES[0],
+        )
+        self._tell(str(sentence), OFFER_ANOTHER)
+        # unlike a problem told, the offer is waited on: its answer, after it is said
+        self._speaking, self._arm_cell, self._offering = str(sentence), None, True
+        self.phase = Phase.SPEAKING
+
+    def _play_again(self, words: str) -> None:
+        """The person agreed to another game in `words`: this dialogue ends without a goodbye,
+        and the next takes up the conversation (no greeting, no introduction, no question)."""
+        self._offering, self._rematch = False, False
+        self.phase = Phase.DONE
+        self.bus.publish(DialogueEnded(outcome=self.state.ending))
+        self.bus.publish(
+            NewGame(robot_starts=self.state.robot_starts, carried=self._carried(words))
+        )
+
+    def _aside_answer(self, question: str) -> str | None:
+        """The robot's answer to a question asked in passing (oxbot.dialogue.asides)."""
+        if question == NAME:
+            return spoken(self.model.template(INTRODUCTION, self.rng, self._spoken_last))
+        if question == REPEAT:
+            return self._spoken_last or None  # nothing said yet: the understanding reads it
+        state = self.state
+        if state.game_started and state.outcome is None:
+            kind = "your_turn" if state.person_to_move else "my_turn"
+        else:
+            kind = "robot" if state.robot_starts else "person"
+        return WHO_STARTS_SENTENCES[kind].format(**symbol_names(state.robot_starts))
 
     def _publish_turn(self, speaker: str, act: str, text: str) -> None:
         self.bus.publish(DialogueAct(speaker=speaker, act=act, text=text))

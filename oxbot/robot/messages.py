@@ -38,6 +38,20 @@ class NewGame(Message):
 
     topic: ClassVar[str] = "game/new"
     robot_starts: bool = True
+    carried: tuple[tuple[str, str, str], ...] = ()
+    """(speaker, act, text) turns of the visit's conversation that the new dialogue takes up
+    without saying them again: the robot's greeting and introduction, and, when the person
+    agreed to this game in words, the question and their yes."""
+
+
+@dataclass(frozen=True)
+class PersonAnswering(Message):
+    """The person has begun to answer: speech starting in the hands-free stream, push-to-talk
+    pressed, a key in the answer box. The robot then waits for their answer (`answer_timeout`)
+    rather than going on after a pause (`pause_timeout`)."""
+
+    topic: ClassVar[str] = "person/answering"
+    how: Literal["speaking", "typing"] = "speaking"
 
 
 @dataclass(frozen=True)

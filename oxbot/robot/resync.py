@@ -16,10 +16,12 @@ two components hold nothing a game needs.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Protocol, runtime_checkable
 
+from oxbot.dialogue.asides import ASIDE_ACTS
 from oxbot.dialogue.domain import SYSTEM_ACTS, game_move_cell, words_of
+from oxbot.dialogue.situated import template_in
 from oxbot.dialogue.state import DialogueState
 from oxbot.game.board import EMPTY, EMPTY_BOARD, ROBOT, USER, cell_index
 from oxbot.robot.bus import Component
@@ -32,6 +34,7 @@ from oxbot.robot.messages import (
     Message,
     NewGame,
 )
+from oxbot.robot.sentences import spoken
 
 
 def current_game(history: Sequence[Message]) -> list[Message]:
@@ -44,18 +47,26 @@ def current_game(history: Sequence[Message]) -> list[Message]:
     return game
 
 
-def replay_dialogue(state: DialogueState, game: Sequence[Message]) -> None:
+def replay_dialogue(
+    state: DialogueState,
+    game: Sequence[Message],
+    templates_for: Callable[[str], Sequence[str]] | None = None,
+) -> None:
     """Replay the turns of `game` (DialogueActs, in order) into a fresh `state`.
 
     The person's words come back as the transcript has them, understood as their act with
     full confidence (the recogniser's N-best is not kept); turns outside the policy's acts and
-    moves that no longer fit the board are kept in the transcript only."""
+    moves that no longer fit the board are kept in the transcript only. The robot's move comes
+    back as the template its words were made around (`templates_for(act)`, the domain's), which
+    is what the policy's state held (`oxbot.dialogue.situated`)."""
     for message in game:
         if not isinstance(message, DialogueAct):
             continue
         act, text = message.act, message.text
         cell = game_move_cell(act)
         if message.speaker == "sys":
+            if cell is not None and templates_for is not None:
+                text = _template_of(text, templates_for(act))
             if act in SYSTEM_ACTS and state.can_do(act):
                 state.robot_says(act, text)
             else:
@@ -65,11 +76,18 @@ def replay_dialogue(state: DialogueState, game: Sequence[Message]) -> None:
                 state.person_says(act, text)
             else:
                 state.person_informs(act, text)
-        elif text.startswith("["):
+        elif text.startswith("[") or act in ASIDE_ACTS.values():
             state.person_informs(act, text)
         else:
             words = tuple((w, 1.0) for w in words_of(text))
             state.person_says(act, text, words, (act, 1.0))
+
+
+def _template_of(said: str, templates: Sequence[str]) -> str:
+    """The template (with its mark-up) that the words `said` were made around, else `said`."""
+    spoken_forms = {spoken(t): t for t in templates}
+    found = template_in(spoken(said), list(spoken_forms))
+    return spoken_forms[found] if found is not None else said
 
 
 def arm_started(game: Sequence[Message], cell: int) -> bool:

@@ -40,9 +40,9 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from oxbot.config import DialogueConfig, OxbotConfig, RewardConfig, RobotConfig
-from oxbot.dialogue.domain import Domain, load_domain, words_of
+from oxbot.dialogue.domain import Domain, Turn, load_domain, words_of
 from oxbot.dialogue.policy import Policy
-from oxbot.dialogue.state import Turn
+from oxbot.dialogue.situated import PHRASINGS
 from oxbot.errors import InvalidInputError, OxbotError, SpeechUnavailable
 from oxbot.game.board import (
     CELL_NAMES,
@@ -85,6 +85,13 @@ from oxbot.robot.messages import (
     SourceEnded,
     SpeechAudio,
     SpeechHypotheses,
+)
+from oxbot.robot.sentences import (
+    AFTER_GOODBYE,
+    OFFER_SENTENCES,
+    PROBLEM_SENTENCES,
+    WHO_STARTS_SENTENCES,
+    symbol_names,
 )
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
 from oxbot.speech.audio import read_wav
@@ -138,8 +145,9 @@ ESSENTIAL_PARTS = ("voice", "arm", "eyes", "mind")
 
 def robot_sentences(domain: Domain | None = None) -> list[str]:
     """Every distinct sentence the robot can say, the greetings first: each template's words
-    (`domain`'s, the shipped by default), and the interaction manager's own sentences with
-    every cell and part name and its guidance about the camera."""
+    (`domain`'s, the shipped by default), the interaction manager's own sentences with every
+    cell and part name and its guidance about the camera, and the words it says about a move
+    (`oxbot.dialogue.situated`, each a sentence of its own)."""
     domain = domain if domain is not None else load_domain()
     sentences = [spoken(t) for act in domain.templates for t in domain.templates_for(act)]
     cells = [cell_in_words(c) for c in range(N_CELLS)]
@@ -147,7 +155,15 @@ def robot_sentences(domain: Domain | None = None) -> list[str]:
     sentences += [TAKEN_IN_WORDS.format(cell=c[0].upper() + c[1:]) for c in cells]
     sentences += [STOPPED_SENTENCE.format(part=p) for p in ESSENTIAL_PARTS]
     sentences += [*GUIDANCE_SENTENCES.values(), *LOST_SENTENCES.values()]
-    sentences += [NOBODY_SENTENCE, WHICH_CELL]
+    sentences += [NOBODY_SENTENCE, WHICH_CELL, AFTER_GOODBYE, *OFFER_SENTENCES]
+    sentences += [phrase for phrases in PHRASINGS.values() for phrase in phrases]
+    for robot_starts in (True, False):
+        names = symbol_names(robot_starts)
+        starter = "robot" if robot_starts else "person"
+        sentences += [
+            WHO_STARTS_SENTENCES[kind].format(**names) for kind in (starter, "your_turn", "my_turn")
+        ]
+        sentences += [s.format(**names, cell=c) for s in PROBLEM_SENTENCES.values() for c in cells]
     return list(dict.fromkeys(s for s in sentences if s.strip()))
 
 

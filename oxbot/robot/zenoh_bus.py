@@ -4,7 +4,8 @@
 component runs on it unchanged. A message of topic `game/new` on robot `kitchen` travels on the
 key expression `oxbot/kitchen/game/new` as its JSON (`messages.to_json`, encoding
 application/json; a message carrying bytes, such as a camera frame, as a line of JSON followed
-by the raw bytes, see `encode`), with the message format's version in the attachment. Every
+by the raw bytes: oxbot.robot.wire_format), with the message format's version in the
+attachment. Every
 process of a robot opens one session; peers find each other by multicast scouting on a LAN, or
 by `connect` / `listen` endpoints (`tcp/192.168.1.10:7447`), through a router for larger
 deployments.
@@ -12,7 +13,8 @@ deployments.
 Besides messages, each component process of a robot declares:
 - a liveliness token `oxbot/<robot>/alive/<name>/<format>/<zenoh id>/<pid>`, which Zenoh
   withdraws as soon as the process is gone (its links close; a silent machine is dropped after
-  the 1 s lease), so every process knows who is up (`alive`, `PartsWatcher`);
+  the 1 s lease), so every process knows who is up (`alive`; the manager's `PartsWatcher`,
+  oxbot.robot.liveliness);
 - a queryable `oxbot/<robot>/state/<name>` answering the current game so far (`NewGame`,
   `GameState`, `DialogueAct`, `DialogueEnded`, `ArmStroke`), so a late joiner (a respawned
   component, a web page opened mid-game) learns the board and the dialogue (`game_so_far`).
@@ -32,15 +34,10 @@ robot (`BusVersionError`), a component that is up already (`ComponentAlreadyRunn
 from __future__ import annotations
 
 import contextlib
-import dataclasses
-import functools
-import hashlib
 import json
 import logging
 import os
-import queue
 import re
-import threading
 import time
 import typing
 from collections.abc import Callable, Iterable
@@ -58,13 +55,10 @@ from oxbot.errors import (
 )
 from oxbot.robot.bus import LocalSubscription, Subscriptions
 from oxbot.robot.bus_security import BusSecurity
-from oxbot.robot.message_checks import FloodGuard, check_json, check_message
+from oxbot.robot.liveliness import MAX_WATCHED_CHANGES, REJOIN_SECONDS, PartsWatcher, Peer
+from oxbot.robot.message_checks import FloodGuard
 from oxbot.robot.messages import (
-    MESSAGE_TYPES,
     ArmStroke,
-    ComponentFailed,
-    ComponentJoined,
-    ComponentLost,
     DialogueAct,
     DialogueEnded,
     Frame,
@@ -75,27 +69,45 @@ from oxbot.robot.messages import (
     from_json,
     to_json,
 )
+from oxbot.robot.wire_format import (
+    BLOBS,
+    FORMAT,
+    FORMAT_VERSION,
+    TOPICS,
+    decode,
+    encode,
+    encode_pieces,
+    message_format,
+)
+
+__all__ = [  # with the names of the modules split from this one, importable from here as before
+    "BLOBS",
+    "CONNECT_TIMEOUT",
+    "FORMAT",
+    "FORMAT_VERSION",
+    "LOSSY",
+    "MAX_RECORD_BYTES",
+    "MAX_WATCHED_CHANGES",
+    "NAME",
+    "QUERY_TIMEOUT",
+    "RECORDED",
+    "REJOIN_SECONDS",
+    "SHARED_MEMORY_FROM",
+    "SHARED_MEMORY_POOL",
+    "TOPICS",
+    "Endpoints",
+    "PartsWatcher",
+    "Peer",
+    "ZenohBus",
+    "decode",
+    "encode",
+    "encode_pieces",
+    "message_format",
+    "open_session",
+]
 
 log = logging.getLogger(__name__)
 
-FORMAT_VERSION = 1
-"""Bumped by hand when the envelope changes; the fingerprint below follows the messages."""
-
-
-def message_format() -> str:
-    """`<FORMAT_VERSION>-<fingerprint>`: the fingerprint hashes every message type's name and
-    fields, so two processes built from different oxbot versions refuse each other."""
-    hints = {
-        name: [(f.name, str(typing.get_type_hints(cls)[f.name])) for f in dataclasses.fields(cls)]
-        for name, cls in sorted(MESSAGE_TYPES.items())
-    }
-    digest = hashlib.sha256(json.dumps(hints, sort_keys=True).encode()).hexdigest()
-    return f"{FORMAT_VERSION}-{digest[:10]}"
-
-
-FORMAT = message_format()
-TOPICS: dict[str, type[Message]] = {cls.topic: cls for cls in MESSAGE_TYPES.values()}
-"""Every message type by topic: the key expression names the type before any decoding."""
 RECORDED = (NewGame, GameState, DialogueAct, DialogueEnded, ArmStroke)
 """The messages that make the current game for a late joiner (the arm's strokes: so that a
 page opened mid-game draws the robot's symbols)."""
@@ -105,96 +117,15 @@ CONNECT_TIMEOUT = 3.0
 """Seconds to reach the `connect` endpoints before BusUnreachable."""
 QUERY_TIMEOUT = 1.0
 """Seconds to wait for the answers of a liveliness or state query."""
-REJOIN_SECONDS = 10.0
-"""How long a component whose process ended may take to come back (respawned by
-`oxbot robot --launch` within about 1 s, then its models loaded: Piper's voice takes 1.3 s on
-a quiet machine and more than 5 s beside other jobs) before the robot takes it as lost."""
-MAX_WATCHED_CHANGES = 1_000
-"""The most liveliness changes `PartsWatcher` holds unread (a robot's seven parts make a few a
-respawn; only a peer flooding tokens makes more). Beyond it a new change is dropped, with a log
-line per burst, and once the queue has drained the watcher re-reads who is up (`alive`), so
-that no death or comeback is missed for good."""
 MAX_RECORD_BYTES = 16 * 1024 * 1024
 """The most a game record (the answer to a state query) may take; a whole game's is ~100 KB."""
 NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
-BLOBS = zenoh.Encoding.APPLICATION_OCTET_STREAM.with_schema("oxbot-blobs")
 SHARED_MEMORY_FROM = 64 * 1024
 """Payloads from this size (camera frames) are put in shared memory: a process on the same
 machine maps them instead of receiving 14 TCP fragments (a 900 KB frame: 2.8 ms median, 7.8
 ms p99 by TCP on loopback; 0.5 / 4.4 ms shared). Zenoh copies them for other machines."""
 SHARED_MEMORY_POOL = 32 * 1024 * 1024
 """Bytes of shared memory a publishing process sets aside: about 3 s of 640x480 frames."""
-
-
-def encode(message: Message) -> tuple[bytes, zenoh.Encoding]:
-    """The message on the wire: its JSON (`to_json`) when it carries no bytes; else, since
-    base64 in JSON costs about 12 ms a camera frame each way, the blob layout: one line of
-    JSON whose bytes fields are replaced by `{"blob": i}`, with `"blobs": [sizes]`, then the
-    blobs themselves, raw, one after another."""
-    pieces, encoding = encode_pieces(message)
-    return b"".join(pieces), encoding
-
-
-def encode_pieces(message: Message) -> tuple[list[bytes], zenoh.Encoding]:
-    """`encode`'s payload in the pieces it is made of, for writing them straight into shared
-    memory without joining them first."""
-    blobs: list[bytes] = []
-
-    def pack(value: typing.Any) -> typing.Any:
-        if isinstance(value, bytes):
-            blobs.append(value)
-            return {"blob": len(blobs) - 1}
-        if isinstance(value, tuple):
-            return [pack(v) for v in value]
-        return value
-
-    data = {f.name: pack(getattr(message, f.name)) for f in dataclasses.fields(message)}
-    if not blobs:
-        return [to_json(message).encode()], zenoh.Encoding.APPLICATION_JSON
-    header = {"type": type(message).__name__, "topic": message.topic, "data": data}
-    header["blobs"] = [len(b) for b in blobs]
-    return [json.dumps(header).encode() + b"\n", *blobs], BLOBS
-
-
-@functools.cache
-def _hints(cls: type[Message]) -> dict[str, typing.Any]:
-    return typing.get_type_hints(cls)
-
-
-def decode(payload: bytes, blobs: bool) -> Message:
-    """The message `encode` made; InvalidInputError if it is not one."""
-    if not blobs:
-        return from_json(payload)
-    try:
-        end = payload.index(b"\n")
-        check_json(payload[:end], "a message's header")
-        header = json.loads(payload[:end])
-        cls = MESSAGE_TYPES[header["type"]]
-        data, sizes = dict(header["data"]), [int(n) for n in header["blobs"]]
-        sent = len(payload) - end - 1
-        if sum(sizes) != sent or any(n < 0 for n in sizes):
-            raise ValueError(f"blobs of {sum(sizes)} bytes announced, {sent} sent")
-        view = memoryview(payload)  # each blob copied once, out of the payload
-        starts = [end + 1 + sum(sizes[:i]) for i in range(len(sizes))]
-        pieces = [bytes(view[a : a + n]) for a, n in zip(starts, sizes, strict=True)]
-
-        def unpack(value: typing.Any) -> typing.Any:
-            if isinstance(value, dict) and set(value) == {"blob"}:
-                return pieces[value["blob"]]
-            if isinstance(value, list):
-                return tuple(unpack(v) for v in value)
-            return value
-
-        fields = {k: unpack(v) for k, v in data.items()}
-        hints = _hints(cls)
-        for name, value in fields.items():
-            if hints.get(name) is bytes and not isinstance(value, bytes):
-                raise TypeError(f"field {name!r} of a {cls.__name__} message is not bytes")
-        return check_message(cls(**fields))
-    except (ValueError, KeyError, TypeError, IndexError, RecursionError) as exc:
-        raise InvalidInputError(
-            f"not a message of oxbot's bus ({type(exc).__name__}: {exc})"
-        ) from None
 
 
 @dataclass(frozen=True)
@@ -241,16 +172,6 @@ class Endpoints:
         return config
 
 
-@dataclass(frozen=True)
-class Peer:
-    """A component process that is up, from its liveliness token."""
-
-    name: str
-    format: str
-    zid: str
-    pid: int
-
-
 class ZenohBus(Subscriptions):
     """The `Bus` of one robot (`robot`, a name) over Zenoh: see the module docstring.
 
@@ -260,7 +181,15 @@ class ZenohBus(Subscriptions):
 
     FORMAT = FORMAT
 
-    def __init__(self, robot: str, endpoints: Endpoints | None = None) -> None:
+    def __init__(
+        self,
+        robot: str,
+        endpoints: Endpoints | None = None,
+        vouched: Callable[[Peer], bool] | None = None,
+    ) -> None:
+        """`vouched`, for a launcher's child, tells the robot's own processes from claims on the
+        network: a token of another message format that it does not vouch for is logged and
+        ignored, so a peer cannot stop a respawn by declaring one (`check_formats`)."""
         if not NAME.match(robot):
             raise ConfigError(
                 f"robot name {robot!r}: use letters, digits, '_', '-' and '.' (it is a key "
@@ -272,6 +201,7 @@ class ZenohBus(Subscriptions):
         super().__init__()  # subscribe / unsubscribe: the queues of this process
         self._record: list[Message] = []
         self._refused: set[str] = set()  # formats already reported, so the log says it once
+        self._vouched = vouched
         self._flood = FloodGuard()
         self._declared: list[typing.Any] = []
         self._shared_memory: zenoh.shm.ShmProvider | None = None
@@ -379,9 +309,19 @@ class ZenohBus(Subscriptions):
         return Peer(name=parts[1], format=parts[2], zid=parts[3], pid=int(parts[4]))
 
     def check_formats(self, peers: Iterable[Peer] | None = None) -> None:
-        """BusVersionError if a process of this robot speaks another message format."""
+        """BusVersionError if a process of this robot speaks another message format (of a
+        launcher's child: one of its siblings; another claim is logged and ignored)."""
         for peer in self.alive() if peers is None else peers:
             if peer.format != self.FORMAT:
+                if self._vouched is not None and not self._vouched(peer):
+                    log.warning(
+                        "a token claims %s speaks message format %s (pid %d), but no process "
+                        "of this launcher does: ignored",
+                        peer.name,
+                        peer.format,
+                        peer.pid,
+                    )
+                    continue
                 raise BusVersionError(
                     f"component {peer.name!r} of robot {self.robot!r} (pid {peer.pid}) speaks "
                     f"message format {peer.format}, this process {self.FORMAT}: run the same "
@@ -511,120 +451,3 @@ def open_session(endpoints: Endpoints) -> zenoh.Session:
                 "may hold the port: pick another --listen endpoint"
             ) from None
         raise BusError(f"cannot open a Zenoh session: {detail}") from None
-
-
-class PartsWatcher:
-    """Tells the robot, over its bus, when a component process goes and comes back.
-
-    Run by the manager's process (it decides what the person hears). A process whose
-    liveliness token is withdrawn is reported at once (ComponentFailed); one that is not back
-    within `rejoin_seconds` is lost (ComponentLost: the robot says so and, if the game needs
-    it, ends the game); one that comes back announces ComponentJoined, so that the manager asks
-    it again what its predecessor never answered. `parts` maps a component's name to its
-    (class name, part, essential), as the robot's messages name them. A token that goes counts
-    even while another claims the same name (a launcher's child replaces a stale or fake one).
-    """
-
-    def __init__(
-        self,
-        bus: ZenohBus,
-        parts: dict[str, tuple[str, str, bool]],
-        rejoin_seconds: float = REJOIN_SECONDS,
-    ) -> None:
-        self.bus = bus
-        self.parts = parts
-        self.rejoin_seconds = rejoin_seconds
-        self._up: dict[str, set[str]] = {}
-        self._down: dict[str, float] = {}  # name -> when its last process went
-        self._lost: set[str] = set()
-        self._events: queue.Queue[tuple[Peer, bool]] = queue.Queue(MAX_WATCHED_CHANGES)
-        self._dropped = 0  # changes dropped since the last re-reading of who is up
-        self._dropped_lock = threading.Lock()
-        self._stopping = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="oxbot-parts-watcher", daemon=True)
-
-    def start(self) -> PartsWatcher:
-        self._thread.start()
-        # publishing from Zenoh's own callback thread could wait on itself: a queue between
-        self.bus.watch(self._queue)
-        return self
-
-    def stop(self) -> None:
-        self._stopping.set()
-        self._thread.join(2.0)
-
-    def _queue(self, peer: Peer, up: bool) -> None:
-        """A liveliness change, from Zenoh's thread: queued, or dropped when the queue is full
-        (see MAX_WATCHED_CHANGES)."""
-        if peer.name not in self.parts:
-            return  # none of the robot's parts: never looked at
-        try:
-            self._events.put_nowait((peer, up))
-        except queue.Full:
-            with self._dropped_lock:
-                self._dropped += 1
-                first = self._dropped == 1
-            if first:
-                log.warning(
-                    "over %d liveliness changes unread (a peer flooding tokens?): dropping "
-                    "new ones until they are read, then reading who is up",
-                    MAX_WATCHED_CHANGES,
-                )
-
-    def _run(self) -> None:
-        while not self._stopping.is_set():
-            try:
-                self._changed(*self._events.get(timeout=0.05))
-            except queue.Empty:
-                if self._dropped:
-                    self._reread()
-            now = time.monotonic()
-            for name, since in list(self._down.items()):
-                if now - since >= self.rejoin_seconds and name not in self._lost:
-                    self._give_up(name)
-
-    def _changed(self, peer: Peer, up: bool) -> None:
-        if peer.name not in self.parts:
-            return
-        component, part, _ = self.parts[peer.name]
-        zids = self._up.setdefault(peer.name, set())
-        if up:
-            zids.add(peer.zid)
-            if self._down.pop(peer.name, None) is not None:
-                self._lost.discard(peer.name)
-                log.warning("%s is back (pid %d)", peer.name, peer.pid)
-                self.bus.publish(ComponentJoined(component=component, part=part))
-            return
-        if peer.zid not in zids:
-            return
-        zids.discard(peer.zid)
-        # one of its processes went: down until a new one comes, whatever other tokens claim
-        # the name (any peer can declare one; a fake must not hide the death and stall the game)
-        if peer.name not in self._down:
-            self._down[peer.name] = time.monotonic()
-            log.warning(
-                "%s's process (pid %d) is gone; waiting for it to come back", peer.name, peer.pid
-            )
-            self.bus.publish(ComponentFailed(component=component, error="its process ended"))
-
-    def _reread(self) -> None:
-        """After dropped changes: who is up now, told as the changes that lead there."""
-        with self._dropped_lock:
-            dropped, self._dropped = self._dropped, 0
-        log.warning("dropped %d liveliness changes; reading who is up", dropped)
-        alive = [p for p in self.bus.alive() if p.name in self.parts]
-        for name, zids in list(self._up.items()):
-            for zid in zids - {p.zid for p in alive if p.name == name}:
-                self._changed(Peer(name=name, format="", zid=zid, pid=0), False)
-        for peer in alive:
-            if peer.zid not in self._up.get(peer.name, set()):
-                self._changed(peer, True)
-
-    def _give_up(self, name: str) -> None:
-        component, part, essential = self.parts[name]
-        self._lost.add(name)
-        error = f"its process ended and did not come back within {self.rejoin_seconds:.0f} s"
-        log.error("%s: %s", name, error)
-        self.bus.publish(
-            ComponentLost(component=component, part=part, error=error, essential=essential)
-        )

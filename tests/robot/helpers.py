@@ -49,7 +49,12 @@ class ManagerAtHand:
         )
         from oxbot.robot.session import shared_policy
 
-        quick = ["robot.answer_timeout=0", "robot.question_timeout=0", "robot.move_timeout=0"]
+        quick = [
+            "robot.answer_timeout=0",
+            "robot.pause_timeout=0",
+            "robot.question_timeout=0",
+            "robot.move_timeout=0",
+        ]
         config = load_config(None, [*quick, *settings])
         self.bus = LocalBus()
         self.out = self.bus.subscribe(Utterance, ArmCommand, DialogueEnded, GameMove, NewGame)
@@ -70,6 +75,7 @@ class ManagerAtHand:
             ArmDone,
             DialogueEnded,
             GameMove,
+            NewGame,
             SpeakingFinished,
             Utterance,
         )
@@ -84,6 +90,9 @@ class ManagerAtHand:
                 self.manager.handle(message)
             elif isinstance(message, DialogueEnded):
                 self.ended = message
+            elif isinstance(message, NewGame):  # asked for in words: the next dialogue
+                self.ended = None
+                self.manager.handle(message)
 
     @property
     def last_act(self) -> str:

@@ -33,17 +33,15 @@ pytestmark = pytest.mark.slow
 ANSWERS = {
     "Salutation(greeting)": "Hello!",
     "Request(playGame)": "Yes, let's play.",
-    # Whisper hears this espeak-ng voice's "well done" as "welcome" and "good game" as "god
-    # game": answers it hears are chosen, the recogniser is measured in bench/bench_speech.py
-    "Provide(feedback=win)": "Well played.",
-    "Provide(feedback=draw)": "Well played.",
+    # the outcome goes unanswered: an answer heard late on a loaded machine would answer the
+    # robot's next question, "Would you like another game?"
+    "Request(anotherGame)": "No thanks.",
     "Salutation(closing)": "Good bye!",
 }
 EXPECTED_ACTS = {
     "Salutation(greeting)": "Salutation(greeting)",
     "Request(playGame)": "Confirm(playGame=yes)",
-    "Provide(feedback=win)": "Acknowledge",
-    "Provide(feedback=draw)": "Acknowledge",
+    "Request(anotherGame)": "Reject(playGame=no)",
     "Salutation(closing)": "Salutation(closing)",
 }
 """What the person means by the answer to each act."""
@@ -86,7 +84,13 @@ def moved_cells(log: list) -> set[int]:
 
 def test_a_spoken_and_drawn_game_runs_to_the_goodbye():
     config = load_config(
-        None, ["robot.speed_factor=8", "robot.answer_timeout=4", "robot.move_timeout=60"]
+        None,
+        [
+            "robot.speed_factor=8",
+            "robot.answer_timeout=4",
+            "robot.pause_timeout=0",  # the person answers the greeting once it is said
+            "robot.move_timeout=60",
+        ],
     )
     voice = Voice("en-us+m3")
     recordings = {act: synthesize(text, voice) for act, text in ANSWERS.items()}
@@ -131,9 +135,14 @@ def test_a_spoken_and_drawn_game_runs_to_the_goodbye():
     assert isinstance(log[-1], DialogueEnded), f"no goodbye:\n{text}"
     assert log[-1].outcome == outcome(board) is not None, text
 
-    # The person's spoken answers were heard as what they meant.
+    # The person's spoken answers were heard as what they meant, until the robot's goodbye (a
+    # goodbye said after it answers nothing, and espeak's "good bye" is now and then heard as
+    # "don't buy").
+    closing = next((i for i, t in enumerate(transcript) if t["act"] == "Salutation(closing)"), None)
     spoken_acts = {
-        t["act"] for t in transcript if t["speaker"] == "usr" and not t["text"].startswith("[")
+        t["act"]
+        for t in transcript[:closing]
+        if t["speaker"] == "usr" and not t["text"].startswith("[")
     }
     assert "Confirm(playGame=yes)" in spoken_acts, text
     assert spoken_acts <= set(EXPECTED_ACTS.values()), text

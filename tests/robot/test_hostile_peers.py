@@ -4,10 +4,14 @@ Real sessions over loopback, in this process."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import os
 import re
+import signal
 import threading
 import time
+import uuid
 
 import pytest
 
@@ -119,10 +123,13 @@ def test_a_poisoned_game_record_is_dropped_not_a_crash(network):
         queryable.undeclare()
 
 
-def test_a_fake_liveliness_token_does_not_block_a_launchers_respawn(network):
+@pytest.mark.parametrize("fake_format", [FORMAT, "999"])
+def test_a_fake_liveliness_token_does_not_block_a_launchers_respawn(network, fake_format):
+    """A token claiming the part is up already, or that the robot speaks another message
+    format: a launcher's child starts anyway (the other format is nobody it launched)."""
     ours, theirs = network
     port = int(re.search(r":(\d+)$", ours.endpoints.listen[0])[1])
-    token = f"{theirs.prefix}alive/head-movement/{FORMAT}/0123456789abcdef/4242"
+    token = f"{theirs.prefix}alive/head-movement/{fake_format}/0123456789abcdef/4242"
     fake = theirs.session.liveliness().declare_token(token)
     stop = threading.Event()
     errors: list[BaseException] = []
@@ -130,7 +137,13 @@ def test_a_fake_liveliness_token_does_not_block_a_launchers_respawn(network):
     def child() -> None:
         try:
             run_component(
-                "head-movement", ours.robot, loopback(port), CONFIG, stop=stop, replace=True
+                "head-movement",
+                ours.robot,
+                loopback(port),
+                CONFIG,
+                stop=stop,
+                replace=True,
+                siblings=("head-movement",),
             )
         except BaseException as exc:  # the test reports it
             errors.append(exc)
@@ -222,3 +235,93 @@ def test_a_fake_liveliness_token_does_not_hide_a_parts_death(network):
             watcher.stop()
         fake.undeclare()
         real.close()
+
+
+@pytest.mark.slow
+def test_a_token_flapping_under_the_arms_name_does_not_stall_a_launched_robot():
+    """A peer that declares and withdraws tokens under the arm's name every 0.5 s (its own,
+    a copy of the real arm's key, and one claiming the arm's pid): the launched robot plays on
+    without a word about its arm, and a real death under a copy of its key is still seen."""
+    from oxbot.dialogue.domain import ASK_AGAIN, INVITATION, MOVE_REQUEST
+    from oxbot.game.board import EMPTY, outcome
+    from oxbot.robot.launch import Launcher, LaunchFile
+    from oxbot.robot.messages import (
+        ComponentFailed,
+        ComponentJoined,
+        ComponentLost,
+        DialogueAct,
+        DialogueEnded,
+    )
+    from oxbot.robot.remote import RemoteRobot
+    from tests.robot.helpers import collect
+    from tests.robot.test_zenoh import wait_alive
+
+    port, robot = free_port(), robot_name()
+    names = ("manager", "voice", "arm")
+    launch = LaunchFile(
+        robot=robot, listen=(f"tcp/127.0.0.1:{port}",), scouting=False, components=names
+    )
+    config = dataclasses.replace(CONFIG, speech=dataclasses.replace(CONFIG.speech, voice="espeak"))
+    stop = threading.Event()
+    launcher = Launcher(launch, config).start()
+    flapper = None
+    try:
+        with (
+            ZenohBus(robot, launch.child_endpoints()) as bus,
+            ZenohBus(robot, launch.child_endpoints()) as hostile,
+        ):
+            arm_pid = wait_alive(bus, set(names))["arm"]
+            arm = None
+            while arm is None:  # a liveliness query can miss a token: asked again
+                arm = next((p for p in bus.alive() if p.pid == arm_pid), None)
+            alive = f"{hostile.prefix}alive/arm/{FORMAT}"
+            keys = [
+                f"{alive}/{uuid.uuid4().hex}/4242",  # a process of its own
+                f"{alive}/{arm.zid}/{arm.pid}",  # a copy of the real arm's key
+                f"{alive}/{uuid.uuid4().hex}/{arm.pid}",  # the real arm's pid
+            ]
+
+            def flap() -> None:
+                liveliness = hostile.session.liveliness()
+                while not stop.is_set():
+                    tokens = [liveliness.declare_token(key) for key in keys]
+                    stop.wait(0.25)
+                    for token in tokens:
+                        token.undeclare()
+                    stop.wait(0.25)
+
+            flapper = threading.Thread(target=flap, daemon=True)
+            flapper.start()
+            news = bus.subscribe(ComponentFailed, ComponentLost, ComponentJoined)
+            events = bus.subscribe(DialogueAct, DialogueEnded)
+            ended = None
+            with RemoteRobot(bus, config) as remote:  # it starts a game
+                deadline = time.monotonic() + 90
+                while ended is None and time.monotonic() < deadline:
+                    message = events.get(0.05)
+                    if isinstance(message, DialogueEnded):
+                        ended = message
+                    elif isinstance(message, DialogueAct) and message.speaker == "sys":
+                        if message.act in (INVITATION, ASK_AGAIN):
+                            remote.say("yes let's play")
+                        elif message.act == MOVE_REQUEST and outcome(remote.board) is None:
+                            board = remote.board
+                            free = [c for c in (4, 0, 2, 6, 8, 1, 3, 5, 7) if board[c] == EMPTY]
+                            remote.draw(free[0])
+            assert ended is not None and ended.outcome is not None, "the game did not end"
+            about_the_arm = [m for m in news.drain() if m.component == "ArmComponent"]
+            assert about_the_arm == [], about_the_arm
+            # the fake holds a copy of the arm's key when the arm dies: its death is seen
+            stop.set()
+            flapper.join(2)
+            copy = hostile.session.liveliness().declare_token(keys[1])
+            time.sleep(0.5)
+            os.kill(arm.pid, signal.SIGKILL)
+            got = collect(news, lambda m: isinstance(m, ComponentJoined), 15.0)
+            assert [type(m) for m in got] == [ComponentFailed, ComponentJoined], got
+            copy.undeclare()
+    finally:
+        stop.set()
+        if flapper is not None:
+            flapper.join(2)
+        launcher.stop()

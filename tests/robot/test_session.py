@@ -68,6 +68,8 @@ class TypingPerson:
     def answer(self, act: str) -> None:
         if act == "Request(playGame)":
             self.robot.say("Yes, let's play.")
+        elif act == "Request(anotherGame)":
+            self.robot.say("No thanks.")
         elif act == "Request(userGameMove)":
             board = self.robot.board
             self.robot.draw(next(c for c in self.prefer if board[c] == EMPTY))
@@ -101,7 +103,8 @@ def test_a_typed_game_runs_to_the_goodbye_with_a_well_formed_dialogue(robot):
     result = outcome(robot.board)
     assert result is not None and ended.outcome == result
     feedback = {"win": "Provide(feedback=win)", "draw": "Provide(feedback=draw)"}
-    assert acts[-2] == feedback.get(result, "Provide(feedback=loose)")
+    told = feedback.get(result, "Provide(feedback=loose)")
+    assert acts[-3:] == [told, "Request(anotherGame)", "Salutation(closing)"]
     assert robot.finished
     # Every robot GameMove was drawn by the arm, and the board holds exactly the moves made.
     drawn = [m.where for m in person.log if isinstance(m, ArmDone)]
@@ -112,9 +115,11 @@ def test_a_typed_game_runs_to_the_goodbye_with_a_well_formed_dialogue(robot):
     )
     # Each decision was greedy among the acts the mask offered.
     # (The robot greets as it starts, maybe before the person listens: its first may be missed.)
+    # The offer of another game came in place of the goodbye the policy chose first.
     decisions = [m for m in person.log if isinstance(m, Decision)]
-    assert len(acts) - 1 <= len(decisions) <= len(acts)
-    assert [d.chosen for d in decisions] == acts[len(acts) - len(decisions) :]
+    chosen = ["Salutation(closing)" if a == "Request(anotherGame)" else a for a in acts]
+    assert len(chosen) - 1 <= len(decisions) <= len(chosen)
+    assert [d.chosen for d in decisions] == chosen[len(chosen) - len(decisions) :]
     for d in decisions:
         assert d.chosen in d.offered and len(d.q_values) == N_ACTIONS
 
@@ -191,8 +196,10 @@ def test_a_new_game_starts_again_from_a_clean_sheet(robot):
     assert not robot.finished
     second = TypingPerson(robot, prefer=(0, 1, 2, 3, 4, 5, 6, 7, 8))
     second.play()
-    greetings = [t for t in robot.transcript if t["act"] == "Salutation(greeting)"]
-    assert len(greetings) == 1  # the transcript is the new game's only
+    # the transcript is the new game's only, which takes up the visit's greeting and
+    # introduction without saying them again: it asks at once
+    acts = [t["act"] for t in robot.transcript]
+    assert acts[0] == "Request(playGame)" and "Salutation(greeting)" not in acts
 
 
 def test_bad_input_to_the_robot_is_refused_clearly(robot):
@@ -263,11 +270,15 @@ def test_no_thanks_is_acknowledged_and_the_robot_says_goodbye(speak):
         turns, ended = talk_until_goodbye(robot, answers, 60.0, speak)
     acts = [t.act for t in turns if t.speaker == "sys"]
     heard = [t.act for t in turns if t.speaker == "usr"]
-    # asked once, answered once: a clear no is final
-    assert heard == ["Reject(playGame=no)"], [(t.speaker, t.act, t.text) for t in turns]
+    # typed, the no is clear and final: asked once, answered once; spoken, it is heard at 0.57,
+    # below wellformed.SURE_NO, and the rules allow asking once more
+    asked = 1 if not speak else len(heard)
+    assert heard == ["Reject(playGame=no)"] * asked and asked <= 2, [
+        (t.speaker, t.act, t.text) for t in turns
+    ]
     assert acts[-2:] == ["Acknowledge(playGame=no)", "Salutation(closing)"]
     assert not any(a.startswith("GameMove") or a == "Reply(playGame=yes)" for a in acts)
-    assert acts.count("Request(playGame)") + acts.count("Request(repeat)") == 1
+    assert acts.count("Request(playGame)") + acts.count("Request(repeat)") == asked
     assert ended.outcome == "declined"
 
 
@@ -317,11 +328,11 @@ def test_a_robot_nobody_answers_says_goodbye_after_three_unanswered_questions():
     from oxbot.robot.manager import NOBODY_SENTENCE
 
     with Robot(FAST, seed=15) as robot:
-        turns, ended = talk_until_goodbye(robot, {"Request(playGame)": ["What?"]}, 30.0)
+        turns, ended = talk_until_goodbye(robot, {"Request(playGame)": ["What time is it?"]}, 30.0)
     robot_turns = [t for t in turns if t.speaker == "sys"]
     questions = [t for t in robot_turns if t.act in ("Request(playGame)", "Request(repeat)")]
     assert [t.act for t in turns if t.speaker == "usr"] == ["Unknown"]
-    assert len(questions) == 4  # the first, answered "what?", then three left unanswered
+    assert len(questions) == 4  # the first, answered by chatter, then three left unanswered
     assert robot_turns[-1].act == "Salutation(closing)" and robot_turns[-1].text == NOBODY_SENTENCE
     assert ended.outcome is None
 
@@ -337,12 +348,12 @@ def test_the_count_of_unanswered_questions_starts_again_when_the_person_speaks()
         ],
     )
     with Robot(config, seed=15) as robot:
-        answers = {"Request(playGame)": ["What?"], "Request(repeat)": ["Hmm."]}
+        answers = {"Request(playGame)": ["What time is it?"], "Request(repeat)": ["Hmm."]}
         turns, _ = talk_until_goodbye(robot, answers, 30.0)
     heard = [t.act for t in turns if t.speaker == "usr"]
     questions = [t.act for t in turns if t.act in ("Request(playGame)", "Request(repeat)")]
     assert heard == ["Unknown", "Unknown"]
-    assert len(questions) == 4  # asked, "what?", asked, "hmm", asked twice unanswered
+    assert len(questions) == 4  # asked, chatter, asked, "hmm", asked twice unanswered
     assert turns[-1].act == "Salutation(closing)"
 
 
@@ -373,11 +384,16 @@ def test_new_game_mid_game_stops_this_game_and_starts_another():
         acts = [t.act for t in turns if t.speaker == "sys"]
         assert acts[-2:] == ["Acknowledge(stop)", "Salutation(closing)"]  # let go politely
         assert ended.outcome == "stopped" and any(a.startswith("GameMove") for a in acts)
-        greetings, deadline = 0, time.monotonic() + 10
-        while greetings < 2 and time.monotonic() < deadline:  # then the next game's greeting
+        closed = started = False
+        deadline = time.monotonic() + 10
+        while not started and time.monotonic() < deadline:  # then the next game, asked for
             message = every_act.get(0.5)
-            greetings += message is not None and message.act == "Salutation(greeting)"
-        assert greetings == 2, "no new game after 'new game' mid-game"
+            if message is None:
+                continue
+            closed = closed or message.act == "Salutation(closing)"
+            started = closed and message.act == "Reply(playGame=yes)"
+            assert not (closed and message.act == "Salutation(greeting)"), "greeted again"
+        assert started, "no new game after 'new game' mid-game"
         assert not robot.finished
 
 
@@ -418,12 +434,13 @@ def test_a_no_before_the_robot_asks_is_taken_as_the_answer_once_it_has_asked(ear
 def test_new_game_after_the_goodbye_starts_another():
     with Robot(FAST, seed=13) as robot:
         talk_until_goodbye(robot, {"Request(playGame)": ["No thanks."] * 3})
-        greetings = robot.bus.subscribe(DialogueAct)
+        acts = robot.bus.subscribe(DialogueAct)
         robot.say("new game")
         deadline = time.monotonic() + 10
-        while time.monotonic() < deadline:
-            message = greetings.get(0.5)
-            if message is not None and message.act == "Salutation(greeting)":
+        while time.monotonic() < deadline:  # asked for: a game at once, no greeting again
+            message = acts.get(0.5)
+            assert message is None or message.act != "Salutation(greeting)", "greeted again"
+            if message is not None and message.act == "Reply(playGame=yes)":
                 break
         else:
             raise AssertionError("no new game after 'new game'")

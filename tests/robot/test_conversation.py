@@ -1,0 +1,168 @@
+"""A conversation, not a form: questions asked in passing are answered in any state, the robot
+offers another game after one, and plays it without greeting or introducing itself again."""
+
+import time
+
+import pytest
+
+from oxbot.dialogue.domain import (
+    ANSWER,
+    CLOSING,
+    GREETING,
+    INTRODUCTION,
+    INVITATION,
+    LETS_PLAY,
+    MOVE_REQUEST,
+    OFFER_ANOTHER,
+    is_feedback,
+)
+from oxbot.dialogue.wellformed import check_dialogue
+from oxbot.game.board import EMPTY
+from tests.robot.helpers import ManagerAtHand
+
+
+def acts(hand: ManagerAtHand, speaker: str = "sys") -> list[str]:
+    return [t["act"] for t in hand.manager.transcript if t["speaker"] == speaker]
+
+
+def agree(hand: ManagerAtHand) -> None:
+    """From the greeting to the game: the person keeps quiet until asked, then says yes."""
+    while hand.last_act != INVITATION:
+        hand.wait()
+    hand.say("yes let's play")
+
+
+def play_out(hand: ManagerAtHand) -> None:
+    """The person draws in the first empty cell each time they are asked, to the end."""
+    while not any(is_feedback(a) for a in acts(hand)):
+        assert hand.last_act in (MOVE_REQUEST, LETS_PLAY) or hand.last_act.startswith("GameMove")
+        if hand.last_act == MOVE_REQUEST:
+            hand.draw(hand.manager.board.index(EMPTY))
+        else:
+            hand.wait()
+
+
+def to_the_offer(seed: int, robot_starts: bool = True) -> ManagerAtHand:
+    """A game agreed to and played out, the feedback unanswered: the robot offers another."""
+    hand = ManagerAtHand(robot_starts=robot_starts, seed=seed)
+    agree(hand)
+    play_out(hand)
+    hand.wait()
+    assert acts(hand)[-1] == OFFER_ANOTHER and hand.said[-1].endswith("?")
+    return hand
+
+
+def test_the_name_who_starts_and_say_that_again_are_answered_and_the_robot_waits_on():
+    hand = ManagerAtHand(robot_starts=False, seed=3)
+    assert hand.last_act == GREETING
+    hand.say("what's your name?")
+    assert hand.said[-1] in ("I am oxbot.", "My name is oxbot.", hand.said[0].split("!")[0])
+    assert acts(hand)[-1] == ANSWER and "oxbot" in hand.said[-1]
+    assert hand.last_act == GREETING  # the policy's state did not move
+    while hand.last_act != INVITATION:
+        hand.wait()
+    asked = hand.said[-1]
+    hand.say("who starts?")
+    # answered, and no consent: the robot still waits for the answer to its question
+    assert hand.said[-1] == "You start this time: you draw circles, and I draw crosses."
+    assert hand.last_act == INVITATION
+    hand.say("can you repeat that")
+    assert hand.said[-1] == hand.said[-2]  # the answer it just gave, again
+    hand.say("yes")
+    assert hand.last_act == LETS_PLAY
+    hand.wait()
+    assert hand.last_act == MOVE_REQUEST
+    hand.say("whose turn is it")
+    assert hand.said[-1] == "It's your turn: please draw a circle."
+    hand.say("pardon?")
+    assert hand.said[-1] == hand.said[-2]
+    assert asked in hand.said
+    # the transcript shows each question as the person's, each answer as the robot's
+    person = acts(hand, "usr")
+    assert {"Request(name)", "Request(whoStarts)", "Request(sayAgain)"} <= set(person)
+
+
+def test_after_a_game_another_is_offered_and_a_yes_plays_it_on_a_clean_board_without_greetings():
+    hand = to_the_offer(seed=5, robot_starts=False)
+    assert not hand.done
+    first, outcome = list(hand.manager.transcript), hand.manager.state.outcome
+    offered = len(hand.said)
+    hand.say("yes please")
+    # the first dialogue ends with the yes, well formed without a goodbye
+    yes = {"speaker": "usr", "act": "Confirm(playGame=yes)", "text": "yes please"}
+    assert check_dialogue([*first, yes], outcome) is None
+    assert check_dialogue(first, outcome) == "does not close with a goodbye"
+    # a new dialogue on a clean board, which goes on from "let's play": nothing said again
+    assert hand.manager.board.count(EMPTY) == 9 and hand.last_act == LETS_PLAY
+    hand.wait()
+    assert acts(hand) == [GREETING, INTRODUCTION, INVITATION, LETS_PLAY, MOVE_REQUEST]
+    assert len(hand.said) == offered + 2  # "Nice, let's play." and "Your turn."
+    assert CLOSING not in [t["act"] for t in first]
+    play_out(hand)  # and it is played out
+    assert any(is_feedback(a) for a in acts(hand))
+
+
+@pytest.mark.parametrize("answer", ["no thanks", "bye"])
+def test_a_no_to_another_game_gets_the_goodbye(answer):
+    hand = to_the_offer(seed=7)
+    hand.say(answer)
+    assert hand.last_act == CLOSING and hand.done
+    transcript = hand.manager.transcript
+    assert check_dialogue(transcript, hand.manager.state.ending) is None, transcript
+
+
+def test_silence_to_the_offer_gets_the_goodbye_and_a_button_game_asks_without_greeting():
+    from oxbot.robot.messages import NewGame
+
+    hand = to_the_offer(seed=11)
+    hand.wait()
+    assert hand.last_act == CLOSING and hand.done
+    assert check_dialogue(hand.manager.transcript, hand.manager.state.ending) is None
+    before = len(hand.said)
+    hand.manager.handle(NewGame(robot_starts=True))  # the page's New game button
+    hand._settle()
+    assert acts(hand)[:3] == [GREETING, INTRODUCTION, INVITATION]
+    assert hand.said[before:] == [hand.said[-1]] and hand.said[-1].endswith("?")
+
+
+def test_after_a_greeting_the_robot_pauses_then_goes_on_unless_the_person_begins_to_answer():
+    from oxbot.robot.messages import PersonAnswering
+
+    pause = ("robot.pause_timeout=0.05", "robot.answer_timeout=30")
+    quiet = ManagerAtHand(seed=2, settings=pause)
+    assert quiet.last_act == GREETING
+    time.sleep(0.1)
+    quiet.wait()
+    assert quiet.last_act == INTRODUCTION  # on after the pause, not 30 s later
+
+    answering = ManagerAtHand(seed=2, settings=pause)
+    answering.manager.handle(PersonAnswering(how="typing"))
+    time.sleep(0.1)
+    answering.wait()
+    assert answering.last_act == GREETING  # it waits for the answer under way
+    answering.say("hello")
+    assert answering.last_act == INTRODUCTION
+    assert acts(answering, "usr") == [GREETING]
+
+
+def test_after_the_goodbye_a_late_yes_plays_again_and_other_words_get_a_reply():
+    hand = to_the_offer(seed=13)
+    hand.wait()  # too slow: the goodbye
+    assert hand.last_act == CLOSING and hand.done
+    hand.say("what time is it")
+    assert hand.said[-1] == 'That game is over. Say "one more game" to play again.'
+    said = len(hand.said)
+    hand.say("bye")  # a goodbye to the goodbye needs no answer
+    assert len(hand.said) == said
+    hand.say("yes please")  # the late yes to the offer
+    assert not hand.done and hand.last_act == LETS_PLAY
+    assert acts(hand) == [GREETING, INTRODUCTION, INVITATION, LETS_PLAY]
+
+
+@pytest.mark.parametrize("late", ["Well played.", "Good game.", "Thanks for the game."])
+def test_the_outcome_acknowledged_late_is_no_yes_to_another_game(late):
+    hand = to_the_offer(seed=17)
+    hand.say(late)  # meant for "I won", heard once the robot asks about another game
+    assert acts(hand)[-1] == OFFER_ANOTHER and not hand.done  # asked once more
+    hand.say("no thanks")
+    assert hand.last_act == CLOSING and hand.done
