@@ -62,12 +62,13 @@ def _static(name: str) -> bytes:
 
 
 def condition_config(config: OxbotConfig, condition: dict[str, str]) -> OxbotConfig:
-    """`config` with a condition's manager and starter."""
+    """`config` with a condition's manager and starter; the robot offers no other game (the
+    study sets how many each participant plays)."""
     return with_overrides(
         config,
         {
             "game": {"robot_starts": condition["starter"] == "robot"},
-            "robot": {"manager": condition["manager"]},
+            "robot": {"manager": condition["manager"], "offer_another_game": False},
         },
     )
 

@@ -113,27 +113,38 @@ def room_script(wav: bytes, open_ms: int = 0) -> str:
 
 CONVERSATION = """
 (() => {
-  const room = { ctx: null, dest: null, said: [], playing: 0 };
+  const room = { ctx: null, input: null, streams: new WeakSet(), track: null };
+  room.said = []; room.playing = 0;
   window.__room = room;
-  async function ready() {
-    if (room.ctx) return;
-    room.ctx = new AudioContext();
-    room.dest = room.ctx.createMediaStreamDestination();
-  }
   room.say = async (b64) => {
-    await ready();
+    if (!room.ctx) return;   // no microphone is open: nobody hears the person
+    const ctx = room.ctx, input = room.input;
     const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0)).buffer;
-    const buffer = await room.ctx.decodeAudioData(bytes);
-    const src = room.ctx.createBufferSource();
-    src.buffer = buffer; src.connect(room.dest);
+    const buffer = await ctx.decodeAudioData(bytes);
+    const src = ctx.createBufferSource();
+    src.buffer = buffer; src.connect(input);
     room.playing += 1; src.onended = () => { room.playing -= 1; };
     src.start(); room.said.push(performance.now());
   };
   const real = navigator.mediaDevices.getUserMedia.bind(navigator.mediaDevices);
   navigator.mediaDevices.getUserMedia = async (constraints) => {
     if (!constraints || !constraints.audio) return real(constraints);
-    await ready();
-    return new MediaStream([room.dest.stream.getAudioTracks()[0].clone()]);
+    if (!room.track) room.track = new AudioContext().createMediaStreamDestination().stream
+      .getAudioTracks()[0];
+    const stream = new MediaStream([room.track.clone()]);
+    room.streams.add(stream);
+    return stream;
+  };
+  // The room is heard in the graph of the context that opens the microphone, not carried from
+  // a second context over a MediaStream: two contexts keep their own clocks, and under load
+  // the stream between them can drop or pad samples for the rest of the page's life.
+  const open = AudioContext.prototype.createMediaStreamSource;
+  AudioContext.prototype.createMediaStreamSource = function (stream) {
+    if (!room.streams.has(stream)) return open.call(this, stream);
+    const input = this.createGain(), hum = this.createConstantSource();
+    hum.offset.value = 0; hum.connect(input); hum.start();   // a live microphone never stops
+    room.ctx = this; room.input = input;
+    return input;
   };
 })();
 """
@@ -142,8 +153,9 @@ CONVERSATION = """
 def conversation_script() -> str:
     """A page init script (Playwright's `add_init_script`) that stands in for a person in a
     room and the microphone that hears it: `window.__room.say(base64 WAV)` makes the person
-    say a WAV now, and the page's getUserMedia hears the room (an AudioContext's
-    MediaStreamAudioDestinationNode), whether it listens hands-free or by push-to-talk."""
+    say a WAV now into the open microphone, whether the page listens hands-free or by
+    push-to-talk. The page opens it with getUserMedia and hears it through its own
+    AudioContext's `createMediaStreamSource`, which plays the room in that context."""
     return CONVERSATION
 
 

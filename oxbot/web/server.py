@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import hmac
 import ipaddress
 import json
 import logging
@@ -30,7 +31,7 @@ from oxbot.web.inbound import decode_image, decode_pcm, pcm_to_wav, stream_piece
 from oxbot.web.memory import give_memory_back, share_malloc_arenas
 from oxbot.web.recording import RecordingSetup
 from oxbot.web.recording import add_routes as add_recording_routes
-from oxbot.web.session import RobotLike, Session, error_text, hello, run_session
+from oxbot.web.session import Attachment, RobotLike, Session, error_text, hello, run_session
 from oxbot.web.tls import Certificate
 
 log = logging.getLogger(__name__)
@@ -96,6 +97,12 @@ def create_app(
             target=_warm_up, args=(ready, config), name="oxbot-web-warm-up", daemon=True
         ).start()
         yield
+        # games kept for a page to come back to stop with the server
+        kept = [s for s in app.state.sessions.values() if s.attachment is None]
+        for session in kept:
+            if session.expiry is not None:
+                session.expiry.cancel()
+        await asyncio.gather(*(_stop(app, session) for session in kept))
 
     app = FastAPI(title="oxbot", docs_url=None, redoc_url=None, openapi_url=None, lifespan=lifespan)
     sessions: dict[int, Session] = {}
@@ -160,75 +167,224 @@ async def game_socket(
 async def _game_session(
     websocket: WebSocket, app: FastAPI, make_robot: Callable[[], RobotLike], ready: threading.Event
 ) -> None:
-    """One tab's game, from the socket's opening to its closing."""
+    """One tab's game, from the socket's opening to its closing; or, for a socket with a resume
+    token (`/ws?resume=TOKEN`), the game it was given before the page reloaded, taken back."""
     slots: Slots = app.state.slots
     # both decided before the first await, so that a burst of connections cannot all pass
     refusal = app.state.origins.refusal(websocket)
-    admitted = refusal is None and slots.take()
+    token = websocket.query_params.get("resume", "") if refusal is None else ""
+    kept = _kept_session(app, token, websocket.url.path) if token else None
+    admitted = refusal is None and kept is None and slots.take()  # a kept game has its slot
     try:
         await websocket.accept()
         if refusal is not None:
             log.warning("refused a game socket: %s", refusal)
             await _close(websocket, 1008, refusal)
             return
+        if kept is not None:
+            if await _resume(websocket, app, kept):
+                return
+            admitted = slots.take()  # it ended while its last socket let go: a new game
+        if token:
+            log.info("a game socket's resume token matched no game kept; a new game")
+            seconds = app.state.limits.resume_seconds
+            await websocket.send_text(
+                error_text(RESUME_FAILED.format(seconds=seconds), "resume", "resume_failed")
+            )
         if not admitted:
             busy = f"the server is busy ({slots.limit} games, web.max_sessions); try again later"
             await websocket.send_text(error_text(busy))
             await _close(websocket, 1013, busy)
             return
+        admitted = False  # the slot is the session's now: given back when its robot stops
         await _serve_session(websocket, app, make_robot, ready)
     except CLIENT_GONE as exc:
         log.debug("a tab went away while its session opened or closed: %r", exc)
     finally:
         if admitted:
-            slots.give_back()
-            if slots.taken == 0:  # every robot stopped, not only unregistered
-                await asyncio.to_thread(give_memory_back)
+            await _give_back(app)
 
 
 async def _serve_session(
     websocket: WebSocket, app: FastAPI, make_robot: Callable[[], RobotLike], ready: threading.Event
 ) -> None:
-    """An admitted tab's game: its robot made, run and stopped."""
+    """An admitted tab's game: its robot made and run, holding the slot taken for it."""
     sessions: dict[int, Session] = app.state.sessions
     limits: WebConfig = app.state.limits
-    if not ready.is_set():
-        await websocket.send_text(
-            json.dumps({"type": "Status", "data": {"message": "The robot is waking up…"}})
-        )
-        await asyncio.to_thread(ready.wait)
-    async with app.state.starting:
-        try:
-            robot = await asyncio.to_thread(make_robot)
-        except Exception as exc:  # the robot cannot be built: say why, to this tab only
-            log.exception("cannot create a robot")
-            await websocket.send_text(error_text(f"the robot cannot start: {exc}"))
-            await _close(websocket, 1011, "the robot cannot start")
-            return
-        session = Session(robot, limits, app.state.listening)
-        session.recording_refusal = app.state.recording.unavailable
-        sessions[session.id] = session
-        if websocket.query_params.get("record") == "1":  # the page's record toggle was on
-            if session.recording_refusal:
-                await websocket.send_text(error_text(session.recording_refusal))
-            else:
-                robot.bus.publish(RecordingSwitch(on=True))
-        log.info("session %d opened (%d running)", session.id, len(sessions))
+    session = None
     try:
+        if not ready.is_set():
+            await websocket.send_text(
+                json.dumps({"type": "Status", "data": {"message": "The robot is waking up…"}})
+            )
+            await asyncio.to_thread(ready.wait)
         async with app.state.starting:
-            # the robot starts first (its greeting waits in the outbox), so that a frame
-            # sent on Hello is never forgotten by the robot's first NewGame
-            await asyncio.to_thread(session.start)
-        await websocket.send_text(json.dumps({"type": "Hello", "data": hello(session, app)}))
-        code, reason = await run_session(websocket, session)
+            try:
+                robot = await asyncio.to_thread(make_robot)
+            except Exception as exc:  # the robot cannot be built: say why, to this tab only
+                log.exception("cannot create a robot")
+                await websocket.send_text(error_text(f"the robot cannot start: {exc}"))
+                await _close(websocket, 1011, "the robot cannot start")
+                return
+            session = Session(robot, limits, app.state.listening)
+            session.recording_refusal = app.state.recording.unavailable
+            session.route = websocket.url.path
+            sessions[session.id] = session
+            log.info("session %d opened (%d running)", session.id, len(sessions))
+    finally:
+        if session is None:
+            await _give_back(app)
+    assert session.attachment is not None  # a new session is its first socket's
+    await _play(websocket, app, session, session.attachment)
+
+
+async def _play(
+    websocket: WebSocket,
+    app: FastAPI,
+    session: Session,
+    attachment: Attachment,
+    resumed: str | None = None,
+) -> None:
+    """`session`'s game on `websocket` (`resumed`: the Resumed message of a game taken back, or
+    None for a new one, whose robot starts here) until the tab goes, the session ends or a
+    newer socket takes it over. Then the game is kept for the page to come back (the tab went
+    away mid-game without meaning to end it: a reload), left to the newer socket, or stopped."""
+    greeted = resumed is not None  # a page never greeted has no token to come back with
+    try:
+        if resumed is None:
+            if websocket.query_params.get("record") == "1":  # the page's record toggle was on
+                if session.recording_refusal:
+                    await websocket.send_text(error_text(session.recording_refusal))
+                else:
+                    session.robot.bus.publish(RecordingSwitch(on=True))
+            async with app.state.starting:
+                # the robot starts first (its greeting waits in the outbox), so that a frame
+                # sent on Hello is never forgotten by the robot's first NewGame
+                await asyncio.to_thread(session.start)
+        data = hello(session, app, resumed=resumed is not None)
+        await websocket.send_text(json.dumps({"type": "Hello", "data": data}))
+        greeted = True
+        if resumed is not None:  # the page rebuilds the game from it; live messages follow
+            await websocket.send_text(resumed)
+        code, reason = await run_session(websocket, session, attachment)
         if code:
             log.info("session %d: %s", session.id, reason)
             await _close(websocket, code, reason)
+        elif attachment.taken_over.is_set():
+            log.info("session %d: taken over by a newer socket", session.id)
+            await _close(websocket, TAKEN_OVER_CODE, TAKEN_OVER)
     finally:
-        sessions.pop(session.id, None)
+        try:
+            session.detach(attachment)
+            if attachment.taken_over.is_set() and _resumable(session):
+                pass  # the newer socket has the game
+            elif greeted and _keeps(session, attachment):
+                _keep(app, session, attachment.close_code)
+            else:
+                await _stop(app, session)
+        finally:
+            attachment.gone.set()
+
+
+async def _resume(websocket: WebSocket, app: FastAPI, session: Session) -> bool:
+    """Take back `session`, kept since its page went away, for this socket; False if it ended
+    meanwhile. The newest socket wins: one still attached (a reloaded page's, not closed yet,
+    or a duplicated tab's) is closed with TAKEN_OVER, and the robot goes on."""
+    while session.attachment is not None and _resumable(session):
+        old = session.attachment
+        old.taken_over.set()
+        await old.gone.wait()
+    if not _resumable(session):
+        return False
+    if session.expiry is not None:
+        session.expiry.cancel()
+        session.expiry = None
+    attachment, resumed = session.attach()
+    log.info("session %d: its page came back", session.id)
+    await _play(websocket, app, session, attachment, resumed)
+    return True
+
+
+def _kept_session(app: FastAPI, token: str, route: str) -> Session | None:
+    """The session opened on `route` whose resume token is `token`, if it can be taken back."""
+    if app.state.limits.resume_seconds <= 0 or len(token) > MAX_TOKEN_CHARS:
+        return None
+    wanted, found = token.encode(errors="replace"), None
+    for session in list(app.state.sessions.values()):
+        # every token compared in constant time: no answer tells how close a guess came
+        same = hmac.compare_digest(session.token.encode(), wanted)
+        if same and session.route == route and _resumable(session):
+            found = session
+    return found
+
+
+def _resumable(session: Session) -> bool:
+    return not session.stopping and session.end_reason is None
+
+
+def _keeps(session: Session, attachment: Attachment) -> bool:
+    """Whether `session`, whose socket has gone, waits for its page to come back: its game is
+    under way, and the tab did not close the socket meaning to end it (1000, a client that is
+    done: a reload or a closed tab says 1001, a lost connection gives no close frame)."""
+    return (
+        session.limits.resume_seconds > 0
+        and _resumable(session)
+        and attachment.close_code != 1000
+        and not session.robot.finished
+    )
+
+
+def _keep(app: FastAPI, session: Session, close_code: int | None) -> None:
+    """Keep `session`'s robot running, and its slot, for `resume_seconds`; then stop it."""
+    seconds = session.limits.resume_seconds
+
+    async def expire() -> None:
+        await asyncio.sleep(seconds)
+        if session.attachment is None:
+            log.info(
+                "session %d: no page came back in %g s (web.resume_seconds)", session.id, seconds
+            )
+            await _stop(app, session)
+
+    log.info(
+        "session %d: its tab went away mid-game (close code %s); kept %g s for a reload",
+        session.id,
+        close_code,
+        seconds,
+    )
+    session.expiry = asyncio.create_task(expire())
+
+
+async def _stop(app: FastAPI, session: Session) -> None:
+    """Stop `session`'s robot (once) and give its slot back."""
+    if session.stopping:
+        return
+    session.stopping = True  # before any await: no socket takes it back from now on
+    sessions: dict[int, Session] = app.state.sessions
+    sessions.pop(session.id, None)
+    try:
         # stops the robot's threads (run in a worker: it joins them)
         await asyncio.to_thread(session.close)
+    finally:
         log.info("session %d closed (%d running)", session.id, len(sessions))
+        await _give_back(app)
+
+
+async def _give_back(app: FastAPI) -> None:
+    slots: Slots = app.state.slots
+    slots.give_back()
+    if slots.taken == 0:  # every robot stopped, not only unregistered
+        await asyncio.to_thread(give_memory_back)
+
+
+RESUME_FAILED = (
+    "the game before the reload could not be brought back: it had ended, or its page was away "
+    "longer than {seconds:g} s (web.resume_seconds); a new game starts"
+)
+TAKEN_OVER_CODE = 4000
+TAKEN_OVER = "this game went on in a newer page with its token (this tab reloaded, or a copy of it)"
+MAX_TOKEN_CHARS = 100
+"""Longer resume tokens are no token of ours (they are 32 characters)."""
 
 
 REMOTE_RECORDING = (

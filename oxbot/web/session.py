@@ -19,6 +19,9 @@ client → server (JSON text messages)::
                                                                piece (at most 1 s; the page
                                                                sends 0.1 s)
     {"type": "listen_off"}                                     hands-free ends or pauses
+    {"type": "answering", "how": "typing"}                     the person began to answer
+                                                               (a key in the answer box,
+                                                               push-to-talk: "speaking")
     {"type": "new_game", "image": "data:..."}                  a fresh sheet and game
     {"type": "record", "on": true}                             keep the game, to learn from;
                                                                /ws?record=1 from the start
@@ -34,11 +37,34 @@ SpeakingFinished) the stream is not listened to, and `listen_off` drops an utter
 way. `listen` pieces after the robot's goodbye are checked, then dropped without an Error (a
 stream cannot stop at the goodbye's instant).
 
-server → client: {"type": "Hello", "data": {...}} first (the session's symbols, the cell
-names and the system acts), then every bus message, and {"type": "Error", "data": {"message",
-"about", "code"}} for anything the server refused (`code` is "game_over" for a drawing
-after the robot's goodbye, else empty). A bad message never closes the socket and never
-reaches another session. The limits are `[web]` in the config (`oxbot config`).
+server → client: {"type": "Hello", "data": {...}} first (the session's symbols, the cell names
+and the system acts, its `resume_token`), then every bus message, and {"type": "Error", "data":
+{"message", "about", "code"}} for anything the server refused (`code` is "game_over" for a
+drawing after the robot's goodbye, "resume_failed" for a resume token that brings no game
+back, else empty). A bad message never closes the socket and never reaches another session.
+The limits are `[web]` in the config (`oxbot config`).
+
+A reload mid-game: the page keeps the Hello's `resume_token` (per tab) and, once reloaded,
+opens `/ws?resume=TOKEN` (on the same route, with the same Origin and Host checks). When a
+socket closes while its dialogue is under way, unless the tab closed it meaning to end (code
+1000), the server keeps its robot running, and its slot, for `resume_seconds`; then stops it
+as before. A socket with the token in that time takes the game back and gets a Hello with
+`"resumed": true`, then::
+
+    {"type": "Resumed", "data": {"sheet": "data:image/png;base64,..." or "", "paper": false,
+     "recording": false, "said": "...", "speaking": false, "messages": [...]}}
+
+`sheet` is the last canvas the tab sent (the robot's ink is not in it), `paper` and
+`recording` the sheet mode and record switch as they are (a resumed game keeps them; `record=1`
+is ignored), `said` the robot's last sentence and `speaking` whether it is still saying it, and
+`messages` the game so far as the tab first received them: every DialogueAct, GameMove,
+ArmStroke and DialogueEnded since the game began, then the last GameState, BoardSeen, Decision
+and HeadMove. Nothing is queued while no socket is there: the replay holds it, and live
+messages follow the Resumed. Speech audio is not replayed. A token is good for one socket at a
+time: a newer socket with it takes the game over, and the older is closed with 4000 and a
+reason (a reload's first socket may still be open; a duplicated tab takes the game from the
+first). An unknown token, or one whose game ended or waited too long, gets the
+"resume_failed" Error and a new game, as a socket without one.
 
 What closes a socket, with a close code and a reason the tab can show:
 
@@ -47,10 +73,13 @@ What closes a socket, with a close code and a reason the tab can show:
 - 1008 a page from another origin, or a Host that is not this server's (DNS rebinding):
   see `Origins` (oxbot.web.admission) and `allowed_origins`; a tab sending more than
   `max_messages_per_second`; a tab that has not read `max_outbox_bytes` of messages;
-- 1001 a tab quiet for `idle_timeout` seconds, or a session older than `max_session_seconds`.
+- 1001 a tab quiet for `idle_timeout` seconds, or a session older than `max_session_seconds`
+  (counted from its first socket: a resumed game gets no more time);
+- 4000 a newer socket took the game over with its resume token.
 
 A message's size and JSON depth are checked before it is parsed, and errors quote at most an
-excerpt of it. Closing a session stops its robot's threads.
+excerpt of it. Closing a session stops its robot's threads (after `resume_seconds`, when its
+tab went away mid-game).
 """
 
 from __future__ import annotations
@@ -60,8 +89,10 @@ import contextlib
 import itertools
 import json
 import logging
+import secrets
 import threading
 import time
+from collections import deque
 from typing import Any, Protocol
 
 import numpy as np
@@ -71,10 +102,24 @@ from oxbot.config import ListeningConfig, WebConfig
 from oxbot.errors import InvalidInputError, OxbotError
 from oxbot.robot.listening import HandsFreeListener
 from oxbot.robot.messages import (
+    ArmStroke,
+    BoardSeen,
     ComponentJoined,
+    Decision,
+    DialogueAct,
+    DialogueEnded,
     Frame,
+    GameMove,
+    GameState,
+    HeadMove,
+    Message,
+    NewGame,
+    PersonAnswering,
     PersonFrame,
     RecordingSwitch,
+    SheetMode,
+    SpeakingFinished,
+    SpeakingStarted,
     SpeechAudio,
     to_json,
 )
@@ -107,9 +152,62 @@ class RobotLike(Protocol):
     def new_game(self) -> Any: ...
 
 
+class Attachment:
+    """One socket's hold on a session: the session's messages go to it until its tab goes away
+    or a newer socket with the session's resume token takes the game over."""
+
+    def __init__(self) -> None:
+        self.taken_over = asyncio.Event()
+        """Set when a newer socket takes the game: this one is closed, the robot goes on."""
+        self.gone = asyncio.Event()
+        """Set once this socket's handler is done with the session (kept, stopped or handed on)."""
+        self.close_code: int | None = None
+        """The tab's close code, once it closed (1000: it meant to end; 1001: a reload...)."""
+
+
+class Replay:
+    """What a page needs to show the current game again after a reload: every turn, move, arm
+    stroke and goodbye since the game began, in order, then the latest reading of the sheet,
+    board, decision and gaze, and the robot's last sentence (its text, not its audio)."""
+
+    KEPT = (DialogueAct, GameMove, ArmStroke, DialogueEnded)
+    LATEST = (GameState, BoardSeen, Decision, HeadMove)
+
+    def __init__(self) -> None:
+        self.kept: deque[str] = deque(maxlen=MAX_REPLAYED)
+        self.latest: dict[str, str] = {}
+        self.said = ""
+        self.speaking = False
+
+    def note(self, message: Message, text: str) -> None:
+        """Keep `message` (sent as `text`) if a page needs it; a new game starts afresh."""
+        if isinstance(message, NewGame):
+            self.kept.clear()
+            self.latest.clear()
+        elif isinstance(message, self.KEPT):
+            self.kept.append(text)
+        elif isinstance(message, self.LATEST):
+            self.latest[type(message).__name__] = text
+        elif isinstance(message, SpeakingStarted):
+            self.said, self.speaking = message.text, True
+        elif isinstance(message, SpeakingFinished):
+            self.speaking = False
+
+    def messages(self) -> list[str]:
+        return [*self.kept, *self.latest.values()]
+
+
+MAX_REPLAYED = 2000
+"""The most turns, moves and strokes kept to replay (a game has a few dozen)."""
+
+
 class Session:
     """One tab's game: its robot, the bridge from the robot's bus to the socket, and the
-    handling of what the tab sends."""
+    handling of what the tab sends.
+
+    A session outlives its socket when the page reloads mid-game: the server keeps it for
+    `resume_seconds` (detached: nothing is queued, the `Replay` keeps what the page needs),
+    and a socket that brings its `token` takes it back (`attach`)."""
 
     ids = itertools.count(1)
 
@@ -117,6 +215,9 @@ class Session:
         self, robot: RobotLike, limits: WebConfig, listening: ListeningConfig | None = None
     ) -> None:
         self.id = next(self.ids)
+        self.token = secrets.token_urlsafe(24)
+        """The page's key to this game after a reload: unguessable, shown only to its tab."""
+        self.started_at = time.monotonic()  # max_session_seconds counts from here, not a socket
         self.robot = robot
         self.limits = limits
         self.listening = listening if listening is not None else ListeningConfig()
@@ -136,6 +237,17 @@ class Session:
         """The last sheet the tab sent, shown again to eyes that rejoin (a respawned process)."""
         self.recording_refusal = ""
         """Why the record toggle is refused (games cannot be kept here), or "" if it is not."""
+        self.attachment: Attachment | None = Attachment()
+        """The socket's hold on the session; None while the tab is away (a reload)."""
+        self.replay = Replay()
+        self.sheet_url: str | None = None
+        """The last canvas the tab sent, as it sent it: a reloaded page draws it again."""
+        self.paper = False  # the sheet is real paper under the camera
+        self.recording = False  # the robot keeps this game (its last RecordingSwitch)
+        self.stopping = False  # its robot is being stopped: no socket may take it any more
+        self.route = ""  # the socket path it was opened on: a token takes it back there only
+        self.expiry: asyncio.Task | None = None  # stops it if no tab comes back in time
+        self.stream_cut = False  # a hands-free stream ended with its socket, unannounced
 
     def start(self) -> None:
         self._bridge.start()
@@ -175,12 +287,49 @@ class Session:
                 log.warning("session %d: cannot send a %s: %s", self.id, type(message), exc)
                 continue
             with contextlib.suppress(RuntimeError):  # the loop closed: the server is stopping
-                self._loop.call_soon_threadsafe(self.deliver, text)
+                self._loop.call_soon_threadsafe(self._publish, message, text)
+
+    def _publish(self, message: Message, text: str) -> None:
+        """One bus message for the tab, kept to replay if a page needs it. On the event loop,
+        as `attach` is, so that a replay and the messages after it never overlap."""
+        self.replay.note(message, text)
+        if isinstance(message, RecordingSwitch):
+            self.recording = message.on
+        elif isinstance(message, SheetMode):
+            self.paper = message.paper
+        elif isinstance(message, NewGame):
+            self.sheet_url = None  # the page sends its fresh sheet when the NewGame reaches it
+        self.deliver(text)
+
+    def attach(self) -> tuple[Attachment, str]:
+        """A new socket takes the session (the last one has gone): its hold, and the Resumed
+        message that shows the page the game as it is. Call it on the event loop."""
+        self.attachment = Attachment()
+        # what waited for the last socket is in the replay
+        self.outbox, self.outbox_bytes = asyncio.Queue(), 0
+        data = {
+            "sheet": self.sheet_url or "",
+            "paper": self.paper,
+            "recording": self.recording,
+            "said": self.replay.said,
+            "speaking": self.replay.speaking,
+        }
+        head = json.dumps({"type": "Resumed", "data": data})
+        # the replayed messages are JSON already, each as the page first received it
+        return self.attachment, f'{head[:-2]}, "messages": [{",".join(self.replay.messages())}]}}}}'
+
+    def detach(self, attachment: Attachment) -> None:
+        """`attachment`'s socket has gone: the tab's messages wait in the replay, not the outbox."""
+        if self.attachment is attachment:
+            self.attachment = None
+            self.outbox, self.outbox_bytes = asyncio.Queue(), 0
+            # the old page's stream stopped mid-utterance, maybe: the next page's starts afresh
+            self.stream_cut = True
 
     def deliver(self, text: str) -> None:
         """Queue `text` for the tab; a tab that has not read `max_outbox_bytes` of them ends
         its session, so that they never pile up in memory. Call it on the event loop."""
-        if self.end_reason is not None:
+        if self.end_reason is not None or self.attachment is None:
             return
         # one message alone always fits: the limit is on what piles up behind it
         if self.outbox_bytes and self.outbox_bytes + len(text) > self.limits.max_outbox_bytes:
@@ -231,6 +380,8 @@ class Session:
 
     def _on_frame(self, message: dict) -> None:
         self.sheet = decode_image(message.get("image"), self.limits)
+        if not self.paper:  # a camera's picture of paper is no canvas to draw again
+            self.sheet_url = message["image"]
         self.robot.show(self.sheet)
 
     def _on_look(self, message: dict) -> None:
@@ -256,13 +407,24 @@ class Session:
         if self.robot.finished:  # the goodbye: nothing more to hear until a new game
             self.listener.stop_listening()
             return
+        if self.stream_cut:  # in the feeder's thread, as every listen and listen_off
+            self.stream_cut = False
+            self.listener.stop_listening()
         self.listener.feed(samples)
 
     def _on_paper(self, message: dict) -> None:
         on = message.get("on")
         if not isinstance(on, bool):
             raise InvalidInputError("'on' must be true (real paper) or false (the canvas)")
+        self.paper = on
         self.robot.paper(on)
+
+    def _on_answering(self, message: dict) -> None:
+        """The person began to answer: the robot waits for it rather than going on."""
+        how = message.get("how")
+        if how not in ("typing", "speaking"):
+            raise InvalidInputError('\'how\' must be "typing" or "speaking"')
+        self.robot.bus.publish(PersonAnswering(how=how))
 
     def _on_listen_off(self, message: dict) -> None:
         if self.listener is not None:
@@ -282,6 +444,7 @@ class Session:
         frame = decode_image(image, self.limits) if image is not None else None
         self.robot.new_game()  # forgets the old sheet
         self.sheet = frame
+        self.sheet_url = image if frame is not None and not self.paper else None
         if frame is not None:
             # the fresh sheet; should the robot forget it too (it handles NewGame in its own
             # thread), the page sends it again when the NewGame message comes back
@@ -301,6 +464,7 @@ CLIENT_TYPES = (
     "talk",
     "listen",
     "listen_off",
+    "answering",
     "new_game",
     "paper",
     "record",
@@ -318,9 +482,10 @@ MAX_ERROR_CHARS = 400
 """The longest Error message sent to a tab."""
 
 
-def hello(session: Session, app: FastAPI) -> dict:
+def hello(session: Session, app: FastAPI, resumed: bool = False) -> dict:
     """The Hello message's data for `session`: its symbols, the cell names, the system acts, and
-    the settings the page needs (from `app.state`, set by oxbot.web.server.create_app)."""
+    the settings the page needs (from `app.state`, set by oxbot.web.server.create_app); its
+    resume token ("" when games are not kept for a reload), and whether it is `resumed`."""
     from oxbot.dialogue.domain import GAME_MOVES, MOVE_REQUEST, PROBLEM, SYSTEM_ACTS
     from oxbot.game.board import CELL_NAMES, ROBOT, SIZE, USER, symbol_of
 
@@ -342,6 +507,9 @@ def hello(session: Session, app: FastAPI) -> dict:
         "pre_roll_seconds": session.listening.pre_roll_seconds,
         "stream_piece_seconds": STREAM_PIECE_SECONDS,
         "tls_fingerprint": app.state.fingerprint,
+        "resume_token": session.token if session.limits.resume_seconds > 0 else "",
+        "resume_seconds": session.limits.resume_seconds,
+        "resumed": resumed,
     }
 
 
@@ -352,9 +520,10 @@ def error_text(message: str, about: str = "", code: str = "") -> str:
 
 async def _send_all(websocket: WebSocket, session: Session) -> None:
     """Outbox → socket, until the session ends."""
+    outbox = session.outbox  # this socket's: another socket that takes the game gets its own
     try:
         while True:
-            text = await session.outbox.get()
+            text = await outbox.get()
             if text is None:
                 return
             session.outbox_bytes -= len(text)
@@ -363,9 +532,11 @@ async def _send_all(websocket: WebSocket, session: Session) -> None:
         log.debug("session %d: sending stopped: %r", session.id, exc)
 
 
-async def _receive_all(websocket: WebSocket, session: Session) -> None:
-    """Socket → robot, until the tab closes, goes quiet or floods. Bad messages get an Error
-    on this socket."""
+async def _receive_all(
+    websocket: WebSocket, session: Session, attachment: Attachment | None = None
+) -> None:
+    """Socket → robot, until the tab closes (its close code noted in `attachment`), goes quiet
+    or floods. Bad messages get an Error on this socket."""
     limits = session.limits
     rate = MessageRate(limits.max_messages_per_second)
     while True:
@@ -378,6 +549,8 @@ async def _receive_all(websocket: WebSocket, session: Session) -> None:
             )
             return
         if event["type"] == "websocket.disconnect":
+            if attachment is not None:
+                attachment.close_code = event.get("code", 1005)
             return
         if not rate.allow():
             session.end(
@@ -418,21 +591,31 @@ async def _receive_all(websocket: WebSocket, session: Session) -> None:
 
 HEAVY_CHARS = 20_000
 """Messages longer than this (a sheet image) are parsed and handled off the event loop."""
+CLOSE_CODE_WAIT = 0.5
+"""Seconds to wait for a closing tab's close code once sending to it failed."""
 
 
-async def run_session(websocket: WebSocket, session: Session) -> tuple[int, str]:
-    """Receive from and send to the tab until either side ends the session; the close code
-    and reason the server ends it with, or (0, "") if the tab went away."""
+async def run_session(
+    websocket: WebSocket, session: Session, attachment: Attachment | None = None
+) -> tuple[int, str]:
+    """Receive from and send to the tab until either side ends the session, or (with an
+    `attachment`) another socket takes it over; the close code and reason the server ends it
+    with, or (0, "") if the tab went away or was taken over."""
     limits = session.limits
-    tasks = {
-        asyncio.create_task(_send_all(websocket, session)),
-        asyncio.create_task(_receive_all(websocket, session)),
-        asyncio.create_task(session.ended.wait()),
-    }
+    sending = asyncio.create_task(_send_all(websocket, session))
+    receiving = asyncio.create_task(_receive_all(websocket, session, attachment))
+    tasks = {sending, receiving, asyncio.create_task(session.ended.wait())}
+    if attachment is not None:
+        tasks.add(asyncio.create_task(attachment.taken_over.wait()))
+    # a resumed session's age counts from its first socket
+    left = limits.max_session_seconds - (time.monotonic() - session.started_at)
     try:
         done, _ = await asyncio.wait(
-            tasks, timeout=limits.max_session_seconds, return_when=asyncio.FIRST_COMPLETED
+            tasks, timeout=max(left, 0), return_when=asyncio.FIRST_COMPLETED
         )
+        if sending in done and receiving not in done and session.end_reason is None:
+            # sending failed as the tab closed: its close code says whether it meant to end
+            await asyncio.wait({receiving}, timeout=CLOSE_CODE_WAIT)
     finally:
         for task in tasks:
             task.cancel()

@@ -113,8 +113,10 @@ def test_a_short_sentence_streams_with_its_timing(voice):
     (sentence,) = list(voice.stream("Mom."))
     assert sentence.rate == 22050 and 0.3 < sentence.seconds < 2.0
     assert read_wav(sentence.wav()).seconds == pytest.approx(sentence.seconds)
-    # the graph's durations account for the audio (but the end symbol's few frames)
-    assert 0 < len(sentence.samples) - sentence.lead - sum(sentence.durations) <= 2048
+    # the graph's durations account for the audio but the end symbol's frames of 256 samples:
+    # their number is drawn (the duration predictor's noise), 1-9 in eight processes here
+    tail = len(sentence.samples) - sentence.lead - sum(sentence.durations)
+    assert 0 < tail <= 20 * 256 and tail % 256 == 0, tail
     names = [name for _, name in sentence.visemes()]
     assert names[:4] == ["rest", "closed", "open", "closed"]  # "mom": lips shut, open, shut
 

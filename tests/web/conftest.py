@@ -11,10 +11,17 @@ from oxbot.config import load_config
 from oxbot.web.server import create_app, serving_in_background
 
 FAST = load_config(
-    None, ["robot.speed_factor=8", "robot.answer_timeout=16", "robot.move_timeout=240"]
+    None,
+    [
+        "robot.speed_factor=8",
+        "robot.answer_timeout=16",
+        "robot.move_timeout=240",
+        "web.resume_seconds=10",
+    ],
 )
 """Speech, arm and waits 8x faster than real time; the robot waits 2 s for an answer and 30 s
-for a drawing, so a slow test machine never loses its turn."""
+for a drawing, so a slow test machine never loses its turn. A tab closed mid-game keeps its
+robot running for 10 s, not a minute, so that the tests after it share the cores with fewer."""
 
 
 @contextmanager

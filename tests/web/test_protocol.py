@@ -207,7 +207,8 @@ def test_after_the_goodbye_drawings_are_refused_and_a_new_game_can_be_asked_for(
     refused, greeting, again = asyncio.run(after_the_end())
     assert "game is over" in refused["message"] and refused["code"] == "game_over"
     assert greeting["type"] == "DialogueAct"
-    assert greeting["data"]["act"] == "Salutation(greeting)"  # "one more game" started one
+    # "one more game" started one, which goes on from the yes: no greeting again
+    assert greeting["data"]["act"] == "Reply(playGame=yes)"
     assert again["type"] == "DialogueAct" and again["data"]["speaker"] == "sys"
 
 
@@ -306,3 +307,30 @@ def test_hands_free_a_spoken_answer_streamed_in_pieces_is_heard(ws_url):
     assert heard["type"] == "DialogueAct", heard
     assert heard["data"]["text"].startswith("yes"), heard
     assert heard["data"]["act"] == "Confirm(playGame=yes)"
+
+
+def test_a_person_who_begins_to_answer_the_greeting_is_waited_for(ws_url):
+    """After its hello the robot pauses (robot.pause_timeout) and goes on to its name; a key
+    in the answer box ("answering") makes it wait for the answer instead."""
+
+    async def opening(answering: bool) -> tuple[float, list[tuple[str, str]]]:
+        async with websockets.connect(ws_url) as ws:
+            act = await next_of(ws, {"DialogueAct"}, 30)
+            assert act["data"]["act"] == "Salutation(greeting)"
+            greeted = time.monotonic()
+            if answering:
+                await ws.send(json.dumps({"type": "answering", "how": "typing"}))
+                await asyncio.sleep(1.0)  # typing "hello" (the pause is 0.1 s here)
+                await ws.send(json.dumps({"type": "say", "text": "hello"}))
+            turns = []
+            while not turns or turns[-1] != ("sys", "Provide(name)"):
+                data = (await next_of(ws, {"DialogueAct"}, 30))["data"]
+                turns.append((data["speaker"], data["act"]))
+            return time.monotonic() - greeted, turns
+
+    quiet, quiet_turns = asyncio.run(opening(False))
+    waited, waited_turns = asyncio.run(opening(True))
+    # quiet: the greeting said, then 0.1 s; before, answer_timeout (16 s / 8) after it
+    assert quiet_turns == [("sys", "Provide(name)")] and quiet < 1.9
+    assert waited_turns == [("usr", "Salutation(greeting)"), ("sys", "Provide(name)")]
+    assert waited >= 1.0

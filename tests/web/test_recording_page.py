@@ -114,7 +114,9 @@ def test_a_game_kept_through_the_page_then_learnt_from(page: Page, data_dir: Pat
     assert learn.returncode == 0 or refused, learn.stdout + learn.stderr
     assert "Traceback" not in learn.stderr, learn.stderr
     assert learnt.exists() != refused
-    assert (data_dir / "learned" / "perceiver.metrics.json").exists()
+    # a refused model's figures are kept apart, so the kept model's stay as they were
+    figures = "perceiver.refused.metrics.json" if refused else "perceiver.metrics.json"
+    assert (data_dir / "learned" / figures).exists()
 
     page.goto(page.base_url + "/learned")  # type: ignore[attr-defined]
     page.wait_for_selector("[data-testid=sessions] tbody tr")

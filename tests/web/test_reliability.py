@@ -207,6 +207,7 @@ BAD_MESSAGES = [
     (json.dumps({"type": "new_game", "image": data_url(decompression_bomb(9_000))}), "pixels"),
     (json.dumps({"type": "x" * 200_000}), "unknown message type"),
     (json.dumps({"type": "talk", "rate": "9" * 200_000, "pcm": ""}), "16000 Hz"),
+    (json.dumps({"type": "answering", "how": "x" * 200_000}), "'how' must be"),
 ]
 
 

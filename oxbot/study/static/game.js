@@ -16,4 +16,5 @@
   else { hide(document.getElementById("talk")); hide(document.getElementById("hands-free")); }
   const start = document.getElementById("start");
   start.addEventListener("click", () => setTimeout(() => hide(start), 0));
+  if (window.oxbot && window.oxbot.resuming) hide(start);   // a game coming back after a reload
 })();

@@ -25,6 +25,9 @@ const state = {
   board: [],             // the board as the robot's manager last announced it (GameState)
   robotStrokes: {},      // cell -> the arm's strokes there (unit square), for paper's overlay
   paperDrawn: new Set(), // cells whose paper move is drawn on the canvas's overlay
+  background: null,      // the sheet as the robot last saw it, after a reload (an Image)
+  replay: null,          // while a Resumed message's replay runs: what it brought back
+  notice: "",            // what the status says once connected, instead of "connected"
 };
 window.oxbot = state;     // for tests and the curious: the page's state
 
@@ -74,6 +77,7 @@ function strokePath(ctx, pts, width, color) {
 
 function redrawSheet() {
   bctx.fillStyle = "#faf8f0"; bctx.fillRect(0, 0, SIDE, SIDE);
+  if (state.background && state.background.complete) bctx.drawImage(state.background, 0, 0, SIDE, SIDE);
   for (const s of state.grid) strokePath(bctx, s, GRID_WIDTH, INK);
   for (const s of [...state.committed, ...state.pending]) strokePath(bctx, s, PEN_WIDTH, INK);
   if (state.drawing) strokePath(bctx, state.drawing, PEN_WIDTH, INK);
@@ -115,6 +119,8 @@ function sendFrame() {
   if (paper.on) return;      // the camera shows the robot the sheet, not the canvas
   // a symbol is whole only once the pen lifts: the sheet goes out then (endStroke)
   if (state.drawing) { state.dirty = true; return; }
+  // a sheet brought back by a reload is drawn once decoded: never send the sheet without it
+  if (state.background && !state.background.complete) { state.dirty = true; return; }
   if (!send({ type: "frame", image: sheetImage() })) return;
   state.dirty = false; state.stats.framesSent++;
 }
@@ -170,16 +176,19 @@ function send(message) {
   return true;
 }
 
-function connect() {
-  const query = window.recordingQuery ? window.recordingQuery() : "";   // record.js's toggle
+function connect(resumeToken) {
+  let query = window.recordingQuery ? window.recordingQuery() : "";   // record.js's toggle
+  if (resumeToken) query += `${query ? "&" : "?"}resume=${encodeURIComponent(resumeToken)}`;
   const ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}${window.socketPath || "/ws"}${query}`);
   state.ws = ws;
   setStatus("Connecting…");
   ws.onopen = () => { setStatus("Connected."); };
   ws.onmessage = (e) => { try { onMessage(JSON.parse(e.data)); } catch (err) { console.error(err); } };
-  ws.onclose = () => {
+  ws.onclose = (e) => {
     if (state.ws === ws) {
-      state.ws = null; gameUnderWay(false); setStatus("Disconnected. Press Start to play again.");
+      state.ws = null; gameUnderWay(false);
+      setStatus(e.code === TAKEN_OVER ? `Disconnected: ${e.reason}. Press Start to play a new game here.`
+        : "Disconnected. Press Start to play again.");
       $("start").textContent = "Start"; enableAnswers(false);
     }
   };
@@ -195,6 +204,7 @@ function startOrNewGame() {
 
 function resetSheet() {
   state.grid = newGrid(); state.committed = []; state.pending = []; state.drawing = null;
+  state.background = null;
   state.robotCells = new Set(); state.lastSeen = null; showCells(null);
   state.robotStrokes = {}; state.board = []; state.paperDrawn = new Set(); paper.moves.clear();
   drawPaperOverlay(); $("paper-hint").hidden = true;
@@ -213,10 +223,39 @@ const handlers = {
     $("start").textContent = "New game";
     $("symbol-hint").textContent = `You draw ${d.user_symbol === "cross" ? "crosses (X)" : "circles (O)"}; `
       + `the robot draws ${d.robot_symbol === "cross" ? "crosses" : "circles"}.`;
-    enableAnswers(true); buildDecisionTable(d.acts); sendFrame();
+    enableAnswers(true); buildDecisionTable(d.acts);
+    // a game brought back after a reload: its sheet comes in Resumed, and a blank one sent now
+    // would wipe the robot's view of it
+    if (!d.resumed) sendFrame();
     if (paper.on) send({ type: "paper", on: true });
     showFingerprint(d.tls_fingerprint);
-    setStatus(`Game ${d.session}: connected.`);
+    setStatus(state.notice || `Game ${d.session}: connected.`); state.notice = "";
+  },
+  // After a reload: the game as it was. The sheet the robot last saw is drawn under the pen's
+  // strokes (its grid and the person's ink), then the game so far is replayed through the
+  // handlers (the log, the robot's ink, the board, the turn), and live messages go on from there.
+  Resumed(d) {
+    resetSheet();
+    const sheet = typeof d.sheet === "string" && d.sheet.startsWith("data:image/") ? d.sheet : "";
+    if (sheet) {
+      state.grid = [];   // the grid is in the picture
+      const img = new Image();
+      img.onload = () => { if (state.background === img) redrawSheet(); };
+      state.background = img; img.src = sheet;
+    }
+    state.replay = { sheet: !!sheet, paper: !!d.paper };
+    try { for (const m of d.messages || []) onMessage(m); } finally { state.replay = null; }
+    $("bubble").textContent = d.said || "";
+    if (window.showRecording) window.showRecording(!!d.recording);
+    addNote("The page was reloaded: the game goes on where it was.");
+    if (d.paper) {
+      // the camera went with the old page: the game goes on on the canvas, the person's moves
+      // on paper shown on it (as "Back to the canvas" does)
+      send({ type: "paper", on: false }); drawPaperMoves(); state.dirty = true;
+      addNote("The game was on paper: press Play on paper to show the camera the sheet again.");
+    }
+    if (handsFreeWasOn()) addNote("Hands-free is off after the reload: press Hands-free to listen again.");
+    setStatus(`Game ${state.hello.session}: back after the reload.`);
   },
   DialogueAct(d) {
     addLog(d.speaker, d.act, d.text);
@@ -275,8 +314,9 @@ const handlers = {
   GameMove(d) {
     state.stats.moves.push({ ...d, at: performance.now() });
     if (d.who === "usr") {
-      if (paper.on) paper.moves.add(d.where);   // drawn on paper, not on the canvas
-      else if (!state.pending.length) inkForMoveInWords(d.where);
+      const replay = state.replay;   // after a reload: the move is in the sheet brought back
+      if (paper.on || (replay && replay.paper)) paper.moves.add(d.where);   // drawn on paper
+      else if (!(replay && replay.sheet) && !state.pending.length) inkForMoveInWords(d.where);
       state.committed.push(...state.pending); state.pending = [];
       showProblem(""); $("turn").textContent = "";
     }
@@ -300,6 +340,12 @@ const handlers = {
   Error(d) {
     // the server's words are for programs; a person is told what to do
     const forPerson = { game_over: "The game is over. Press New game to play again." };
+    if (d.code === "resume_failed") {   // a new game follows at once: its greeting clears the box
+      state.notice = "The game before the reload could not be brought back; this is a new one.";
+      addNote(`The page was reloaded, and the game before it could not be brought back (it had `
+        + `ended, or the page was away too long). A new game starts.`);
+      return;
+    }
     showProblem(forPerson[d.code] || d.message); addNote(`server: ${d.message}`);
   },
 };
@@ -352,7 +398,14 @@ function appendLog(li) { const log = $("log"); log.append(li); log.scrollTop = l
 
 // --- typed and spoken answers -------------------------------------------------------------
 
+// A key in the answer box tells the robot an answer is coming (at most once a second): it
+// waits for it instead of going on after its short pause.
+let typingSaidAt = -Infinity;
 $("say").addEventListener("keydown", (e) => {
+  if (e.key !== "Enter" && performance.now() - typingSaidAt > 1000) {
+    typingSaidAt = performance.now();
+    send({ type: "answering", how: "typing" });
+  }
   if (e.key !== "Enter") return;
   const text = e.target.value.trim();
   if (text && send({ type: "say", text })) e.target.value = "";
@@ -460,6 +513,7 @@ function pressTalk() {
   if (!state.ws || mic.recording) return;
   mic.stats.pressedAt = performance.now(); mic.stats.listeningAt = 0;
   mic.recording = mic.ring; mic.held = 0;   // the pre-roll first: the audio just before the press
+  send({ type: "answering", how: "speaking" });
   mic.ring = []; mic.ringLength = 0;
   if (mic.handsFree) { send({ type: "listen_off" }); mic.piece = []; mic.pieceLength = 0; }
   showTalk();
@@ -527,6 +581,7 @@ async function setHandsFree(on) {
     send({ type: "listen_off" });
   }
   mic.handsFree = on; mic.piece = []; mic.pieceLength = 0;
+  try { sessionStorage.setItem(HANDS_FREE, on ? "1" : ""); } catch (_) { /* storage off */ }
   $("hands-free").textContent = `Hands-free: ${on ? "on" : "off"}`;
   $("hands-free").setAttribute("aria-pressed", String(on));
 }
@@ -994,18 +1049,31 @@ video.addEventListener("resize", drawPaperOverlay);
 // the blank sheet, before the first game
 state.grid = newGrid(); redrawSheet();
 
-// A game lives in its socket's robot, which a reload closes: the page cannot resume it, and
-// says so after the reload rather than showing a blank sheet as if nothing had happened.
-const UNDER_WAY = "oxbot.game-under-way";
+// A game lives in its socket's robot. The server keeps it a while when the page goes away
+// mid-game (web.resume_seconds), and the page, reloaded, asks for it back with the token its
+// Hello gave (kept per tab: two tabs never share a game). Hands-free stays off after a reload:
+// a page may not open the microphone's audio until the person acts, so they turn it on again.
+const RESUME = "oxbot.resume", HANDS_FREE = "oxbot.hands-free", TAKEN_OVER = 4000;
 function gameUnderWay(on) {
-  try { if (on) sessionStorage.setItem(UNDER_WAY, "1"); else sessionStorage.removeItem(UNDER_WAY); }
-  catch (_) { /* storage off: nothing to tell after a reload */ }
+  try {
+    const token = state.hello && state.hello.resume_token;
+    if (on && token) sessionStorage.setItem(RESUME, token); else sessionStorage.removeItem(RESUME);
+  } catch (_) { /* storage off: a reload starts afresh */ }
 }
+let resumeToken = null, handsFreeBefore = false;
 try {
-  if (sessionStorage.getItem(UNDER_WAY)) {
-    gameUnderWay(false);
-    showProblem("The page was reloaded during a game, and a reload cannot bring a game back: "
-      + "that one is lost. Press Start to play again.");
-    setStatus("The last game was lost when the page reloaded.");
-  }
+  resumeToken = sessionStorage.getItem(RESUME);
+  handsFreeBefore = sessionStorage.getItem(HANDS_FREE) === "1"; sessionStorage.removeItem(HANDS_FREE);
 } catch (_) { /* storage off */ }
+function handsFreeWasOn() { return handsFreeBefore; }
+state.resuming = !!resumeToken;
+if (resumeToken) {
+  // after every script has run: record.js and a study's page set the socket's path and query
+  addEventListener("DOMContentLoaded", () => {
+    if (state.ws) return;
+    setStatus("Bringing the game back…");
+    ensureAudio(); connect(resumeToken);
+  });
+  // the robot's voice: a browser may hold audio until the person first acts on the page
+  for (const kind of ["pointerdown", "keydown"]) addEventListener(kind, ensureAudio, { once: true });
+}

@@ -10,6 +10,8 @@
   };
   // the toggle's state when a tab connects: the server records from the game's start
   window.recordingQuery = () => (box.checked ? "?record=1" : "");
+  // a game brought back after a reload records as it did: the toggle shows it
+  window.showRecording = (on) => { if (!box.disabled) { box.checked = on; show(); } };
   box.addEventListener("change", () => {
     show();
     send({ type: "record", on: box.checked });   // a game under way: kept from now, or no more
