@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 
 from oxbot.cli.context import config_of, err_console
-from oxbot.config import OxbotConfig, with_overrides
+from oxbot.config import OxbotConfig, RobotConfig, with_overrides
 
 
 def game(
@@ -143,6 +143,9 @@ def _play_in_the_terminal(
     from oxbot.robot.terminal import Speakers, TerminalRobot
 
     source = open_source(camera) if camera is not None else None
+    if config.robot.pause_timeout == RobotConfig().pause_timeout:
+        # a line being typed cannot be seen: wait for an answer the whole answer_timeout
+        config = with_overrides(config, {"robot": {"pause_timeout": 0.0}})
     joining = []
     if record:  # opt-in, and the person is told what is kept
         from oxbot.recording import RecordingStore, notice

@@ -19,10 +19,12 @@ class Budgets:
     """Games per condition of those evaluations (None: the config's)."""
     evaluation_games: int
     """Games per opponent and who-starts condition of the final evaluations (goal: 10,000)."""
+    comparison_dialogues: int
+    """Dialogues per manager and mishearing level in the managers compared (goal: 10,000)."""
 
 
-FULL = Budgets(None, None, None, None, 10_000)
-QUICK = Budgets(1_000, 4_000, 2_000, 100, 300)
+FULL = Budgets(None, None, None, None, 10_000, 10_000)
+QUICK = Budgets(1_000, 4_000, 2_000, 100, 300, 200)
 
 
 def budgets_for(quick: bool) -> Budgets:

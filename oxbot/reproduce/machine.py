@@ -90,14 +90,14 @@ def _environment_section(f: dict[str, Any]) -> list[str]:
         "core of their own), with wall-clock beside it. The perceiver's time is of a second, "
         "timed generation and fit after the curve's runs; it gave "
         + ("the very same" if refit["identical_weights"] else "**different**")
-        + " weights. The SB3 peers' budget is oxbot's wall-clock time, all run one after "
-        "the other on the same machine.",
+        + " weights. The SB3 peers' budget is oxbot's wall-clock time, then its number of "
+        "experiences, all run one after the other on the same machine.",
         f"- Seeds: perception {seeds['perception']} (seed images, training and test "
         f"images, font set), agent {seeds['agent']} (training, its evaluations "
         f"10,000 + step), final evaluations {seeds['evaluation']}, peers "
         f"{seeds['peers']} (their evaluations 20,000 + seed). The same seeds give the "
-        "same figures on the same machine, except times and the SB3 peers' figures, which "
-        "depend on how many steps fit into their time.",
+        "same figures on the same machine, except times and the figures of the SB3 peers "
+        "trained for oxbot's time, which depend on how many steps fit into it.",
         f"- Commit: {env['commit'] or 'unknown'}",
         f"- Python {env['python']}; "
         + ", ".join(f"{k} {v}" for k, v in env["packages"].items() if v),

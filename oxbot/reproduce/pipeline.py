@@ -1,5 +1,6 @@
 """The steps of `oxbot reproduce` in order: a clean work folder, the seed data, both learners and
-their peers, the shipped models, then the plots, `report.json` and `REPORT.md`."""
+their peers, the shipped models, the interaction managers compared, then the plots,
+`report.json` and `REPORT.md`."""
 
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ from oxbot.reproduce.agent import agent_config_for, train_and_evaluate_agent
 from oxbot.reproduce.agent_peers import train_agent_peers
 from oxbot.reproduce.budgets import budgets_for
 from oxbot.reproduce.machine import environment
+from oxbot.reproduce.managers import compare_run_managers
 from oxbot.reproduce.perceiver import _train_perceiver, train_pixel_svm_peer
 from oxbot.reproduce.plots import _write_plots
 from oxbot.reproduce.report import render_report
@@ -72,32 +74,48 @@ def reproduce(
         "environment": environment(),
     }
 
-    announce("1/6 drawing the seed images")
+    announce("1/7 drawing the seed images")
     figures["data"] = _make_seed_data(work_dir, train_config)
 
-    announce("2/6 training and evaluating the perceiver")
+    announce("2/7 training and evaluating the perceiver")
     figures["perceiver"] = _train_perceiver(work_dir, train_config, budgets, show_progress)
 
-    announce("3/6 training the perception peer: a linear SVM on raw pixels")
+    announce("3/7 training the perception peer: a linear SVM on raw pixels")
     figures["perceiver_peer"] = train_pixel_svm_peer(
         work_dir / "seeds", train_config, budgets.perceiver_images
     )
 
-    announce("4/6 training the interaction manager")
+    announce("4/7 training the interaction manager")
     agent_config = agent_config_for(train_config, budgets)
     figures["agent"] = train_and_evaluate_agent(
         work_dir, agent_config, eval_config, budgets, show_progress
     )
 
-    announce("5/6 training the SB3 peers for the same time as oxbot's agent")
-    figures["agent_peers"] = train_agent_peers(
-        agent_config, eval_config, figures["agent"], budgets, announce, show_progress
-    )
+    announce("5/7 training the SB3 peers for the same time and experiences as oxbot's agent")
+    for by, key in (("time", "agent_peers"), ("experiences", "agent_peers_by_experiences")):
+        figures[key] = train_agent_peers(
+            agent_config, eval_config, figures["agent"], budgets, announce, show_progress, by
+        )
 
-    announce("6/6 measuring the shipped models and writing the report")
+    announce("6/7 measuring the shipped models")
     figures["shipped"] = measure_shipped(work_dir, train_config, eval_config, budgets)
     figures["shipped"]["agent"].update(
         _shipped_agent_against_run(figures["shipped"]["agent"], figures["agent"], agent_config)
+    )
+
+    announce(
+        "7/7 comparing the interaction managers on the same people "
+        f"({budgets.comparison_dialogues:,} dialogues per manager and mishearing level), then "
+        "writing the report"
+    )
+    figures["managers"] = compare_run_managers(
+        work_dir,
+        agent_config,
+        eval_config,
+        figures["agent"],
+        figures["shipped"]["agent"],
+        budgets,
+        show_progress,
     )
     figures["seeds"] = {
         "perception": train_config.perception.seed,

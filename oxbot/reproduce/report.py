@@ -8,6 +8,7 @@ from typing import Any
 from oxbot.reproduce.agent import _game_outcome_rows, _interaction_manager_rows
 from oxbot.reproduce.agent_peers import _agent_peers_notes, _agent_peers_section
 from oxbot.reproduce.machine import _environment_section
+from oxbot.reproduce.managers import _managers_section
 from oxbot.reproduce.paper import PAPER
 from oxbot.reproduce.perceiver import _perceiver_rows, _perception_peers_section
 from oxbot.reproduce.plots import _learning_curves_section
@@ -25,6 +26,7 @@ def render_report(f: dict[str, Any]) -> str:
         _perception_peers_section,
         _agent_peers_section,
         _agent_peers_notes,
+        _managers_section,
         _environment_section,
     )
     # each section's lines end with a blank one, so the report ends with a newline

@@ -66,6 +66,7 @@ def measure_shipped(
                 policy.act_batch, budgets.evaluation_games, eval_config, seed=0
             ),
             "train_s": round(train_s, 1),
+            "cpu_s": round(_cpu_seconds(agent_metrics), 1),
             "experiences": experiences,
             "best_step": agent_metrics["best_step"],
             # a fine-tune's counts from the start of the runs before it
@@ -74,6 +75,16 @@ def measure_shipped(
             "reward_curve": agent_metrics["reward_curve"],
         },
     }
+
+
+def _cpu_seconds(metadata: dict[str, Any]) -> float:
+    """The CPU seconds a policy's training took, a fine-tune's together with the runs it started
+    from (as `training_budget` counts experiences)."""
+    seconds, step = 0.0, metadata
+    while step:
+        seconds += float(step.get("cpu_s", 0.0))
+        step = step.get("init_from")
+    return seconds
 
 
 def _shipped_models_note(f: dict[str, Any]) -> list[str]:

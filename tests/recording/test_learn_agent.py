@@ -128,3 +128,17 @@ def test_a_refused_run_is_never_reported_as_kept(capsys):
     _print_agent(metrics)
     printed = capsys.readouterr().out
     assert "kept the policy" not in printed and "refused: losses" in printed
+
+
+def test_questions_in_passing_and_their_answers_are_no_answer_to_the_invitation():
+    sys = lambda act: {"speaker": "sys", "act": act, "text": ""}  # noqa: E731
+    usr = lambda act: {"speaker": "usr", "act": act, "text": "words"}  # noqa: E731
+    asked = [sys("Salutation(greeting)"), sys("Provide(name)"), sys("Request(playGame)")]
+    aside = [usr("Request(name)"), sys("Inform(answer)")]
+    no = [usr("Reject(playGame=no)"), sys("Acknowledge(playGame=no)"), sys("Salutation(closing)")]
+    plain = {"turns": [*asked, *no], "answers": []}
+    around = {"turns": [*asked, *aside, *no], "answers": []}
+    config = shipped_agent_config().dialogue
+    fitted = [fit_person([d] * 10, config).probabilities for d in (plain, around)]
+    assert fitted[0] == fitted[1]  # "what's your name?" first, then the no: a no all the same
+    assert fitted[1]["refuse_probability"] > 0.5

@@ -8,7 +8,7 @@ import pytest
 from typer.testing import CliRunner
 
 from oxbot.cli import app
-from oxbot.errors import LearningRefused
+from oxbot.errors import DataError, LearningRefused
 from oxbot.perception.classifier import load_classifier
 from oxbot.recording import RecordingStore
 from oxbot.recording.perceiver import LearnPerceiverConfig, learn_perceiver, split_drawings
@@ -50,6 +50,27 @@ def test_learn_perceiver_writes_a_model_with_its_config_metrics_and_plot(recordi
     assert sorted(derived) == sorted(
         str(p.resolve()) for p in (result.model_path, result.metrics_path, result.plot_path)
     )
+
+
+def test_the_fine_tune_keeps_the_first_convolution_stage_as_shipped(recordings):
+    import torch
+
+    folder, _ = recordings
+    shipped = load_classifier().net
+    with RecordingStore(folder) as store:
+        try:
+            learnt = learn_perceiver(store, None, TINY, show_progress=False).classifier.net
+        except LearningRefused as exc:  # a real-time game's crops: a refusal still has its model
+            learnt = exc.result.classifier.net
+    assert torch.equal(learnt.features[0].weight, shipped.features[0].weight)
+    assert torch.equal(learnt.features[0].bias, shipped.features[0].bias)
+    assert not torch.equal(learnt.features[3].weight, shipped.features[3].weight)
+    assert not torch.equal(learnt.svm.weight, shipped.svm.weight)
+
+
+def test_frozen_stages_beyond_the_network_are_refused():
+    with pytest.raises(DataError, match="frozen_stages"):
+        LearnPerceiverConfig(frozen_stages=3)
 
 
 def test_a_model_worse_on_the_test_sets_is_refused_and_not_written(recordings, tmp_path):
