@@ -318,8 +318,8 @@ class InteractionManagerComponent(PersonInput, Component):
     def resume(self, game: Sequence[Message]) -> None:
         """Take up the game under way that a predecessor process left (oxbot.robot.resync):
         the dialogue replayed from `game`, then on from the robot's last act as if it had just
-        been said. Its move is drawn if the arm had not started it; nothing said yet, it
-        greets."""
+        been said. Its move is drawn if the arm had not started it; nothing said yet in this
+        dialogue, it decides its first act (a greeting only if the visit had none)."""
         from oxbot.robot.resync import arm_started
 
         starts = [m.robot_starts for m in game if isinstance(m, (NewGame, GameState))]
@@ -334,10 +334,10 @@ class InteractionManagerComponent(PersonInput, Component):
             )
         self._take_up(taken_up)
         replay_dialogue(self.state, game, self.model.domain.templates_for)
-        said = [t["text"] for t in self.state.transcript if t["speaker"] == "sys"]
-        if not said:
+        if not acts:  # the dialogue's first act unheard by anyone, or none yet: (re)decide it
             self._decide()
             return
+        said = [t["text"] for t in self.state.transcript if t["speaker"] == "sys"]
         self._speaking = spoken(said[-1])
         self._arm_cell = game_move_cell(self.state.last_act)
         if self._arm_cell is None or self.state.board[self._arm_cell] != ROBOT:

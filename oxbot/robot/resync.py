@@ -16,11 +16,18 @@ two components hold nothing a game needs.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from typing import Protocol, runtime_checkable
 
 from oxbot.dialogue.asides import ASIDE_ACTS
-from oxbot.dialogue.domain import SYSTEM_ACTS, game_move_cell, words_of
+from oxbot.dialogue.domain import (
+    GREETING,
+    INTRODUCTION,
+    SYSTEM_ACTS,
+    game_move_cell,
+    words_of,
+)
 from oxbot.dialogue.situated import template_in
 from oxbot.dialogue.state import DialogueState
 from oxbot.game.board import EMPTY, EMPTY_BOARD, ROBOT, USER, cell_index
@@ -45,6 +52,26 @@ def current_game(history: Sequence[Message]) -> list[Message]:
     if not game or any(isinstance(m, DialogueEnded) for m in game):
         return []
     return game
+
+
+def with_the_visit(new_game: NewGame, record: Sequence[Message]) -> NewGame:
+    """`new_game` as a record keeps it: with the visit's greeting and introduction (said in
+    `record`, the game before, or taken up by it) as the turns it takes up when it names none,
+    as the manager does. A manager process respawned before anyone heard its new dialogue's
+    first act then knows it greeted, and does not greet again."""
+    if new_game.carried:
+        return new_game
+    said = [t for m in record if isinstance(m, NewGame) for t in m.carried]
+    said += [
+        (m.speaker, m.act, m.text)
+        for m in record
+        if isinstance(m, DialogueAct) and m.speaker == "sys"
+    ]
+    introductions: dict[str, tuple[str, str, str]] = {}
+    for turn in said:
+        if turn[0] == "sys" and turn[1] in (GREETING, INTRODUCTION):
+            introductions.setdefault(turn[1], turn)
+    return dataclasses.replace(new_game, carried=tuple(introductions.values()))
 
 
 def replay_dialogue(

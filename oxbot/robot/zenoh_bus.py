@@ -69,6 +69,7 @@ from oxbot.robot.messages import (
     from_json,
     to_json,
 )
+from oxbot.robot.resync import with_the_visit
 from oxbot.robot.wire_format import (
     BLOBS,
     FORMAT,
@@ -287,7 +288,7 @@ class ZenohBus(Subscriptions):
             return
         with self._lock:
             if isinstance(message, NewGame):
-                self._record = [message]
+                self._record = [with_the_visit(message, self._record)]
             elif isinstance(message, RECORDED):
                 self._record.append(message)
             # put under the lock: `subscribe_with_history` reorders behind it

@@ -11,6 +11,7 @@ import pytest
 from oxbot.dialogue.domain import (
     FEEDBACK_ACTS,
     GREETING,
+    INTRODUCTION,
     INVITATION,
     MOVE_REQUEST,
     game_move_cell,
@@ -28,7 +29,7 @@ from oxbot.robot.messages import (
     GameState,
     NewGame,
 )
-from oxbot.robot.resync import catch_up, current_game
+from oxbot.robot.resync import catch_up, current_game, with_the_visit
 from oxbot.robot.session import shared_policy
 from oxbot.robot.zenoh_bus import MAX_WATCHED_CHANGES, PartsWatcher, Peer
 from tests.robot.helpers import ManagerAtHand, wait_for
@@ -91,6 +92,30 @@ def test_a_respawned_manager_takes_up_the_dialogue_and_the_game_finishes(stage):
     text = "\n".join(hand.said)
     assert hand.done and hand.ended.outcome is not None, text  # the game was played to its end
     assert "stopped working" not in text
+
+
+def test_a_manager_respawned_before_anyone_heard_a_later_games_first_act_does_not_greet_again():
+    hand = ManagerAtHand(robot_starts=False)
+    while hand.last_act != INVITATION:
+        step(hand)
+    first_game = hand.record.drain()
+    # the next game, as a component process records it: killed at once, the manager's first
+    # act reached nobody, and the NewGame keeps the greeting and introduction it takes up
+    new_game = with_the_visit(NewGame(robot_starts=False), first_game)
+    assert [act for _, act, _ in new_game.carried] == [GREETING, INTRODUCTION]
+    said = {act: text for speaker, act, text in new_game.carried}
+    spoken = [m for m in first_game if isinstance(m, DialogueAct)]
+    assert said == {m.act: m.text for m in spoken if m.act in (GREETING, INTRODUCTION)}
+    assert with_the_visit(new_game, []) == new_game  # a game that names what it takes up
+    fresh = InteractionManagerComponent(
+        hand.bus, policy=shared_policy(), config=hand.manager.config, rng=np.random.default_rng(3)
+    )
+    hand.manager = fresh
+    catch_up("manager", fresh, [new_game, GameState(board=(0,) * 9, robot_starts=False)])
+    hand._settle()
+    acts = [t["act"] for t in fresh.transcript if t["speaker"] == "sys"]
+    assert acts == [GREETING, INTRODUCTION, INVITATION], acts  # the first two taken up unsaid
+    assert len(hand.said) == len(spoken) + 1 and hand.said[-1] not in said.values()
 
 
 def test_a_manager_respawned_mid_drawing_has_its_move_drawn_and_goes_on():
