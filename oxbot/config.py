@@ -557,11 +557,23 @@ class ListeningConfig:
     pre_roll_seconds: float = 0.3
     """oxbot: audio kept from before an utterance's start or a push-to-talk press (first words)."""
     echo_seconds: float = 0.3
-    """oxbot: not listened to after the robot stops speaking (its voice reaches a mic late)."""
+    """oxbot: the robot's echo is taken out this long after its audio ends (a room's tail)."""
+    barge_in: bool = True
+    """oxbot: while the robot speaks, listen for the person with its echo taken out, and let
+    them cut it short by speaking (false: not listened to while it speaks)."""
+    barge_in_seconds: float = 0.064
+    """oxbot: speech (its echo taken out) that starts an utterance over the robot and cuts it
+    short; at most `start_seconds`."""
 
     def __post_init__(self) -> None:
         _require_range(self, "threshold", "(0, 1)")
-        _require_positive(self, "start_seconds", "end_silence_seconds", "max_utterance_seconds")
+        _require_positive(
+            self,
+            "start_seconds",
+            "end_silence_seconds",
+            "max_utterance_seconds",
+            "barge_in_seconds",
+        )
         _require_range(self, "pre_roll_seconds", "[0, 2]")
         _require_range(self, "echo_seconds", "[0, 2]")
         _require_finite(self)

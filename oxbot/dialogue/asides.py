@@ -1,11 +1,13 @@
 """Questions a person asks the robot in passing, answered in any state of the dialogue.
 
-"Who starts?", "what's your name?" and "can you repeat that?" are no answer to what the robot
-asked, and no act its policy chooses among: the interaction manager answers them itself, in
-the transcript but not in what the policy sees (as it says which cell a move in words meant),
-and then waits for the answer it was waiting for. The domain's understanding reads "who
-starts?" as a yes to "Shall we play?" (the robot's "let's play" and first move answer it);
-asked outright, it is answered and taken for no yes: a question is no consent.
+"Who starts?", "what's your name?", "can you repeat that?" and "wait" (a person who talks over
+the robot to stop it, or wants time) are no answer to what the robot asked, and no act its
+policy chooses among: the interaction manager answers them itself, in the transcript but not in
+what the policy sees (as it says which cell a move in words meant), and then waits for the
+answer it was waiting for ("wait": as long as for an answer to a question). The domain's
+understanding reads "who starts?" as a yes to "Shall we play?" (the robot's "let's play" and
+first move answer it); asked outright, it is answered and taken for no yes: a question is no
+consent.
 
 >>> aside_question("who starts")
 'who_starts'
@@ -15,6 +17,8 @@ asked outright, it is answered and taken for no yes: a question is no consent.
 'repeat'
 >>> aside_question("could you say that again please")
 'repeat'
+>>> aside_question("wait a second")
+'hold'
 >>> aside_question("sorry no") is None  # an apology before an answer asks nothing
 True
 >>> aside_question("yes let's play") is None
@@ -38,11 +42,13 @@ about words it cannot make out)."""
 WHO_STARTS = "who_starts"
 NAME = "name"
 REPEAT = "repeat"
+HOLD = "hold"
 
 ASIDE_ACTS = {
     WHO_STARTS: "Request(whoStarts)",
     NAME: "Request(name)",
     REPEAT: "Request(sayAgain)",
+    HOLD: "Request(wait)",
 }
 """How the transcript and the page's log show each question (the person's act)."""
 
@@ -78,6 +84,13 @@ _QUESTIONS: dict[str, tuple[str, ...]] = {
         r"what",
         r"sorry",
     ),
+    HOLD: (
+        r"wait(?: a (?:second|sec|moment|minute|bit))?",
+        r"(?:hold|hang) on(?: a (?:second|sec|moment|minute|bit))?",
+        r"(?:just )?(?:one|a) (?:second|sec|moment|minute)",
+        r"give me a (?:second|sec|moment|minute)",
+        r"let me think",
+    ),
 }
 _PATTERNS = {
     kind: re.compile(rf"^(?:{_AROUND} )*(?:{'|'.join(forms)})(?: {_AROUND})*$")
@@ -86,11 +99,19 @@ _PATTERNS = {
 
 
 def aside_question(text: str) -> str | None:
-    """Which question (`WHO_STARTS`, `NAME`, `REPEAT`) the words `text` are, or None."""
+    """Which question (`WHO_STARTS`, `NAME`, `REPEAT`, `HOLD`) the words `text` are, or None."""
     words = " ".join(words_of(text))
     if not words:
         return None
     return next((kind for kind, pattern in _PATTERNS.items() if pattern.match(words)), None)
 
 
-__all__ = ["ASIDE_ACTS", "MIN_CONFIDENCE", "NAME", "REPEAT", "WHO_STARTS", "aside_question"]
+__all__ = [
+    "ASIDE_ACTS",
+    "HOLD",
+    "MIN_CONFIDENCE",
+    "NAME",
+    "REPEAT",
+    "WHO_STARTS",
+    "aside_question",
+]

@@ -1,9 +1,15 @@
 """Hands-free listening for a robot: a person's microphone stream, cut into utterances by the
 VAD (`oxbot.speech.vad`), each handed to the robot as a push-to-talk recording.
 
-The robot must not hear itself: from its `SpeakingStarted` until `echo_seconds` after its
-`SpeakingFinished` the stream is not listened to, and an utterance under way when it starts
-to speak is dropped. The web page's hands-free mode and the terminal's `listen` share this.
+The robot must not hear itself. While it speaks, and until its audio's echo has ended in the
+stream (`oxbot.speech.echo`: each sentence's audio, as the players play it in full, plus
+`echo_seconds`), the stream is listened to only for the person: the robot's modelled echo is
+taken out and what is left is heard where it is louder than that echo (`barge_in`; without it,
+the stream is not listened to then, and an utterance under way when the robot starts is
+dropped). A person who speaks over the robot cuts it short (barge-in): the listener publishes
+StopSpeaking once the VAD starts an utterance in what is left, and the utterance, heard to its
+end, goes to the robot as any other. The web page's hands-free mode and the terminal's `listen`
+share this.
 """
 
 from __future__ import annotations
@@ -16,11 +22,21 @@ from typing import Any
 import numpy as np
 
 from oxbot.config import ListeningConfig
-from oxbot.robot.messages import PersonAnswering, SpeakingFinished, SpeakingStarted
-from oxbot.speech.audio import RATE, Audio, to_wav_bytes
+from oxbot.robot.messages import (
+    PersonAnswering,
+    SpeakingContinued,
+    SpeakingFinished,
+    SpeakingStarted,
+    StopSpeaking,
+)
+from oxbot.speech.audio import RATE, Audio, pcm16, to_wav_bytes
+from oxbot.speech.echo import EchoCanceller
 from oxbot.speech.vad import FrameClassifier, HeardUtterance, UtteranceCutter
 
 log = logging.getLogger(__name__)
+
+MAX_UNDECIDED = 2.0
+"""Seconds of stream kept while the robot's echo path is not known yet, to be heard once it is."""
 
 
 class HandsFreeListener:
@@ -38,44 +54,105 @@ class HandsFreeListener:
         self.config = config if config is not None else ListeningConfig()
         self.cutter = UtteranceCutter(self.config, RATE, vad)
         self.clock = clock
-        self._speech = robot.bus.subscribe(SpeakingStarted, SpeakingFinished)
+        self.echo = EchoCanceller(RATE)
+        self._speech = robot.bus.subscribe(SpeakingStarted, SpeakingContinued, SpeakingFinished)
         self._speaking = False
+        self._said = ""  # the utterance the robot says or said last
         self._deaf_until = 0.0
+        self._position = 0  # samples of the stream fed so far
+        self._over_the_robot = False  # the utterance under way began while the robot spoke
+        self._undecided: list[tuple[int, np.ndarray]] = []  # heard before the echo is known
         self.heard: list[HeardUtterance] = []
         """Every utterance handed to the robot, oldest first."""
         self.ignored_seconds = 0.0
         """Stream heard while the robot spoke (or just after), not listened to."""
+        self.cuts: list[float] = []
+        """When (`clock`) each StopSpeaking was published."""
+
+    def _follow_speech(self) -> None:
+        for message in self._speech.drain():
+            if isinstance(message, SpeakingFinished):
+                self._speaking = False
+                self._deaf_until = self.clock() + self.config.echo_seconds
+                continue
+            first = isinstance(message, SpeakingStarted)
+            self._speaking, self._said = True, message.text
+            if first and not self._over_the_robot:
+                self.cutter.reset()  # an utterance under way when the robot starts is dropped
+            if message.audio:
+                self.echo.speak(pcm16(message.audio), self._position, first)
 
     @property
     def robot_speaking(self) -> bool:
         """Whether the robot speaks now (or did just now: its echo), after the bus's news."""
-        for message in self._speech.drain():
-            if isinstance(message, SpeakingStarted):
-                self._speaking = True
-            else:
-                self._speaking = False
-                self._deaf_until = self.clock() + self.config.echo_seconds
-        return self._speaking or self.clock() < self._deaf_until
+        self._follow_speech()
+        echoing = self.echo.active(self._position, self.config.echo_seconds)
+        return self._speaking or self.clock() < self._deaf_until or echoing
 
     def feed(self, samples: np.ndarray) -> list[HeardUtterance]:
         """The stream's next 16 kHz int16 samples; returns the utterances handed to the robot."""
-        if self.robot_speaking:
-            self.cutter.skip(len(samples))
-            self.ignored_seconds += len(samples) / RATE
+        samples = np.asarray(samples)
+        position = self._position
+        speaking = self.robot_speaking
+        self.echo.hear(samples, position)
+        self._position += len(samples)
+        cancelling = self.echo.active(position, self.config.echo_seconds)  # audio to take out
+        # an utterance begun over the robot is heard to its end, the robot cut short or not
+        if speaking and self.config.barge_in and (cancelling or self._over_the_robot):
+            self._undecided.append((position, samples))
+            if self.echo.delay is None and not self._over_the_robot:
+                if sum(len(s) for _, s in self._undecided) > MAX_UNDECIDED * RATE:
+                    self._not_listened(self._undecided.pop(0)[1])
+                return []  # kept until the echo's path is known
+            pieces, self._undecided = self._undecided, []
+            heard = [self._listen(p, s, cancelling) for p, s in pieces]
+            return [u for h in heard for u in h]
+        self._undecided_not_listened()
+        if speaking:
+            self._not_listened(samples)
             return []
+        return self._listen(position, samples, False)
+
+    def _not_listened(self, samples: np.ndarray) -> None:
+        self.cutter.skip(len(samples))
+        self.ignored_seconds += len(samples) / RATE
+
+    def _undecided_not_listened(self) -> None:
+        """The robot's echo ended before its path was known: what was kept is not heard."""
+        for _, samples in self._undecided:
+            self._not_listened(samples)
+        self._undecided = []
+
+    def _listen(self, position: int, samples: np.ndarray, speaking: bool) -> list[HeardUtterance]:
+        judged = None
+        if speaking:  # the robot's echo taken out, where its path is known
+            parts = self.echo.separate(samples, position)
+            if parts is not None:
+                samples, judged = parts
+        seconds = self.config.barge_in_seconds if speaking else self.config.start_seconds
+        self.cutter.start_after(seconds)
         began = self.cutter.in_utterance
-        ended = self.cutter.feed(samples)
+        ended = self.cutter.feed(samples, judged)
         if self.cutter.in_utterance and not began:  # the robot waits for them to finish
+            if speaking:  # over the robot: cut it short, in every player too
+                self._over_the_robot = True
+                self.robot.bus.publish(StopSpeaking(text=self._said))
+                self.cuts.append(self.clock())
+                self.echo.cut(self._position)
             self.robot.bus.publish(PersonAnswering(how="speaking"))
         for utterance in ended:
             log.debug("heard %.2f s at %.2f s", utterance.seconds, utterance.start / RATE)
             self.robot.hear(to_wav_bytes(Audio(utterance.samples, RATE)))
+        if ended and not self.cutter.in_utterance:
+            self._over_the_robot = False
         self.heard += ended
         return ended
 
     def stop_listening(self) -> None:
         """The stream pauses or ends: an utterance under way is dropped."""
+        self._undecided = []
         self.cutter.reset()
+        self._over_the_robot = False
 
     def close(self) -> None:
         self._speech.close()

@@ -13,7 +13,8 @@ One turn here is what one environment step is in training (`oxbot.dialogue.env`)
 says an act (and for a GameMove then draws it), then listens for the person's answer — their
 words, their drawing, or silence — and decides again. How long it listens follows the domain's
 user responses:
-- not at all after acts nobody answers (only silence answers them, e.g. "Nice, let's play");
+- not at all after acts nobody answers (only silence answers them, e.g. "Nice, let's play"),
+  unless the person began to speak over it (barge-in, `oxbot.robot.listening`);
 - `answer_timeout` seconds after acts a person may or may not answer (silence is one of the
   answers, e.g. "Hello!");
 - `question_timeout` seconds after questions (silence is not an answer: "Would you like to
@@ -72,7 +73,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from oxbot.config import OxbotConfig, RobotConfig
-from oxbot.dialogue.asides import NAME, REPEAT
+from oxbot.dialogue.asides import HOLD, NAME, REPEAT
 from oxbot.dialogue.cells_in_words import MoveHeard
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -119,6 +120,7 @@ from oxbot.robot.person_input import PersonInput, Phase, Understand
 from oxbot.robot.resync import replay_dialogue
 from oxbot.robot.sentences import (
     GUIDANCE_SENTENCES,
+    HOLD_SENTENCE,
     LOST_SENTENCES,
     NOBODY_SENTENCE,
     OFFER_SENTENCES,
@@ -459,7 +461,8 @@ class InteractionManagerComponent(PersonInput, Component):
         elif self._offering:
             wait = self.timing.question_timeout
         elif last_act in self._unanswered:
-            wait = 0.0
+            # nobody answers it, but a person who spoke over it is waited for
+            wait = self.timing.answer_timeout if self._answering else 0.0
         elif last_act in self._questions:
             wait = self.timing.question_timeout
         elif self.timing.pause_timeout and not self._answering:
@@ -576,6 +579,10 @@ class InteractionManagerComponent(PersonInput, Component):
             return spoken(self.model.template(INTRODUCTION, self.rng, self._spoken_last))
         if question == REPEAT:
             return self._spoken_last or None  # nothing said yet: the understanding reads it
+        if question == HOLD:  # they want time: waited for as for an answer to a question
+            wait = self.timing.question_timeout / self.timing.speed_factor
+            self._deadline = max(self._deadline, time.monotonic() + wait)
+            return HOLD_SENTENCE
         state = self.state
         if state.game_started and state.outcome is None:
             kind = "your_turn" if state.person_to_move else "my_turn"

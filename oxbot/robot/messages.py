@@ -231,6 +231,15 @@ class SpeakingFinished(Message):
 
 
 @dataclass(frozen=True)
+class StopSpeaking(Message):
+    """The person talks over the robot (barge-in, `oxbot.robot.listening`): stop saying `text`
+    now, its audio in every player too; SpeakingFinished follows at once."""
+
+    topic: ClassVar[str] = "speech/stop"
+    text: str
+
+
+@dataclass(frozen=True)
 class ArmCommand(Message):
     """Draw the robot's symbol in a cell."""
 

@@ -62,6 +62,9 @@ WHO_STARTS_SENTENCES = {
 }
 """The robot's answer (as the act ANSWER) to "who starts?": before a game, who will; during
 one, whose turn it is."""
+HOLD_SENTENCE = "Sure, take your time."
+"""The robot's answer (as the act ANSWER) to "wait" or "hold on": it then waits as long as for
+an answer to a question."""
 AFTER_GOODBYE = 'That game is over. Say "one more game" to play again.'
 """What the robot says (as the act PROBLEM) to words after its goodbye that ask for nothing it
 can do (a goodbye, thanks or a no get no answer)."""

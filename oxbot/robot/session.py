@@ -88,6 +88,7 @@ from oxbot.robot.messages import (
 )
 from oxbot.robot.sentences import (
     AFTER_GOODBYE,
+    HOLD_SENTENCE,
     OFFER_SENTENCES,
     PROBLEM_SENTENCES,
     WHO_STARTS_SENTENCES,
@@ -155,7 +156,7 @@ def robot_sentences(domain: Domain | None = None) -> list[str]:
     sentences += [TAKEN_IN_WORDS.format(cell=c[0].upper() + c[1:]) for c in cells]
     sentences += [STOPPED_SENTENCE.format(part=p) for p in ESSENTIAL_PARTS]
     sentences += [*GUIDANCE_SENTENCES.values(), *LOST_SENTENCES.values()]
-    sentences += [NOBODY_SENTENCE, WHICH_CELL, AFTER_GOODBYE, *OFFER_SENTENCES]
+    sentences += [NOBODY_SENTENCE, WHICH_CELL, AFTER_GOODBYE, HOLD_SENTENCE, *OFFER_SENTENCES]
     sentences += [phrase for phrases in PHRASINGS.values() for phrase in phrases]
     for robot_starts in (True, False):
         names = symbol_names(robot_starts)

@@ -47,6 +47,7 @@ from oxbot.robot.messages import (
     SpeakingContinued,
     SpeakingStarted,
     SpeechHypotheses,
+    StopSpeaking,
 )
 from oxbot.robot.session import Robot, warm_up
 from oxbot.speech.audio import RATE, Audio, to_wav_bytes
@@ -73,6 +74,7 @@ class Speakers:
         self.enabled = enabled and self._available()
         self._queue: queue.Queue[bytes] = queue.Queue()
         self._player: threading.Thread | None = None
+        self._playing: subprocess.Popen[bytes] | None = None
         self._lock = threading.Lock()
 
     @staticmethod
@@ -98,16 +100,40 @@ class Speakers:
     def _play(self, wav: bytes) -> None:
         if not self.enabled:
             return
-        result = subprocess.run(
-            ["play", "-q", "-t", "wav", "-"], input=wav, capture_output=True, check=False
+        process = subprocess.Popen(
+            ["play", "-q", "-t", "wav", "-"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
         )
-        if result.returncode != 0 and self.enabled:
+        with self._lock:
+            self._playing = process
+        try:
+            _, errors = process.communicate(wav)
+        except BrokenPipeError:  # cut short before it read the whole sentence
+            errors = b""
+            process.wait()
+        with self._lock:
+            self._playing = None
+            cut = process.returncode < 0
+        if process.returncode != 0 and not cut and self.enabled:
             self.enabled = False
-            lines = result.stderr.decode(errors="replace").strip().splitlines()
+            lines = errors.decode(errors="replace").strip().splitlines()
             log.warning(
                 "no sound output (%s); the robot's speech is text only",
                 lines[-1] if lines else "play failed",
             )
+
+    def stop(self) -> None:
+        """The person talked over the robot: what plays stops, what waits is dropped."""
+        while True:
+            try:
+                self._queue.get_nowait()
+            except queue.Empty:
+                break
+        with self._lock:
+            if self._playing is not None:
+                self._playing.kill()
 
 
 class Microphone:
@@ -248,6 +274,7 @@ class TerminalRobot:
             ComponentLost,
             SpeakingStarted,
             SpeakingContinued,
+            StopSpeaking,
             SpeechHypotheses,
         )
         self._printer = threading.Thread(target=self._print_events, daemon=True)
@@ -365,6 +392,8 @@ class TerminalRobot:
             c.print(f"[dim]{escape(heard_line(message.nbest))}[/]")
         elif isinstance(message, SpeakingStarted | SpeakingContinued):
             self.speakers.play(message.audio)
+        elif isinstance(message, StopSpeaking):
+            self.speakers.stop()
         elif isinstance(message, ComponentFailed):
             c.print(f"[red]{escape(message.component)} failed ({escape(message.error)})[/]")
         elif isinstance(message, ComponentLost):

@@ -28,6 +28,7 @@ from oxbot.robot.messages import (
     SpeakingStarted,
     SpeechAudio,
     SpeechHypotheses,
+    StopSpeaking,
     Utterance,
 )
 from oxbot.speech.audio import read_wav
@@ -76,6 +77,7 @@ class SpeechSynthesisComponent(Component):
         self.speed_factor = speed_factor
         self.speaking = False
         self._warned = False
+        self._cuts = bus.subscribe(StopSpeaking)  # read while speaking, not queued behind it
 
     def handle(self, message: Message) -> None:
         assert isinstance(message, Utterance)
@@ -83,22 +85,39 @@ class SpeechSynthesisComponent(Component):
         self.speaking = True
         if isinstance(self.voice, PiperVoice):  # a crowded machine makes sentences slowly
             self.expect(len(text) / SPOKEN_CHARS_PER_SECOND)
+        self._cuts.drain()  # a cut asked for before this utterance is not for it
         try:
             ends = time.monotonic()  # when the audio sent so far has played
             for i, (audio, seconds, visemes) in enumerate(self._sentences(text)):
                 if self._stop.is_set():
                     return  # stopped between sentences: the rest is not said
+                if self._cut(text, 0.0):
+                    break  # the person talks over the robot: the rest is not said
                 kind = SpeakingStarted if i == 0 else SpeakingContinued
                 self.bus.publish(kind(text=text, audio=audio, seconds=seconds, visemes=visemes))
                 # a sentence made after the one before ended starts late: the clock waits for it
                 ends = max(ends, time.monotonic()) + seconds / self.speed_factor
                 if self.realtime:
                     self.expect(seconds / self.speed_factor)  # a long sentence is not a hang
-            if self.realtime and self._stop.wait(max(0.0, ends - time.monotonic())):
-                return  # stopped while speaking: the sentence is cut off
+            else:
+                while self.realtime and (left := ends - time.monotonic()) > 0:
+                    if self._stop.is_set():
+                        return  # stopped while speaking: the sentence is cut off
+                    if self._cut(text, min(left, 0.02)):
+                        break
         finally:
             self.speaking = False
         self.bus.publish(SpeakingFinished(text=text))
+
+    def _cut(self, text: str, wait: float) -> bool:
+        """Whether the person cut `text` short (StopSpeaking), waiting up to `wait` s for it."""
+        cut = self._cuts.get(wait)
+        while cut is not None:
+            assert isinstance(cut, StopSpeaking)
+            if cut.text == text:
+                return True
+            cut = self._cuts.get(0)
+        return False
 
     def restart(self) -> None:
         self.speaking = False

@@ -118,10 +118,12 @@ class UtteranceCutter:
 
         self._window = frames(2 * self.config.start_seconds)
         self._start_needed = frames(self.config.start_seconds)
+        self._frames = frames
         self._pre_roll = math.ceil(self.config.pre_roll_seconds * rate / n)
         self._end_window = frames(self.config.end_silence_seconds)
         self._max_frames = frames(self.config.max_utterance_seconds)
         self._leftover = np.zeros(0, np.int16)
+        self._judged_leftover = np.zeros(0, np.int16)
         self._position = 0  # samples of the stream seen, leftover included
         self._history: deque[tuple[np.ndarray, bool]] = deque(maxlen=self._window + self._pre_roll)
         self._utterance: list[np.ndarray] | None = None
@@ -129,6 +131,14 @@ class UtteranceCutter:
         self._recent: deque[bool] = deque(maxlen=self._end_window)
         self.frames_heard = 0
         self.speech_frames = 0
+
+    def start_after(self, seconds: float) -> None:
+        """From now on, an utterance starts once `seconds` of frames within twice that are
+        speech (no more than the config's `start_seconds`; the listener asks for less while
+        the robot speaks, its echo taken out, so that a person cuts it short at once)."""
+        seconds = min(seconds, self.config.start_seconds)
+        self._window = self._frames(2 * seconds)
+        self._start_needed = self._frames(seconds)
 
     @property
     def in_utterance(self) -> bool:
@@ -144,6 +154,7 @@ class UtteranceCutter:
         """Forget the utterance under way and the pre-roll; the stream's count goes on."""
         self._position += len(self._leftover)
         self._leftover = np.zeros(0, np.int16)
+        self._judged_leftover = np.zeros(0, np.int16)
         self._history.clear()
         self._utterance = None
         self._recent.clear()
@@ -154,19 +165,25 @@ class UtteranceCutter:
         self.reset()
         self._position += samples
 
-    def feed(self, samples: np.ndarray) -> list[HeardUtterance]:
-        """Take the stream's next int16 samples; return the utterances that ended in them."""
+    def feed(self, samples: np.ndarray, judged: np.ndarray | None = None) -> list[HeardUtterance]:
+        """Take the stream's next int16 samples; return the utterances that ended in them. The
+        VAD judges `judged` (as many samples; `samples` themselves when None) and the
+        utterances keep `samples`: the listener has it judge what is surely the person."""
         samples = np.asarray(samples)
         if samples.dtype != np.int16 or samples.ndim != 1:
             raise InvalidInputError("the stream is 1-D int16 samples (16-bit mono PCM)")
+        judged = samples if judged is None else np.asarray(judged, np.int16)
+        if len(judged) != len(samples):
+            raise InvalidInputError("feed() judges as many samples as it is given")
         data = np.concatenate([self._leftover, samples]) if len(self._leftover) else samples
+        seen = np.concatenate([self._judged_leftover, judged]) if len(self._leftover) else judged
         n = self.vad.frame_samples
         whole = len(data) // n * n
-        self._leftover = data[whole:].copy()
+        self._leftover, self._judged_leftover = data[whole:].copy(), seen[whole:].copy()
         ended = []
         for at in range(0, whole, n):
-            frame = data[at : at + n]
-            done = self._frame(frame, self.vad.is_speech(frame), self._position + at)
+            speech = self.vad.is_speech(seen[at : at + n])
+            done = self._frame(data[at : at + n], speech, self._position + at)
             if done is not None:
                 ended.append(done)
         self._position += whole

@@ -146,17 +146,37 @@ CONVERSATION = """
     room.ctx = this; room.input = input;
     return input;
   };
+  // The robot's voice as the room's microphone hears it back (an echo, `room.echoGain`, none
+  // when null): every sound the page plays in another context is played here too, at the
+  // same moment and scaled, and stops when the page stops it.
+  room.echoGain = %s; room.echoes = 0;
+  const start = AudioBufferSourceNode.prototype.start, stop = AudioBufferSourceNode.prototype.stop;
+  AudioBufferSourceNode.prototype.start = function (when, ...rest) {
+    start.call(this, when, ...rest);
+    if (room.echoGain === null || !room.ctx || this.context === room.ctx || !this.buffer) return;
+    const ctx = room.ctx, twin = ctx.createBufferSource(), gain = ctx.createGain();
+    twin.buffer = this.buffer; gain.gain.value = room.echoGain;
+    twin.connect(gain); gain.connect(room.input);
+    twin.start(ctx.currentTime + Math.max(0, (when || 0) - this.context.currentTime));
+    this.__echo = twin; room.echoes += 1;
+  };
+  AudioBufferSourceNode.prototype.stop = function (...args) {
+    stop.apply(this, args);
+    if (this.__echo) { try { this.__echo.stop(); } catch (_) { /* not started */ } }
+  };
 })();
 """
 
 
-def conversation_script() -> str:
+def conversation_script(echo_db: float | None = None) -> str:
     """A page init script (Playwright's `add_init_script`) that stands in for a person in a
     room and the microphone that hears it: `window.__room.say(base64 WAV)` makes the person
     say a WAV now into the open microphone, whether the page listens hands-free or by
     push-to-talk. The page opens it with getUserMedia and hears it through its own
-    AudioContext's `createMediaStreamSource`, which plays the room in that context."""
-    return CONVERSATION
+    AudioContext's `createMediaStreamSource`, which plays the room in that context. With
+    `echo_db`, the microphone also hears what the page plays (the robot's voice) that many dB
+    down, as it plays (`window.__room.echoes` counts the sounds fed back)."""
+    return CONVERSATION % ("null" if echo_db is None else repr(10 ** (echo_db / 20)))
 
 
 def say(page: Any, wav: bytes) -> None:

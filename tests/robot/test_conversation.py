@@ -18,6 +18,8 @@ from oxbot.dialogue.domain import (
 )
 from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.game.board import EMPTY
+from oxbot.robot.manager import Phase
+from oxbot.robot.sentences import HOLD_SENTENCE
 from tests.robot.helpers import ManagerAtHand
 
 
@@ -166,3 +168,19 @@ def test_the_outcome_acknowledged_late_is_no_yes_to_another_game(late):
     assert acts(hand)[-1] == OFFER_ANOTHER and not hand.done  # asked once more
     hand.say("no thanks")
     assert hand.last_act == CLOSING and hand.done
+
+
+def test_wait_said_over_the_robot_is_answered_and_the_robot_waits_longer():
+    hand = ManagerAtHand(robot_starts=True, settings=("robot.question_timeout=30",))
+    while hand.last_act != INVITATION:
+        hand.wait()
+    manager = hand.manager
+    asked_until = manager._deadline
+    hand.say("wait a second")
+    assert hand.said[-1] == HOLD_SENTENCE and manager.phase is Phase.LISTENING
+    assert manager.transcript[-2]["act"] == "Request(wait)"
+    assert manager._deadline > asked_until  # time to think: a question's wait, not the pause
+    hand.say("yes let's play")
+    assert hand.last_act != INVITATION and "Confirm(playGame=yes)" in [
+        t["act"] for t in manager.transcript
+    ]

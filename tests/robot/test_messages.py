@@ -16,6 +16,7 @@ from oxbot.robot.messages import (
     SpeakingContinued,
     SpeakingStarted,
     SpeechHypotheses,
+    StopSpeaking,
     from_json,
     to_json,
 )
@@ -26,6 +27,7 @@ EXAMPLES = [
     GameMove(who="usr", what="draw", where="middle", symbol="cross"),
     SpeakingStarted(text="Your turn.", audio=b"RIFF....WAVE", seconds=0.8),
     SpeakingContinued(text="Hi! Mom.", audio=b"RIFF", seconds=0.5, visemes=((0.0, "rest"),)),
+    StopSpeaking(text="Would you like to play a game?"),
     ArmStroke(where="upperleft", points=((0.1, 0.2), (0.5, 0.5))),
     SpeechHypotheses(nbest=(("yes", 1.0),), source="text", words=(("yes", 1.0),)),
     BoardSeen(labels=("nothing",) * 8 + ("cross",), agreeing=2, cells=(b"\x89PNG",) * 9),

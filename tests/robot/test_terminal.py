@@ -203,3 +203,38 @@ def test_without_a_microphone_one_clear_warning_and_the_game_goes_on_in_text(tmp
     assert out.count("no microphone could be opened (rec FAIL formats") == 1, out
     assert "there is no microphone" in out  # a second try says so at once
     assert said == ["yes let's play"] and recording == []
+
+
+FAKE_PLAY = """#!{python}
+# sox's play as this test needs it: notes that it started, reads the WAV, plays it for 5 s
+import sys, time
+open({started!r}, "a").write("started\\n")
+sys.stdin.buffer.read()
+time.sleep(5)
+"""
+
+
+def test_speakers_cut_short_stop_at_once_and_drop_what_waits(tmp_path, monkeypatch):
+    started = tmp_path / "started"
+    folder = tmp_path / "bin"
+    folder.mkdir()
+    play = folder / "play"
+    play.write_text(FAKE_PLAY.format(python=sys.executable, started=str(started)))
+    play.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{folder}{os.pathsep}{os.environ['PATH']}")
+    speakers = Speakers()
+    wav = synthesize("Would you like to play?", Voice("en-us"))
+    speakers.play(wav)
+    speakers.play(wav)  # the next sentence, waiting for the first
+    deadline = time.monotonic() + 5
+    while not started.exists() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    time.sleep(0.1)
+    cut = time.monotonic()
+    speakers.stop()  # the person talked over the robot
+    while speakers._playing is not None and time.monotonic() - cut < 2:
+        time.sleep(0.01)
+    assert speakers._playing is None and time.monotonic() - cut < 0.5
+    time.sleep(0.3)
+    assert started.read_text().count("started") == 1  # what waited was dropped
+    assert speakers.enabled  # a sentence cut short is no broken sound output

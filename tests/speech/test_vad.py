@@ -58,14 +58,17 @@ def test_a_minute_of_room_noise_starts_no_utterance():
 def test_two_answers_with_a_pause_between_are_two_utterances_heard_as_said():
     rng = np.random.default_rng(3)
     first, _ = in_noise(spoken("okay", "en-gb"), rng, before=0.5, after=1.0)
-    second, _ = in_noise(spoken("no not now"), rng, before=0.2, after=1.0)
+    answer = spoken("no not now")
+    second, lead = in_noise(answer, rng, before=0.2, after=1.0)
     heard = cut(np.concatenate([first, second]))
-    words = [words_in(u.samples) for u in heard]
-    # What is checked here is the cut: the recogniser hears each answer begin, and the second
-    # utterance is long enough to hold all of "no not now" (how much of it is heard in room
-    # noise is the recogniser's business, measured in bench/bench_speech.py).
-    assert len(words) == 2 and words[0] == "okay" and words[1].split()[:1] == ["no"], words
-    assert len(heard[1].samples) >= len(spoken("no not now")) - 0.2 * RATE
+    # What is checked here is the cut: two utterances, the first heard as said, the second
+    # from before the answer's first sound to past its last (how much of "no not now" is heard
+    # in room noise is the recogniser's business, measured in bench/bench_speech.py: Whisper
+    # base heard "no" at first, and "nought hot to hell" after a reinstall of its packages).
+    assert len(heard) == 2 and words_in(heard[0].samples) == "okay", heard
+    begins = len(first) + lead + onset(answer)
+    assert begins - CONFIG.pre_roll_seconds * RATE - 1024 <= heard[1].start <= begins
+    assert heard[1].start + len(heard[1].samples) >= len(first) + lead + len(answer) - 0.2 * RATE
     assert heard[1].start > heard[0].start + len(heard[0].samples)
 
 

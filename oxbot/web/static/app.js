@@ -21,7 +21,7 @@ const state = {
   sound: true, camera: null, cameraTimer: null,
   audio: null, analyser: null, gain: null, source: null, mouthUntil: 0,
   stats: { framesSent: 0, lastStrokeEnd: 0, moves: [], mouthMoves: 0, pointers: {}, cancels: 0,
-           acts: [], speaking: [] },
+           acts: [], speaking: [], cuts: [] },
   board: [],             // the board as the robot's manager last announced it (GameState)
   robotStrokes: {},      // cell -> the arm's strokes there (unit square), for paper's overlay
   paperDrawn: new Set(), // cells whose paper move is drawn on the canvas's overlay
@@ -281,6 +281,13 @@ const handlers = {
   },
   SpeakingContinued(d) { speak(d, false); },
   SpeakingFinished() { state.speaking = false; },
+  // The person talked over the robot (barge-in): what still plays of that utterance stops now.
+  StopSpeaking(d) {
+    if (d.text !== state.playingText) return;
+    for (const src of state.sources || []) { try { src.stop(); } catch (_) { /* ended */ } }
+    state.sources = []; state.sentences = []; state.source = null; state.mouthUntil = 0;
+    state.speechChain = Promise.resolve(); state.stats.cuts.push(performance.now());
+  },
   // Another game, from the button or asked for in words ("one more game"): a clean sheet on
   // the page too (paper is the person's to change), listening again, and the robot shown it.
   NewGame() {
@@ -448,7 +455,9 @@ async function reallyOpen() {
     const node = new AudioWorkletNode(ctx, "tap");
     node.port.onmessage = (m) => { if (mic.ctx === ctx) onSamples(m.data); };
     const stream = await navigator.mediaDevices.getUserMedia({
-      audio: { echoCancellation: false, noiseSuppression: false, autoGainControl: false } });
+      // the browser's echo canceller takes out the robot's voice where it can; the server
+      // takes out what is left (oxbot.speech.echo) and hears the person over it
+      audio: { echoCancellation: true, noiseSuppression: false, autoGainControl: false } });
     if (mic.ctx !== ctx) { stream.getTracks().forEach((t) => t.stop()); return; }
     ctx.createMediaStreamSource(stream).connect(node);
     if (ctx.state === "suspended") await ctx.resume();
@@ -494,7 +503,10 @@ function onSamples(block) {
 
 function streamPiece(block) {
   mic.piece.push(block); mic.pieceLength += block.length;
-  const rate = mic.ctx.sampleRate, seconds = state.hello ? state.hello.stream_piece_seconds : 0.1;
+  // smaller pieces while the robot's voice plays: a person who talks over it is heard sooner
+  const playing = (state.sources || []).length > 0;
+  const rate = mic.ctx.sampleRate,
+    seconds = (state.hello ? state.hello.stream_piece_seconds : 0.1) / (playing ? 2 : 1);
   if (mic.pieceLength < rate * seconds) return;
   const samples = concat(mic.piece);
   mic.piece = []; mic.pieceLength = 0;
@@ -614,6 +626,7 @@ state.speechChain = Promise.resolve();
 
 function speak(d, first) {
   state.speaking = true;
+  if (first) state.playingText = d.text;
   state.speechChain = state.speechChain.then(() => playSentence(d, first));
 }
 

@@ -1,0 +1,193 @@
+"""The robot's own voice in the person's microphone, modelled and taken out, so that the robot
+can listen while it speaks and never takes itself for the person.
+
+The listener knows what the robot says (each sentence's audio, as the page or the terminal
+plays it) and about when: the first sentence is placed on the microphone stream's samples where
+the stream was when its SpeakingStarted came, each further sentence right after the one before
+(or where the stream was when it came, if later), as the players queue them. What reaches the
+microphone is modelled as that audio delayed and scaled, one delay and one gain, found by
+cross-correlation over `MIN_DELAY`..`MAX_DELAY` once `ESTIMATE_AFTER` seconds of it can have
+been heard, and found again as more comes. A browser's or a sound card's echo canceller takes
+out most of a real room's echo before this; this takes out what is played straight into the
+microphone, and tells what is left.
+
+The residual (the microphone less the modelled echo) is what the person said over the robot. A
+frame of it counts only where it is louder than the echo it could be the leftover of, and
+above `FLOOR_DBFS` (`EchoCanceller.separate`): the rest is silenced for a voice activity
+detector, so that it hears the person and not the robot.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from oxbot.speech.audio import RATE
+
+MIN_DELAY = -0.3
+"""Seconds: the echo may begin this long before the stream's place at SpeakingStarted (a page
+sends its microphone in pieces, so what the listener has heard lags what the page plays)."""
+MAX_DELAY = 0.8
+"""Seconds: the latest the echo may begin after it (decoding, a player's output)."""
+ESTIMATE_AFTER = 0.5
+"""Seconds of stream heard since the robot's audio was placed before its delay and gain are
+first estimated; until then the stream is not listened to."""
+MIN_CORRELATION = 0.3
+"""A delay whose normalised correlation is below this finds no echo: the gain is 0."""
+FLOOR_DBFS = -45.0
+"""A residual frame below this level is silence (what an echo canceller leaves of the robot)."""
+FRAME = 512
+"""Samples of one level decision: the VAD's frame at 16 kHz."""
+
+
+class EchoCanceller:
+    """The robot's speech as a reference on the microphone stream's samples, its echo path
+    (`delay`, `gain`), and the residual. Positions count the stream's samples from its start
+    (the listener's count)."""
+
+    def __init__(self, rate: int = RATE) -> None:
+        self.rate = rate
+        self._reference = np.zeros(0, np.float64)
+        self._start = 0  # where the reference's first sample was placed
+        self._mic = np.zeros(0, np.float64)
+        self._mic_start = 0  # the stream position of self._mic[0]
+        self._kept_before = int(-MIN_DELAY * rate) + FRAME
+        self.delay: int | None = None
+        """Samples from the reference's place to its echo (None: not estimated yet)."""
+        self.gain = 0.0
+        self.correlation = 0.0
+        self._estimated_at = 0
+        self._cut_at: int | None = None
+
+    # --- what the robot says ---
+
+    def speak(self, samples: np.ndarray, position: int, first: bool) -> None:
+        """A sentence of the robot's audio (16 kHz int16) came when the stream was at `position`:
+        the first of an utterance replaces what was playing, a further one follows it."""
+        audio = samples.astype(np.float64)
+        if first or not len(self._reference):
+            kept = self._mic[-self._kept_before :] if len(self._mic) else self._mic
+            self._mic_start += len(self._mic) - len(kept)
+            self._mic = kept.copy()
+            self._reference, self._start = audio, position
+            self.delay, self.gain, self.correlation = None, 0.0, 0.0
+            self._estimated_at, self._cut_at = 0, None
+            return
+        gap = max(0, position - (self._start + len(self._reference)))
+        self._reference = np.concatenate([self._reference, np.zeros(gap), audio])
+
+    def cut(self, position: int) -> None:
+        """The robot was cut short at `position`: its audio stops soon after."""
+        self._cut_at = position
+
+    def end(self) -> int:
+        """Where the robot's audio, as modelled, has ended in the stream (its echo's last
+        sample, at the latest delay until the delay is known)."""
+        length = len(self._reference)
+        if self._cut_at is not None:
+            length = min(length, self._cut_at - self._start + int(0.25 * self.rate))
+        delay = self.delay if self.delay is not None else int(MAX_DELAY * self.rate)
+        return self._start + max(0, length) + delay
+
+    def active(self, position: int, tail: float) -> bool:
+        """Whether the robot's echo may be in the stream at `position` (or `tail` s after)."""
+        return len(self._reference) > 0 and position < self.end() + int(tail * self.rate)
+
+    # --- what the microphone hears ---
+
+    def hear(self, mic: np.ndarray, position: int) -> None:
+        """The stream's samples from `position` on (keeps what the estimate needs)."""
+        if not len(self._mic):
+            self._mic_start = position
+        elif self._mic_start + len(self._mic) != position:  # a gap: start the record again
+            self._mic, self._mic_start = np.zeros(0, np.float64), position
+        self._mic = np.concatenate([self._mic, mic.astype(np.float64)])
+        if not len(self._reference):
+            self._mic = self._mic[-self._kept_before :]
+            self._mic_start = position + len(mic) - len(self._mic)
+            return
+        heard = position + len(mic) - self._start
+        due = heard >= ESTIMATE_AFTER * self.rate and heard - self._estimated_at >= 0.2 * self.rate
+        again = heard - self._estimated_at >= 0.5 * self.rate
+        if (due if self.delay is None else again) and heard <= 4 * self.rate:
+            self._estimate(heard)
+
+    def _estimate(self, heard: int) -> None:
+        lo, hi = int(MIN_DELAY * self.rate), int(MAX_DELAY * self.rate)
+        reference = self._reference[: max(0, heard - max(lo, 0))]
+        offset = self._start - self._mic_start  # the reference's place in self._mic
+        if len(reference) < FRAME or float(reference @ reference) <= 0:
+            return
+        # mic[offset + lag + i] ~ gain * reference[i], for lags lo..hi
+        first = max(0, offset + lo)
+        segment = self._mic[first : offset + hi + len(reference)]
+        n = len(segment) + len(reference)
+        size = 1 << (n - 1).bit_length()
+        corr = np.fft.irfft(
+            np.fft.rfft(segment, size) * np.conj(np.fft.rfft(reference, size)), size
+        )
+        lags = np.arange(first - offset, first - offset + len(segment) - FRAME + 1)
+        lags = lags[(lags >= lo) & (lags <= hi)]
+        if not len(lags):
+            return
+        shifts = lags + offset - first
+        energy = np.concatenate([[0.0], np.cumsum(segment**2)])
+        ends = np.minimum(shifts + len(reference), len(segment))
+        overlap = ends - shifts
+        window = energy[ends] - energy[shifts]
+        ref_energy = np.concatenate([[0.0], np.cumsum(reference**2)])[overlap]
+        score = corr[shifts] / np.sqrt(np.maximum(window * ref_energy, 1e-9))
+        best = int(np.argmax(score))
+        self._estimated_at = heard
+        self.correlation = float(score[best])
+        if self.correlation < MIN_CORRELATION:
+            # no echo to take out (a canceller took it, the sound is off): certain once the
+            # latest echo would have shown
+            if heard >= (MAX_DELAY + ESTIMATE_AFTER) * self.rate:
+                self.delay, self.gain = 0, 0.0
+            return
+        self.delay = int(lags[best])
+        self.gain = float(corr[shifts[best]] / max(ref_energy[best], 1e-9))
+
+    def echo(self, position: int, count: int) -> np.ndarray:
+        """The modelled echo of stream samples `position`..`position + count`."""
+        out = np.zeros(count)
+        if self.delay is None or not self.gain:
+            return out
+        at = position - self._start - self.delay  # index into the reference
+        length = len(self._reference)
+        if self._cut_at is not None:
+            length = min(length, self._cut_at - self._start + int(0.25 * self.rate))
+        lo, hi = max(0, at), min(length, at + count)
+        if hi > lo:
+            out[lo - at : hi - at] = self.gain * self._reference[lo:hi]
+        return out
+
+    def separate(self, mic: np.ndarray, position: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """`mic` (stream samples from `position`) less the robot's modelled echo, and the same
+        with every frame silenced that is not louder than that echo or is under `FLOOR_DBFS`
+        (what is surely the person); None while the echo's path is not known yet (nothing can
+        be told apart)."""
+        if self.delay is None:
+            return None
+        echo = self.echo(position, len(mic))
+        heard = mic.astype(np.float64)
+        residual = heard - echo
+        floor = 32768 * 10 ** (FLOOR_DBFS / 20)
+        surely = residual.copy()
+        for at in range(0, len(surely), FRAME):
+            part, leak = slice(at, at + FRAME), echo[at : at + FRAME]
+            # taken out only where that leaves less: where the audio stopped sooner than
+            # modelled (cut short), the echo is not there to take out
+            if np.sum(residual[part] ** 2) >= np.sum(heard[part] ** 2):
+                residual[part] = surely[part] = heard[part]
+            level = np.sqrt(np.mean(surely[part] ** 2))
+            if level < floor or level <= np.sqrt(np.mean(leak**2)):
+                surely[part] = 0.0
+
+        def pcm(x: np.ndarray) -> np.ndarray:
+            return np.clip(np.round(x), -32768, 32767).astype(np.int16)
+
+        return pcm(residual), pcm(surely)
+
+
+__all__ = ["EchoCanceller"]

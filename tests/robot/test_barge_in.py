@@ -1,0 +1,194 @@
+"""Listening while the robot speaks: its own voice fed back into the microphone is never taken
+for the person, and a person who talks over it cuts it short (barge-in) and is heard."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from oxbot.config import ListeningConfig
+from oxbot.robot.bus import LocalBus
+from oxbot.robot.listening import HandsFreeListener
+from oxbot.robot.messages import (
+    PersonAnswering,
+    SpeakingContinued,
+    SpeakingFinished,
+    SpeakingStarted,
+    StopSpeaking,
+    Utterance,
+)
+from oxbot.robot.voice import SpeechSynthesisComponent
+from oxbot.speech import Voice, pcm16, read_wav, synthesize
+from oxbot.speech.audio import RATE, Audio, resample
+from oxbot.speech.echo import ESTIMATE_AFTER, MAX_DELAY, EchoCanceller
+from oxbot.testing.sounds import noise_only
+
+PIECE = 1600  # the page's 0.1 s
+ROBOT = ("Would you like to play a game of noughts and crosses?", "I'm oxbot, a robot.")
+ECHO_DB = -10.0
+
+
+class Ears:
+    """What the listener needs of a robot: a bus, and `hear`, which keeps the recordings."""
+
+    def __init__(self) -> None:
+        self.bus = LocalBus()
+        self.recordings: list[bytes] = []
+
+    def hear(self, wav: bytes) -> None:
+        self.recordings.append(wav)
+
+
+@pytest.fixture(scope="module")
+def robot_wavs() -> list[bytes]:
+    """The robot's two sentences as a player gets them (22,050 Hz WAVs)."""
+    return [synthesize(text, Voice("en-us")) for text in ROBOT]
+
+
+@pytest.fixture(scope="module")
+def stop_word() -> np.ndarray:
+    return pcm16(synthesize("stop", Voice("en-us+f3")))
+
+
+def heard_in_the_room(wav: bytes, delay: float) -> np.ndarray:
+    """`wav` as a microphone hears it played: another resampling than the listener's (through
+    48 kHz, linear), `delay` late, 10 dB down, with a short room tail."""
+    audio = read_wav(wav)
+    x = audio.samples.astype(np.float64)
+    at_48k = np.interp(
+        np.arange(round(len(x) * 48_000 / audio.rate)) * audio.rate / 48_000, np.arange(len(x)), x
+    )
+    played = resample(Audio(np.round(at_48k).astype(np.int16), 48_000), RATE).samples
+    tail = np.exp(-np.arange(int(0.03 * RATE)) / (0.008 * RATE))
+    tail /= tail.sum() * 1.6  # the direct sound and a little of the room
+    tail[0] += 0.4
+    echo = np.convolve(played.astype(np.float64), tail)[: len(played)]
+    return np.concatenate([np.zeros(int(delay * RATE)), echo * 10 ** (ECHO_DB / 20)])
+
+
+def play(
+    robot_wavs: list[bytes],
+    delay: float = 0.12,
+    person: np.ndarray | None = None,
+    person_at: float = 0.0,
+    config: ListeningConfig | None = None,
+    room: np.ndarray | None = None,
+) -> tuple[Ears, HandsFreeListener, list, int]:
+    """The robot says its two sentences from 1 s into the stream, the microphone hears their
+    echo (and the person from `person_at` s after the robot starts); the stream is fed in 0.1 s
+    pieces. Returns the ears, the listener, the StopSpeaking / PersonAnswering published (with
+    the stream position they came at) and where the robot started."""
+    ears = Ears()
+    listener = HandsFreeListener(ears, config or ListeningConfig())
+    news = ears.bus.subscribe(StopSpeaking, PersonAnswering)
+    started = RATE
+    sound = np.concatenate([heard_in_the_room(w, 0.0) for w in robot_wavs])
+    echo = np.zeros(started + int(delay * RATE) + len(sound) + 3 * RATE)
+    echo[started + int(delay * RATE) :][: len(sound)] = sound
+    voice = np.zeros(len(echo))
+    if room is not None:  # the room's own sounds, all along
+        voice += np.resize(room, len(voice))
+    if person is not None:
+        at = started + int(person_at * RATE)
+        voice[at : at + len(person)] = person
+    published = []
+    for at in range(0, len(echo), PIECE):
+        if at == started:
+            for i, wav in enumerate(robot_wavs):
+                kind = SpeakingStarted if i == 0 else SpeakingContinued
+                seconds = read_wav(wav).seconds
+                ears.bus.publish(kind(text=" ".join(ROBOT), audio=wav, seconds=seconds))
+        piece = np.round(echo[at : at + PIECE] + voice[at : at + PIECE])
+        listener.feed(np.clip(piece, -32768, 32767).astype(np.int16))
+        for message in news.drain():
+            published.append((message, at + PIECE))
+            if isinstance(message, StopSpeaking):  # the voice finishes, the player stops
+                ears.bus.publish(SpeakingFinished(text=message.text))
+                echo[at + PIECE + PIECE :] = 0.0
+    return ears, listener, published, started
+
+
+@pytest.mark.parametrize("delay", [-0.1, 0.12, 0.6])
+def test_the_robots_own_voice_fed_back_is_never_taken_for_the_person(robot_wavs, delay):
+    ears, listener, published, _ = play(robot_wavs, delay)
+    assert ears.recordings == [] and published == []
+    assert listener.echo.correlation > 0.9
+    assert listener.echo.delay == pytest.approx(delay * RATE, abs=0.005 * RATE)
+    assert 0.03 < listener.echo.gain < 10 ** (ECHO_DB / 20)  # the direct sound's share
+
+
+def test_a_room_s_noise_over_the_robot_cuts_nothing_short(robot_wavs):
+    room = noise_only(8.0, np.random.default_rng(7))  # hiss, fan, clicks, hum
+    ears, _, published, _ = play(robot_wavs, room=room)
+    assert ears.recordings == [] and published == []
+
+
+def test_a_stop_said_over_the_robot_cuts_it_short_and_is_heard(robot_wavs, stop_word):
+    onset = 1.5  # seconds after the robot starts
+    ears, _, published, started = play(robot_wavs, person=stop_word, person_at=onset)
+    kinds = [type(m) for m, _ in published]
+    assert kinds == [StopSpeaking, PersonAnswering], published
+    cut, position = published[0]
+    assert cut.text == " ".join(ROBOT)
+    # the stream's position when the cut was published: within 0.3 s of the word's first sound
+    first_sound = started + int(onset * RATE) + int(np.argmax(np.abs(stop_word) > 500))
+    assert 0 < position - first_sound <= 0.3 * RATE
+    assert len(ears.recordings) == 1  # the person's word, to the recogniser
+    heard = read_wav(ears.recordings[0]).samples.astype(np.float64)
+    assert 0.3 < len(heard) / RATE < 2.0
+    # what was heard is the person's word, the robot's echo taken out around it
+    word = stop_word.astype(np.float64)
+    lag = np.argmax(np.correlate(heard, word, "valid")) if len(heard) >= len(word) else 0
+    part = heard[lag : lag + len(word)]
+    assert np.corrcoef(part, word[: len(part)])[0, 1] > 0.8
+
+
+def test_without_barge_in_the_person_is_not_listened_to_while_the_robot_speaks(
+    robot_wavs, stop_word
+):
+    config = ListeningConfig(barge_in=False)
+    ears, _, published, _ = play(robot_wavs, person=stop_word, person_at=1.5, config=config)
+    assert ears.recordings == [] and published == []
+
+
+def test_the_canceller_finds_no_echo_where_none_is_played():
+    canceller = EchoCanceller()
+    rng = np.random.default_rng(0)
+    canceller.speak(rng.normal(0, 3000, RATE).astype(np.int16), 0, first=True)
+    reference = rng.normal(0, 3000, RATE).astype(np.int16)
+    canceller.speak(reference, 0, first=True)
+    for at in range(0, 2 * RATE, PIECE):  # not before the latest echo would have shown
+        canceller.hear(np.zeros(PIECE, np.int16), at)
+        heard = at + PIECE
+        assert (canceller.delay is None) == (heard < (MAX_DELAY + ESTIMATE_AFTER) * RATE)
+    assert canceller.delay == 0 and canceller.gain == 0.0
+    assert not canceller.active(RATE + int(0.3 * RATE), 0.3)
+    # a microphone that hears something else (the person, no echo): the same
+    canceller.speak(reference, 2 * RATE, first=True)
+    for at in range(2 * RATE, 4 * RATE, PIECE):
+        canceller.hear(rng.normal(0, 3000, PIECE).astype(np.int16), at)
+        heard = at + PIECE - 2 * RATE
+        assert (canceller.delay is None) == (heard < (MAX_DELAY + ESTIMATE_AFTER) * RATE)
+    assert canceller.delay == 0 and canceller.gain == 0.0
+
+
+def test_a_voice_cut_short_finishes_at_once_and_says_no_more(robot_wavs):
+    bus = LocalBus()
+    out = bus.subscribe(SpeakingStarted, SpeakingContinued, SpeakingFinished)
+    voice = SpeechSynthesisComponent(bus, Voice("en-us")).start()
+    try:
+        text = " ".join(ROBOT) + " " + " ".join(ROBOT)
+        bus.publish(Utterance(text=text, act="Request(playGame)"))
+        assert isinstance(out.get(5.0), SpeakingStarted)
+        bus.publish(StopSpeaking(text="something said before"))  # not this utterance
+        time.sleep(0.2)
+        assert out.drain() == []
+        cut = time.monotonic()
+        bus.publish(StopSpeaking(text=text))
+        finished = out.get(1.0)
+        assert isinstance(finished, SpeakingFinished) and finished.text == text
+        assert time.monotonic() - cut < 0.1
+    finally:
+        voice.stop()
