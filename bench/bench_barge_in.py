@@ -88,7 +88,7 @@ def main() -> None:
                 understood = f"{heard[0][2]!r} as {heard[0][1]}" if heard else "nothing heard"
                 print(
                     f"try {k + 1} ({word!r}): {shown}; heard {understood}; "
-                    f"own voice taken for the person before: {len(before)}",
+                    f"own voice taken for the person before: {len(before)} {before or ''}",
                     flush=True,
                 )
                 page.close()

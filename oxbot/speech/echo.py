@@ -7,14 +7,14 @@ the stream was when its SpeakingStarted came, each further sentence right after 
 (or where the stream was when it came, if later), as the players queue them. What reaches the
 microphone is modelled as that audio delayed and scaled, one delay and one gain, found by
 cross-correlation over `MIN_DELAY`..`MAX_DELAY` once `ESTIMATE_AFTER` seconds of it can have
-been heard, and found again as more comes. A browser's or a sound card's echo canceller takes
-out most of a real room's echo before this; this takes out what is played straight into the
-microphone, and tells what is left.
+been heard, and found again on its latest `WINDOW` seconds as more comes. A browser's or a
+sound card's echo canceller takes out most of a real room's echo before this; this takes out
+what is played straight into the microphone, and tells what is left.
 
 The residual (the microphone less the modelled echo) is what the person said over the robot. A
-frame of it counts only where it is louder than the echo it could be the leftover of, and
-above `FLOOR_DBFS` (`EchoCanceller.separate`): the rest is silenced for a voice activity
-detector, so that it hears the person and not the robot.
+frame of it counts only where it is `ECHO_MARGIN` times louder than the echo it could be the
+leftover of, and above `FLOOR_DBFS` (`EchoCanceller.separate`): the rest is silenced for a
+voice activity detector, so that it hears the person and not the robot.
 """
 
 from __future__ import annotations
@@ -33,6 +33,14 @@ ESTIMATE_AFTER = 0.5
 first estimated; until then the stream is not listened to."""
 MIN_CORRELATION = 0.3
 """A delay whose normalised correlation is below this finds no echo: the gain is 0."""
+SURE_CORRELATION = 0.6
+"""Before the latest echo can have shown, a delay is taken only this surely."""
+WINDOW = 2.0
+"""Seconds of the robot's latest audio the delay and gain are estimated on, again every 0.5 s."""
+ECHO_MARGIN = 2.0
+"""A frame is surely the person when its residual is this many times louder (in RMS) than the
+modelled echo it could be the leftover of: 6 dB, more than a path misjudged by a few samples
+leaves."""
 FLOOR_DBFS = -45.0
 """A residual frame below this level is silence (what an echo canceller leaves of the robot)."""
 FRAME = 512
@@ -108,13 +116,17 @@ class EchoCanceller:
         heard = position + len(mic) - self._start
         due = heard >= ESTIMATE_AFTER * self.rate and heard - self._estimated_at >= 0.2 * self.rate
         again = heard - self._estimated_at >= 0.5 * self.rate
-        if (due if self.delay is None else again) and heard <= 4 * self.rate:
+        if due if self.delay is None else again:
             self._estimate(heard)
 
     def _estimate(self, heard: int) -> None:
         lo, hi = int(MIN_DELAY * self.rate), int(MAX_DELAY * self.rate)
-        reference = self._reference[: max(0, heard - max(lo, 0))]
-        offset = self._start - self._mic_start  # the reference's place in self._mic
+        # the last WINDOW seconds of what can have been heard: a player that drifts (a busy
+        # machine's audio) is followed
+        end = max(0, heard - max(lo, 0))
+        r0 = max(0, end - int(WINDOW * self.rate))
+        reference = self._reference[r0:end]
+        offset = self._start + r0 - self._mic_start  # the window's place in self._mic
         if len(reference) < FRAME or float(reference @ reference) <= 0:
             return
         # mic[offset + lag + i] ~ gain * reference[i], for lags lo..hi
@@ -138,13 +150,15 @@ class EchoCanceller:
         score = corr[shifts] / np.sqrt(np.maximum(window * ref_energy, 1e-9))
         best = int(np.argmax(score))
         self._estimated_at = heard
-        self.correlation = float(score[best])
-        if self.correlation < MIN_CORRELATION:
-            # no echo to take out (a canceller took it, the sound is off): certain once the
-            # latest echo would have shown
-            if heard >= (MAX_DELAY + ESTIMATE_AFTER) * self.rate:
-                self.delay, self.gain = 0, 0.0
-            return
+        correlation = float(score[best])
+        settled = heard >= (MAX_DELAY + ESTIMATE_AFTER) * self.rate  # the latest echo has shown
+        if self.delay is None and correlation < (MIN_CORRELATION if settled else SURE_CORRELATION):
+            if settled:  # no echo to take out (a canceller took it, the sound is off)
+                self.delay, self.gain, self.correlation = 0, 0.0, correlation
+            return  # else more of it is waited for: a part of an echo can match elsewhere
+        if self.delay is not None and correlation < MIN_CORRELATION:
+            return  # the path found before stands
+        self.correlation = correlation
         self.delay = int(lags[best])
         self.gain = float(corr[shifts[best]] / max(ref_energy[best], 1e-9))
 
@@ -181,7 +195,7 @@ class EchoCanceller:
             if np.sum(residual[part] ** 2) >= np.sum(heard[part] ** 2):
                 residual[part] = surely[part] = heard[part]
             level = np.sqrt(np.mean(surely[part] ** 2))
-            if level < floor or level <= np.sqrt(np.mean(leak**2)):
+            if level < floor or level <= ECHO_MARGIN * np.sqrt(np.mean(leak**2)):
                 surely[part] = 0.0
 
         def pcm(x: np.ndarray) -> np.ndarray:

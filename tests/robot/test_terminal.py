@@ -3,6 +3,7 @@
 import logging
 import os
 import sys
+import threading
 import time
 
 import numpy as np
@@ -13,7 +14,7 @@ from oxbot.game.board import EMPTY
 from oxbot.perception.sources import CameraSource
 from oxbot.robot.session import Robot
 from oxbot.robot.terminal import Microphone, Speakers, TerminalRobot
-from oxbot.speech import Voice, pcm16, synthesize
+from oxbot.speech import RATE, Voice, pcm16, synthesize
 from oxbot.testing.sounds import in_noise
 
 FAST = load_config(
@@ -238,3 +239,125 @@ def test_speakers_cut_short_stop_at_once_and_drop_what_waits(tmp_path, monkeypat
     time.sleep(0.3)
     assert started.read_text().count("started") == 1  # what waited was dropped
     assert speakers.enabled  # a sentence cut short is no broken sound output
+
+
+class Room:
+    """A room in real time: what the loudspeaker plays and what the person says in it, as the
+    microphone hears it."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._sounds: list[tuple[int, np.ndarray]] = []  # (the sample it starts at, samples)
+        self._t0 = time.monotonic()
+
+    def now(self) -> int:
+        return int((time.monotonic() - self._t0) * RATE)
+
+    def add(self, samples: np.ndarray, gain: float = 1.0) -> None:
+        with self._lock:
+            self._sounds.append((self.now(), samples.astype(np.float64) * gain))
+
+    def cut(self, samples: np.ndarray) -> None:
+        """A sound stops now: the rest of it is not heard."""
+        with self._lock:
+            for k, (start, sound) in enumerate(self._sounds):
+                if sound is samples:
+                    self._sounds[k] = (start, sound[: max(0, self.now() - start)])
+
+    def heard(self, since: int, until: int) -> np.ndarray:
+        out = np.zeros(until - since)
+        with self._lock:
+            for start, sound in self._sounds:
+                lo, hi = max(since, start), min(until, start + len(sound))
+                if hi > lo:
+                    out[lo - since : hi - since] += sound[lo - start : hi - start]
+        return np.clip(np.round(out), -32768, 32767).astype(np.int16)
+
+
+class RoomSpeakers(Speakers):
+    """The robot's voice played into the room (heard back `echo_db` down), in real time."""
+
+    def __init__(self, room: Room, echo_db: float) -> None:
+        super().__init__(enabled=False)
+        self.enabled, self.room, self.gain = True, room, 10 ** (echo_db / 20)
+        self.played, self.quiet_from = 0, 0.0  # sounds played; when the last one ends
+        self._cut_short = threading.Event()
+
+    def _play(self, wav: bytes) -> None:
+        sound = pcm16(wav).astype(np.float64) * self.gain
+        self._cut_short.clear()
+        self.room.add(sound)
+        self.played += 1
+        self.quiet_from = time.monotonic() + len(sound) / RATE
+        if self._cut_short.wait(len(sound) / RATE):
+            self.room.cut(self.room._sounds[-1][1])
+
+    def stop(self) -> None:
+        while not self._queue.empty():
+            self._queue.get_nowait()
+        self._cut_short.set()
+
+
+class RoomMicrophone(Microphone):
+    """The room heard 0.1 s at a time, as `rec` gives it."""
+
+    def __init__(self, room: Room) -> None:
+        super().__init__()
+        self.available, self.room = True, room
+        self._open = threading.Event()
+
+    def open(self) -> None:
+        self._open.set()
+        self._receiving.set()
+        threading.Thread(target=self._record, daemon=True).start()
+
+    def _record(self) -> None:
+        last = self.room.now()
+        while self._open.is_set():
+            time.sleep(0.1)
+            now = self.room.now()
+            self._samples.put(self.room.heard(last, now))
+            last = now
+
+    @property
+    def running(self) -> bool:
+        return self._open.is_set()
+
+    def close(self) -> None:
+        self._open.clear()
+
+
+def test_listening_hands_free_in_the_terminal_the_robots_voice_heard_back_is_never_the_person():
+    room = Room()
+    config = load_config(None, ["robot.question_timeout=30"])  # real time, as with a person
+    robot = Robot(config, seed=4)
+    speakers = RoomSpeakers(room, echo_db=-10.0)
+    answer = pcm16(synthesize("yes let's play", Voice("en-us")))
+    lines = iter(["listen"])
+
+    def read_line(prompt: str) -> str:
+        line = next(lines, None)
+        if line is not None:
+            return line
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:  # the person answers a second after the question
+            asked = any(t["act"] == "Request(playGame)" for t in robot.transcript)
+            if asked and speakers._queue.empty() and time.monotonic() > speakers.quiet_from + 1:
+                break
+            time.sleep(0.05)
+        before = [t for t in robot.transcript if t["speaker"] == "usr"]
+        room.add(answer)
+        while time.monotonic() < deadline:
+            heard = [t for t in robot.transcript if t["speaker"] == "usr"]
+            if len(heard) > len(before):
+                break
+            time.sleep(0.05)
+        read_line.before = before
+        return "quit"
+
+    console = Console(record=True, width=120, force_terminal=False)
+    TerminalRobot(robot, read_line, console, speakers, RoomMicrophone(room)).run()
+    heard = [t for t in robot.transcript if t["speaker"] == "usr"]
+    assert speakers.played >= 3  # the greeting, the introduction and the question, heard back
+    assert read_line.before == [], read_line.before  # none of them taken for the person
+    assert heard and heard[0]["act"] == "Confirm(playGame=yes)", console.export_text()
