@@ -477,10 +477,11 @@ class RobotConfig:
     """oxbot: seconds to wait for an optional answer (to a greeting, say) once the person has
     begun to answer (PersonAnswering), or from the start where nothing tells when they begin
     (`pause_timeout` 0)."""
-    pause_timeout: float = 0.8
+    pause_timeout: float = 0.5
     """oxbot: seconds the robot pauses after an act a person may or may not answer (a greeting,
     its name) before it goes on, unless the person begins to answer meanwhile (speech starting,
-    push-to-talk, a key in the answer box: then `answer_timeout`); 0 waits `answer_timeout`
+    push-to-talk, a key in the answer box: then `answer_timeout`); a person who answers later
+    talks over the robot's next act, which cuts it short (barge-in); 0 waits `answer_timeout`
     (the terminal, which cannot see a line being typed)."""
     question_timeout: float = 30.0
     """oxbot: seconds to wait for the answer to a question before taking silence."""
