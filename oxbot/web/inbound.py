@@ -155,16 +155,20 @@ def excerpt(value: object, length: int = 40) -> str:
 
 
 class MessageRate:
-    """A token bucket: `rate` messages a second on average, in bursts of up to `rate`."""
+    """A token bucket: `rate` messages a second on average, in bursts of up to `burst` (`rate`
+    when not given)."""
 
-    def __init__(self, rate: float, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self, rate: float, clock: Callable[[], float] = time.monotonic, burst: float | None = None
+    ) -> None:
         self.rate, self.clock = rate, clock
-        self.tokens, self.last = rate, clock()
+        self.burst = rate if burst is None else burst
+        self.tokens, self.last = self.burst, clock()
 
     def allow(self) -> bool:
         """Whether one more message may come now (and count it if so)."""
         now = self.clock()
-        self.tokens = min(self.rate, self.tokens + (now - self.last) * self.rate)
+        self.tokens = min(self.burst, self.tokens + (now - self.last) * self.rate)
         self.last = now
         if self.tokens < 1:
             return False

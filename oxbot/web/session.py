@@ -197,6 +197,8 @@ class Replay:
         return [*self.kept, *self.latest.values()]
 
 
+STALL_SECONDS = 4.0
+"""Seconds of messages at the full rate a page may send in one burst (`MessageRate`'s bucket)."""
 MAX_REPLAYED = 2000
 """The most turns, moves and strokes kept to replay (a game has a few dozen)."""
 
@@ -538,7 +540,11 @@ async def _receive_all(
     """Socket → robot, until the tab closes (its close code noted in `attachment`), goes quiet
     or floods. Bad messages get an Error on this socket."""
     limits = session.limits
-    rate = MessageRate(limits.max_messages_per_second)
+    # A server that stalls (loading a robot's models on a busy machine) then reads seconds of
+    # a page's messages at once: a page is closed for a flood, not for the server's own stall.
+    rate = MessageRate(
+        limits.max_messages_per_second, burst=STALL_SECONDS * limits.max_messages_per_second
+    )
     while True:
         try:
             event = await asyncio.wait_for(websocket.receive(), limits.idle_timeout)

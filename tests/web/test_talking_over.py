@@ -47,6 +47,40 @@ def page() -> Iterator[Page]:
 
 
 def test_the_robots_echo_is_never_the_person_and_a_stop_over_it_cuts_it_short(page: Page):
+    try:
+        talk_over(page)
+    except Exception as exc:
+        page.screenshot(path=ARTIFACTS / "talking-over-failure.png", full_page=True)
+        acts = page.evaluate("window.oxbot.stats.acts.map((a) => a.act)")
+        notes = page.evaluate(
+            "[document.getElementById('status').textContent, window.oxbot.stats.closed,"
+            " ...[...document.querySelectorAll('li.note')].map((n) => n.textContent)]"
+        )
+        acts = f"{acts}\nthe page's notes: {notes}"
+        raise AssertionError(
+            f"{exc}\nthe page's log: {log_items(page)}\nacts: {acts}\nthe server: {server()}"
+        ) from exc
+
+
+def server() -> list[str]:
+    """What each session's robot and listener were doing, for a failure's message."""
+    seen = []
+    for session in APP.state.sessions.values():
+        for component in session.robot.components:
+            state = getattr(component, "phase", None) or getattr(component, "speaking", None)
+            seen.append(f"{type(component).__name__}: {state}")
+        listener = session.listener
+        if listener is not None:
+            echo = listener.echo
+            seen.append(
+                f"listener: heard {[round(u.seconds, 2) for u in listener.heard]}, cuts "
+                f"{len(listener.cuts)}, echo delay {echo.delay} gain {echo.gain:.3f} "
+                f"correlation {echo.correlation:.2f}, speaking {listener._speaking}"
+            )
+    return seen
+
+
+def talk_over(page: Page) -> None:
     stop = trim_silence(pcm16(speak("stop", "en-us+m3")), 0.2)
     assert stop is not None
     first_sound = int(np.argmax(np.abs(stop) > 1_000)) / RATE
@@ -88,10 +122,7 @@ def test_the_robots_echo_is_never_the_person_and_a_stop_over_it_cuts_it_short(pa
     assert heard[0][1] == "Reject(playGame=no)" and "stop" in heard[0][2].lower(), (items, shown)
     assert took <= CUT_WITHIN, f"the robot's audio stopped {took:.3f} s after the word began"
     # and it acts on it: no more questions, it lets the person go
-    try:
-        page.wait_for_function(
-            """() => window.oxbot.stats.acts.some((a) => a.act.startsWith('Acknowledge('))""",
-            timeout=20_000,
-        )
-    except Exception as exc:
-        raise AssertionError(f"{exc}: {log_items(page)}") from exc
+    page.wait_for_function(
+        """() => window.oxbot.stats.acts.some((a) => a.act.startsWith('Acknowledge('))""",
+        timeout=20_000,
+    )

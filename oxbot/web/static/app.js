@@ -185,6 +185,7 @@ function connect(resumeToken) {
   ws.onopen = () => { setStatus("Connected."); };
   ws.onmessage = (e) => { try { onMessage(JSON.parse(e.data)); } catch (err) { console.error(err); } };
   ws.onclose = (e) => {
+    state.stats.closed = [e.code, e.reason];
     if (state.ws === ws) {
       state.ws = null; gameUnderWay(false);
       setStatus(e.code === TAKEN_OVER ? `Disconnected: ${e.reason}. Press Start to play a new game here.`
@@ -284,6 +285,7 @@ const handlers = {
   // The person talked over the robot (barge-in): what still plays of that utterance stops now.
   StopSpeaking(d) {
     if (d.text !== state.playingText) return;
+    state.cutText = d.text;   // a sentence of it still being decoded is not played either
     for (const src of state.sources || []) { try { src.stop(); } catch (_) { /* ended */ } }
     state.sources = []; state.sentences = []; state.source = null; state.mouthUntil = 0;
     state.speechChain = Promise.resolve(); state.stats.cuts.push(performance.now());
@@ -423,13 +425,14 @@ $("say").addEventListener("keydown", (e) => {
 // enough to clip a first word. The last pre_roll_seconds of audio are always kept, so a
 // recording starts a little before the press, and the button says "Listening" only once
 // samples really arrive. Hands-free streams the audio to the server in small pieces; the
-// server cuts it into utterances with its VAD and does not listen while the robot speaks.
+// server cuts it into utterances with its VAD, the robot's own voice taken out while it speaks.
 const mic = {
   stream: null, ctx: null, opening: null, live: false,
   ring: [], ringLength: 0,   // the pre-roll: the latest audio blocks (Float32), newest last
   recording: null, held: 0,  // push-to-talk: the blocks since the press, pre-roll first
   handsFree: false, piece: [], pieceLength: 0,   // hands-free: the stream's next piece
   stats: { opened: 0, firstSampleAt: 0, pressedAt: 0, listeningAt: 0, sent: [], pieces: 0 },
+  pieceSentAt: 0,
 };
 state.mic = mic;
 
@@ -503,13 +506,14 @@ function onSamples(block) {
 
 function streamPiece(block) {
   mic.piece.push(block); mic.pieceLength += block.length;
-  // smaller pieces while the robot's voice plays: a person who talks over it is heard sooner
-  const playing = (state.sources || []).length > 0;
-  const rate = mic.ctx.sampleRate,
-    seconds = (state.hello ? state.hello.stream_piece_seconds : 0.1) / (playing ? 2 : 1);
+  const rate = mic.ctx.sampleRate, seconds = state.hello ? state.hello.stream_piece_seconds : 0.1;
   if (mic.pieceLength < rate * seconds) return;
+  // a busy page gets its samples in bursts: what comes sooner than a piece's time after the
+  // last one goes with the next, so the stream never sends more messages than it is long
+  const now = performance.now();
+  if (now - mic.pieceSentAt < 900 * seconds && mic.pieceLength < rate * 0.5) return;
   const samples = concat(mic.piece);
-  mic.piece = []; mic.pieceLength = 0;
+  mic.piece = []; mic.pieceLength = 0; mic.pieceSentAt = now;
   if (send({ type: "listen", rate, pcm: toBase64(toInt16(samples).buffer) })) mic.stats.pieces++;
 }
 
@@ -626,7 +630,7 @@ state.speechChain = Promise.resolve();
 
 function speak(d, first) {
   state.speaking = true;
-  if (first) state.playingText = d.text;
+  if (first) { state.playingText = d.text; state.cutText = null; }
   state.speechChain = state.speechChain.then(() => playSentence(d, first));
 }
 
@@ -642,6 +646,7 @@ async function playSentence(d, first) {
     try {
       const bytes = Uint8Array.from(atob(d.audio), (c) => c.charCodeAt(0));
       const buffer = await state.audio.decodeAudioData(bytes.buffer);
+      if (state.cutText === d.text) return;   // cut short while it was decoded
       start = Math.max(state.audio.currentTime, last ? last.end : 0); seconds = buffer.duration;
       const src = state.audio.createBufferSource(); src.buffer = buffer;
       src.connect(state.analyser); src.start(start);
