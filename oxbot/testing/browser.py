@@ -9,9 +9,11 @@ Playwright's own browser download does not work on these machines; the system's 
 from __future__ import annotations
 
 import base64
+import contextlib
 import itertools
 import json
 import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -177,6 +179,26 @@ def conversation_script(echo_db: float | None = None) -> str:
     `echo_db`, the microphone also hears what the page plays (the robot's voice) that many dB
     down, as it plays (`window.__room.echoes` counts the sounds fed back)."""
     return CONVERSATION % ("null" if echo_db is None else repr(10 ** (echo_db / 20)))
+
+
+@contextlib.contextmanager
+def conversation_page(app: Any, echo_db: float | None = None) -> Iterator[Any]:
+    """A tab of Debian's Chromium on `app` (served on a free localhost port), its microphone a
+    room where the test makes the person speak (`conversation_script`, with `echo_db`)."""
+    from playwright.sync_api import sync_playwright
+
+    from oxbot.web.server import serving_in_background
+
+    args = [*FLAGS, "--use-fake-ui-for-media-stream", "--use-fake-device-for-media-stream"]
+    with serving_in_background(app) as url, sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=args)
+        try:
+            tab = browser.new_page()
+            tab.add_init_script(conversation_script(echo_db))
+            tab.goto(url + "/")
+            yield tab
+        finally:
+            browser.close()
 
 
 def say(page: Any, wav: bytes) -> None:

@@ -24,21 +24,11 @@ from oxbot.speech import Voice, pcm16, read_wav, synthesize
 from oxbot.speech.audio import RATE, Audio, resample
 from oxbot.speech.echo import ESTIMATE_AFTER, MAX_DELAY, EchoCanceller
 from oxbot.testing.sounds import noise_only
+from tests.robot.test_listening import Ears
 
 PIECE = 1600  # the page's 0.1 s
 ROBOT = ("Would you like to play a game of noughts and crosses?", "I'm oxbot, a robot.")
 ECHO_DB = -10.0
-
-
-class Ears:
-    """What the listener needs of a robot: a bus, and `hear`, which keeps the recordings."""
-
-    def __init__(self) -> None:
-        self.bus = LocalBus()
-        self.recordings: list[bytes] = []
-
-    def hear(self, wav: bytes) -> None:
-        self.recordings.append(wav)
 
 
 @pytest.fixture(scope="module")

@@ -11,14 +11,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from playwright.sync_api import Page, sync_playwright
+from playwright.sync_api import Page
 
 from oxbot.config import load_config
 from oxbot.dialogue.domain import INVITATION
 from oxbot.speech.audio import RATE, Audio, pcm16, to_wav_bytes, trim_silence
 from oxbot.speech.evaluation import speak
-from oxbot.testing.browser import CHROMIUM, FLAGS, conversation_script, log_items
-from oxbot.web.server import create_app, serving_in_background
+from oxbot.testing.browser import CHROMIUM, conversation_page, log_items
+from oxbot.web.server import create_app
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 CONFIG = load_config(None, ["robot.speed_factor=1", "robot.question_timeout=30"])
@@ -34,16 +34,8 @@ not played to its end (how soon is bench/bench_barge_in.py's to measure: a media
 def page() -> Iterator[Page]:
     assert Path(CHROMIUM).exists(), f"{CHROMIUM} is missing: run `make setup`"
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    args = [*FLAGS, "--use-fake-ui-for-media-stream", "--use-fake-device-for-media-stream"]
-    with serving_in_background(APP) as url, sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=args)
-        try:
-            tab = browser.new_page()
-            tab.add_init_script(conversation_script(echo_db=ECHO_DB))
-            tab.goto(url + "/")
-            yield tab
-        finally:
-            browser.close()
+    with conversation_page(APP, echo_db=ECHO_DB) as tab:
+        yield tab
 
 
 def test_the_robots_echo_is_never_the_person_and_a_stop_over_it_cuts_it_short(page: Page):

@@ -15,15 +15,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from playwright.sync_api import Page, sync_playwright
+from playwright.sync_api import Page
 
 from oxbot.config import load_config
 from oxbot.dialogue.domain import PROBLEM
 from oxbot.game.board import CELL_NAMES
 from oxbot.speech.audio import RATE, Audio, pcm16, to_wav_bytes, trim_silence
 from oxbot.speech.evaluation import speak
-from oxbot.testing.browser import CHROMIUM, FLAGS, conversation_script, log_items, say
-from oxbot.web.server import create_app, serving_in_background
+from oxbot.testing.browser import CHROMIUM, conversation_page, log_items, say
+from oxbot.web.server import create_app
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 CONFIG = load_config(
@@ -68,16 +68,8 @@ APP = create_app(CONFIG)
 def page() -> Iterator[Page]:
     assert Path(CHROMIUM).exists(), f"{CHROMIUM} is missing: run `make setup`"
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
-    args = [*FLAGS, "--use-fake-ui-for-media-stream", "--use-fake-device-for-media-stream"]
-    with serving_in_background(APP) as url, sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=args)
-        try:
-            tab = browser.new_page()
-            tab.add_init_script(conversation_script())
-            tab.goto(url + "/")
-            yield tab
-        finally:
-            browser.close()
+    with conversation_page(APP) as tab:
+        yield tab
 
 
 def wait_for(page: Page, act: str, speaker: str = "sys", after: int = 0, timeout=40_000) -> None:
