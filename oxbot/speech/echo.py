@@ -90,11 +90,15 @@ class EchoCanceller:
     def end(self) -> int:
         """Where the robot's audio, as modelled, has ended in the stream (its echo's last
         sample, at the latest delay until the delay is known)."""
-        length = len(self._reference)
-        if self._cut_at is not None:
-            length = min(length, self._cut_at - self._start + int(0.25 * self.rate))
+        length = self._played_length()
         delay = self.delay if self.delay is not None else int(MAX_DELAY * self.rate)
         return self._start + max(0, length) + delay
+
+    def _played_length(self) -> int:
+        """Samples of the reference that play: all of it, or up to soon after a cut."""
+        if self._cut_at is None:
+            return len(self._reference)
+        return min(len(self._reference), self._cut_at - self._start + int(0.25 * self.rate))
 
     def active(self, position: int, tail: float) -> bool:
         """Whether the robot's echo may be in the stream at `position` (or `tail` s after)."""
@@ -168,9 +172,7 @@ class EchoCanceller:
         if self.delay is None or not self.gain:
             return out
         at = position - self._start - self.delay  # index into the reference
-        length = len(self._reference)
-        if self._cut_at is not None:
-            length = min(length, self._cut_at - self._start + int(0.25 * self.rate))
+        length = self._played_length()
         lo, hi = max(0, at), min(length, at + count)
         if hi > lo:
             out[lo - at : hi - at] = self.gain * self._reference[lo:hi]
