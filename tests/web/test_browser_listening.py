@@ -131,7 +131,10 @@ def test_push_to_talk_keeps_the_first_word_of_an_unpadded_answer(server, browser
     press_and_talk(page)
     words = words_heard(page)
     assert words[0].startswith("yes"), words
-    assert lost_ms(recording(heard), answer_wav) <= 10
+    # The fake microphone starts its file when capture starts, a block or two before the first
+    # block reaches the page: 9-23 ms median before the pre-roll (bench_listen.py), 24 ms
+    # seen on a loaded machine with it; a first word cut off loses hundreds
+    assert lost_ms(recording(heard), answer_wav) <= 40
     stats = page.evaluate("window.oxbot.mic.stats")
     # "Listening" only once samples arrived; the microphone stays open for the next press
     assert stats["firstSampleAt"] > 0 and stats["listeningAt"] >= stats["firstSampleAt"]
