@@ -6,7 +6,10 @@ stream (`oxbot.speech.echo`: each sentence's audio, as the players play it in fu
 `echo_seconds`), the stream is listened to only for the person: the robot's modelled echo is
 taken out and what is left is heard where it is louder than that echo (`barge_in`; without it,
 the stream is not listened to then, and an utterance under way when the robot starts is
-dropped). A person who speaks over the robot cuts it short (barge-in): the listener publishes
+dropped). Each sentence's audio is placed on the stream where the player says it began
+(`feed`'s `played`: a page knows where in its microphone stream it started each sentence),
+or, from a player that does not say, where the stream was when the bus said it. A person who
+speaks over the robot cuts it short (barge-in): the listener publishes
 StopSpeaking once the VAD starts an utterance in what is left, and the utterance, heard to its
 end, goes to the robot as any other. The web page's hands-free mode and the terminal's `listen`
 share this.
@@ -23,6 +26,7 @@ import numpy as np
 
 from oxbot.config import ListeningConfig
 from oxbot.robot.messages import (
+    Message,
     PersonAnswering,
     SpeakingContinued,
     SpeakingFinished,
@@ -35,6 +39,8 @@ from oxbot.speech.vad import FrameClassifier, HeardUtterance, UtteranceCutter
 
 log = logging.getLogger(__name__)
 
+KEPT_UTTERANCES = 4
+"""The robot's latest utterances kept for a player to say it began (see `feed`)."""
 MAX_UNDECIDED = 2.0
 """Seconds of stream kept while the robot's echo path is not known yet, to be heard once it is."""
 
@@ -62,6 +68,14 @@ class HandsFreeListener:
         self._position = 0  # samples of the stream fed so far
         self._over_the_robot = False  # the utterance under way began while the robot spoke
         self._undecided: list[tuple[int, np.ndarray]] = []  # heard before the echo is known
+        # the latest utterances' audio, sentence by sentence, by text: a player may still
+        # begin one the robot has moved on from
+        self._sentences: dict[str, list[np.ndarray]] = {}
+        self._placed = ""  # the utterance whose sentences were placed last
+        self._remembered: list[Message] = []  # said before it listened (`remember`)
+        self.placed_by_player = False
+        """Whether the player says where each sentence began (`feed`'s `played`); until it
+        does, a sentence is placed where the stream was when the bus said it."""
         self.heard: list[HeardUtterance] = []
         """Every utterance handed to the robot, oldest first."""
         self.ignored_seconds = 0.0
@@ -69,18 +83,54 @@ class HandsFreeListener:
         self.cuts: list[float] = []
         """When (`clock`) each StopSpeaking was published."""
 
+    def remember(self, said: list[Message]) -> None:
+        """What the robot said before this listener was made (SpeakingStarted, -Continued and
+        -Finished, oldest first): hands-free turned on while it speaks hears it too."""
+        for message in said:
+            self._on_speech(message)
+        self._deaf_until = 0.0  # a goodbye's echo is long gone; one still playing is marked
+        self._remembered = list(said)  # the subscription may hold them again
+
     def _follow_speech(self) -> None:
-        for message in self._speech.drain():
-            if isinstance(message, SpeakingFinished):
-                self._speaking = False
-                self._deaf_until = self.clock() + self.config.echo_seconds
-                continue
-            first = isinstance(message, SpeakingStarted)
-            self._speaking, self._said = True, message.text
-            if first and not self._over_the_robot:
-                self.cutter.reset()  # an utterance under way when the robot starts is dropped
-            if message.audio:
-                self.echo.speak(pcm16(message.audio), self._position, first)
+        messages = self._speech.drain()
+        if self._remembered and messages:
+            remembered, self._remembered = self._remembered, []
+            messages = [m for m in messages if m not in remembered]
+        for message in messages:
+            self._on_speech(message)
+
+    def _on_speech(self, message: Message) -> None:
+        if isinstance(message, SpeakingFinished):
+            self._speaking = False
+            self._deaf_until = self.clock() + self.config.echo_seconds
+            return
+        if not isinstance(message, SpeakingStarted | SpeakingContinued):
+            return
+        first = isinstance(message, SpeakingStarted)
+        self._speaking, self._said = True, message.text
+        if first and not self._over_the_robot:
+            self.cutter.reset()  # an utterance under way when the robot starts is dropped
+        audio = pcm16(message.audio) if message.audio else np.zeros(0, np.int16)
+        if first:
+            self._sentences.pop(message.text, None)
+            while len(self._sentences) >= KEPT_UTTERANCES:
+                del self._sentences[next(iter(self._sentences))]
+            self._sentences[message.text] = []
+        self._sentences.setdefault(message.text, []).append(audio)
+        if len(audio) and not self.placed_by_player:
+            self.echo.speak(audio, self._position, first)
+
+    def _place(self, played: list[tuple[str, int, int]], position: int) -> None:
+        """The player began sentence `sentence` of the utterance `text` at `at` samples from
+        `position`."""
+        for text, sentence, at in played:
+            sentences = self._sentences.get(text, [])
+            if sentence >= len(sentences) or not len(sentences[sentence]):
+                continue  # not the robot's (or long past)
+            # an utterance's first sentence replaces the one playing (the player cut it off)
+            first = sentence == 0 or text != self._placed
+            self.echo.speak(sentences[sentence], position + at, first, placed=True)
+            self._placed = text
 
     @property
     def robot_speaking(self) -> bool:
@@ -89,11 +139,17 @@ class HandsFreeListener:
         echoing = self.echo.active(self._position, self.config.echo_seconds)
         return self._speaking or self.clock() < self._deaf_until or echoing
 
-    def feed(self, samples: np.ndarray) -> list[HeardUtterance]:
-        """The stream's next 16 kHz int16 samples; returns the utterances handed to the robot."""
+    def feed(
+        self, samples: np.ndarray, played: list[tuple[str, int, int]] = ()
+    ) -> list[HeardUtterance]:
+        """The stream's next 16 kHz int16 samples; returns the utterances handed to the robot.
+        `played`: the robot's sentences the player began since the last call, each (the
+        utterance's text, the sentence's index in it, the sample from these samples' first
+        where it began; past their end when it began later)."""
         samples = np.asarray(samples)
         position = self._position
         speaking = self.robot_speaking
+        self._place(list(played), position)
         self.echo.hear(samples, position)
         self._position += len(samples)
         cancelling = self.echo.active(position, self.config.echo_seconds)  # audio to take out

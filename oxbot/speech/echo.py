@@ -2,12 +2,15 @@
 can listen while it speaks and never takes itself for the person.
 
 The listener knows what the robot says (each sentence's audio, as the page or the terminal
-plays it) and about when: the first sentence is placed on the microphone stream's samples where
-the stream was when its SpeakingStarted came, each further sentence right after the one before
-(or where the stream was when it came, if later), as the players queue them. What reaches the
-microphone is modelled as that audio delayed and scaled, one delay and one gain, found by
-cross-correlation over `MIN_DELAY`..`MAX_DELAY` once `ESTIMATE_AFTER` seconds of it can have
-been heard, and found again on its latest `WINDOW` seconds as more comes. A browser's or a
+plays it) and when. A player that says where in the stream it began each sentence (the page
+does) has it placed there, on one timeline: a new utterance cuts off what played before it,
+and the echo's path, found once, is the room's and stays. Otherwise the first sentence is
+placed where the stream was when its SpeakingStarted came, each further sentence right after
+the one before (or where the stream was when it came, if later), and the path is found again
+for each utterance. What reaches the microphone is modelled as that audio delayed and scaled,
+one delay and one gain, found by cross-correlation over `MIN_DELAY`..`MAX_DELAY` once
+`ESTIMATE_AFTER` seconds of it can have been heard, and found again on its latest `WINDOW`
+seconds as more comes. A browser's or a
 sound card's echo canceller takes out most of a real room's echo before this; this takes out
 what is played straight into the microphone, and tells what is left.
 
@@ -28,6 +31,11 @@ MIN_DELAY = -0.3
 sends its microphone in pieces, so what the listener has heard lags what the page plays)."""
 MAX_DELAY = 0.8
 """Seconds: the latest the echo may begin after it (decoding, a player's output)."""
+PLACED_DELAYS = (-0.05, 0.4)
+"""Seconds: where the echo may begin from where a player said it began a sentence (its output's
+and the microphone's latency; a Bluetooth headset's is the longest)."""
+MAX_GAIN = 4.0
+"""An echo 12 dB louder than the robot's audio is no echo: a path found so is a chance match."""
 ESTIMATE_AFTER = 0.5
 """Seconds of stream heard since the robot's audio was placed before its delay and gain are
 first estimated; until then the stream is not listened to."""
@@ -45,6 +53,8 @@ FLOOR_DBFS = -45.0
 """A residual frame below this level is silence (what an echo canceller leaves of the robot)."""
 FRAME = 512
 """Samples of one level decision: the VAD's frame at 16 kHz."""
+MIC_KEPT = WINDOW + MAX_DELAY - MIN_DELAY + 0.5
+"""Seconds of the microphone kept for the estimate."""
 
 
 class EchoCanceller:
@@ -65,13 +75,33 @@ class EchoCanceller:
         self.correlation = 0.0
         self._estimated_at = 0
         self._cut_at: int | None = None
+        self.placed = False
+        """Whether a player says where it began each sentence (`speak`'s `placed`)."""
 
     # --- what the robot says ---
 
-    def speak(self, samples: np.ndarray, position: int, first: bool) -> None:
+    def speak(self, samples: np.ndarray, position: int, first: bool, placed: bool = False) -> None:
         """A sentence of the robot's audio (16 kHz int16) came when the stream was at `position`:
-        the first of an utterance replaces what was playing, a further one follows it."""
+        the first of an utterance replaces what was playing, a further one follows it. `placed`:
+        the player began it at `position` exactly; what played before it stays up to there, and
+        the echo's path, once found, is kept."""
         audio = samples.astype(np.float64)
+        self.placed = self.placed or placed
+        # a new utterance where no echo was found yet is looked for again, as for a first time
+        if placed and len(self._reference) and (self.gain > 0 or not first):
+            played = self._reference[: self._played_length()]
+            at = position - self._start
+            if not first:
+                at = max(at, len(played))
+            if 0 <= at <= len(played) + MAX_DELAY * self.rate:  # its echo may still sound
+                gap = np.zeros(max(0, at - len(played)))
+                self._reference = np.concatenate([played[:at], gap, audio])
+                self._cut_at = None
+                return
+            if self.gain > 0:  # long after: a new timeline, on the path found
+                self._reference, self._start, self._cut_at = audio, position, None
+                self._estimated_at = 0
+                return
         if first or not len(self._reference):
             kept = self._mic[-self._kept_before :] if len(self._mic) else self._mic
             self._mic_start += len(self._mic) - len(kept)
@@ -91,7 +121,7 @@ class EchoCanceller:
         """Where the robot's audio, as modelled, has ended in the stream (its echo's last
         sample, at the latest delay until the delay is known)."""
         length = self._played_length()
-        delay = self.delay if self.delay is not None else int(MAX_DELAY * self.rate)
+        delay = self.delay if self.delay is not None else int(self._delays()[1] * self.rate)
         return self._start + max(0, length) + delay
 
     def _played_length(self) -> int:
@@ -113,6 +143,9 @@ class EchoCanceller:
         elif self._mic_start + len(self._mic) != position:  # a gap: start the record again
             self._mic, self._mic_start = np.zeros(0, np.float64), position
         self._mic = np.concatenate([self._mic, mic.astype(np.float64)])
+        if len(self._mic) > (kept := int(MIC_KEPT * self.rate)):
+            self._mic_start += len(self._mic) - kept
+            self._mic = self._mic[-kept:]
         if not len(self._reference):
             self._mic = self._mic[-self._kept_before :]
             self._mic_start = position + len(mic) - len(self._mic)
@@ -124,14 +157,18 @@ class EchoCanceller:
             self._estimate(heard)
 
     def _estimate(self, heard: int) -> None:
-        lo, hi = int(MIN_DELAY * self.rate), int(MAX_DELAY * self.rate)
+        lo, hi = (int(d * self.rate) for d in self._delays())
         # the last WINDOW seconds of what can have been heard: a player that drifts (a busy
         # machine's audio) is followed
-        end = max(0, heard - max(lo, 0))
-        r0 = max(0, end - int(WINDOW * self.rate))
+        end = min(len(self._reference), max(0, heard - max(lo, 0)))
+        # ... and heard since the microphone's record begins (a player may say it began a
+        # sentence before the stream did)
+        r0 = max(0, end - int(WINDOW * self.rate), self._mic_start - self._start - lo)
         reference = self._reference[r0:end]
         offset = self._start + r0 - self._mic_start  # the window's place in self._mic
         if len(reference) < FRAME or float(reference @ reference) <= 0:
+            if self.delay is None and heard >= len(self._reference) + hi:
+                self.delay, self.gain, self.correlation = 0, 0.0, 0.0  # none to look for
             return
         # mic[offset + lag + i] ~ gain * reference[i], for lags lo..hi
         first = max(0, offset + lo)
@@ -155,16 +192,28 @@ class EchoCanceller:
         best = int(np.argmax(score))
         self._estimated_at = heard
         correlation = float(score[best])
-        settled = heard >= (MAX_DELAY + ESTIMATE_AFTER) * self.rate  # the latest echo has shown
+        gain = float(corr[shifts[best]] / max(ref_energy[best], 1e-9))
+        if gain > MAX_GAIN:
+            correlation = 0.0
+        # the latest echo has shown
+        settled = heard >= (self._delays()[1] + ESTIMATE_AFTER) * self.rate
         if self.delay is None and correlation < (MIN_CORRELATION if settled else SURE_CORRELATION):
             if settled:  # no echo to take out (a canceller took it, the sound is off)
                 self.delay, self.gain, self.correlation = 0, 0.0, correlation
             return  # else more of it is waited for: a part of an echo can match elsewhere
-        if self.delay is not None and correlation < MIN_CORRELATION:
-            return  # the path found before stands
+        # the path found before stands against a weaker match (the person over the robot); a
+        # placed player's is the room's, changed only by a sure one
+        if self.delay is not None and correlation < (
+            SURE_CORRELATION if self.placed and self.gain > 0 else MIN_CORRELATION
+        ):
+            return
         self.correlation = correlation
         self.delay = int(lags[best])
-        self.gain = float(corr[shifts[best]] / max(ref_energy[best], 1e-9))
+        self.gain = gain
+
+    def _delays(self) -> tuple[float, float]:
+        """Seconds: the earliest and latest the echo may begin from where its audio is placed."""
+        return PLACED_DELAYS if self.placed else (MIN_DELAY, MAX_DELAY)
 
     def echo(self, position: int, count: int) -> np.ndarray:
         """The modelled echo of stream samples `position`..`position + count`."""

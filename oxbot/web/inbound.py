@@ -114,6 +114,48 @@ def stream_piece(payload: object, rate: object, limits: WebConfig) -> np.ndarray
     return samples
 
 
+MAX_PLAYED = 16
+"""The most sentences one hands-free piece may say began to play (the page marks each of the
+robot's sentences once, in the piece after it starts)."""
+
+
+def played_marks(played: object, rate: int, limits: WebConfig) -> list[tuple[str, int, int]]:
+    """A hands-free piece's `played`: the robot's sentences the page began to play, each
+    `{"text": utterance, "sentence": its index in it, "at": sample of this piece (at `rate`)
+    where it began}`, as (text, sentence, at in `limits.audio_rate` samples)."""
+    if played is None:
+        return []
+    if not isinstance(played, list) or len(played) > MAX_PLAYED:
+        raise InvalidInputError(
+            f"'played' must be a list of at most {MAX_PLAYED} "
+            '{"text", "sentence", "at"} objects: the sentences begun since the last piece'
+        )
+    marks = []
+    for mark in played:
+        if not isinstance(mark, dict):
+            raise InvalidInputError("each of 'played' must be an object {text, sentence, at}")
+        text, sentence, at = mark.get("text"), mark.get("sentence"), mark.get("at")
+        if not isinstance(text, str) or len(text) > limits.max_text_chars:
+            raise InvalidInputError(
+                f"'played' text must be the robot's utterance, at most {limits.max_text_chars} "
+                "characters"
+            )
+        if not _is_int(sentence) or not 0 <= sentence < 1_000:
+            raise InvalidInputError("'played' sentence must be its index in the utterance")
+        # a sentence begins at most a few seconds after the piece that says so
+        if not _is_int(at) or abs(at) > 60 * rate:
+            raise InvalidInputError(
+                "'played' at must be the sample of this piece where the sentence began, "
+                "within a minute of it"
+            )
+        marks.append((text, int(sentence), round(at * limits.audio_rate / rate)))
+    return marks
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
 STREAM_PIECE_SECONDS = 0.1
 """How much of the hands-free stream the page sends at a time (told in Hello)."""
 

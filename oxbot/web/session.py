@@ -15,9 +15,11 @@ client → server (JSON text messages)::
     {"type": "look", "image": "data:image/jpeg;base64,..."}   a webcam frame, head tracking
     {"type": "say", "text": "yes let's play"}                  typed answer
     {"type": "talk", "rate": 16000, "pcm": "<base64 int16>"}   push-to-talk, 16 kHz mono
-    {"type": "listen", "rate": 16000, "pcm": "<base64 int16>"} hands-free: the stream's next
-                                                               piece (at most 1 s; the page
-                                                               sends 0.1 s)
+    {"type": "listen", "rate": 16000, "pcm": "<base64 int16>", hands-free: the stream's next
+     "played": [{"text": "...", "sentence": 0, "at": 480}]}    piece (at most 1 s; the page
+                                                               sends 0.1 s), and where in it
+                                                               the robot's sentences began
+                                                               to play (optional)
     {"type": "listen_off"}                                     hands-free ends or pauses
     {"type": "answering", "how": "typing"}                     the person began to answer
                                                                (a key in the answer box,
@@ -32,10 +34,12 @@ arm to draw there) and says what to do when the camera cannot show it the board.
 
 Hands-free: the server cuts the stream of `listen` pieces into utterances with the VAD
 (oxbot.speech.vad, `[speech.listening]`) and hands each to the robot exactly as a push-to-talk
-recording. While the robot speaks (SpeakingStarted until `echo_seconds` after
-SpeakingFinished) the stream is not listened to, and `listen_off` drops an utterance under
-way. `listen` pieces after the robot's goodbye are checked, then dropped without an Error (a
-stream cannot stop at the goodbye's instant).
+recording. While the robot speaks (SpeakingStarted until `echo_seconds` after its audio's
+echo), its own voice is taken out of the stream and the person is heard over it
+(oxbot.robot.listening): each sentence placed where the page's `played` says it began, or,
+from a page that does not say, where the stream was when the robot said it. `listen_off`
+drops an utterance under way. `listen` pieces after the robot's goodbye are checked, then
+dropped without an Error (a stream cannot stop at the goodbye's instant).
 
 server → client: {"type": "Hello", "data": {...}} first (the session's symbols, the cell names
 and the system acts, its `resume_token`), then every bus message, and {"type": "Error", "data":
@@ -118,6 +122,7 @@ from oxbot.robot.messages import (
     PersonFrame,
     RecordingSwitch,
     SheetMode,
+    SpeakingContinued,
     SpeakingFinished,
     SpeakingStarted,
     SpeechAudio,
@@ -130,6 +135,7 @@ from oxbot.web.inbound import (
     decode_image,
     excerpt,
     pcm_to_wav,
+    played_marks,
     stream_piece,
 )
 
@@ -224,6 +230,8 @@ class Session:
         self.limits = limits
         self.listening = listening if listening is not None else ListeningConfig()
         self.listener: HandsFreeListener | None = None  # made at the first hands-free piece
+        # the robot's latest speech, for a listener made while it speaks
+        self.said_recently: deque[Message] = deque(maxlen=16)
         self.outbox: asyncio.Queue[str | None] = asyncio.Queue()
         self.outbox_bytes = 0  # what waits in the outbox: bounded by limits.max_outbox_bytes
         self.ended = asyncio.Event()
@@ -279,6 +287,8 @@ class Session:
             message = self._subscription.get(timeout=0.1)
             if message is None or isinstance(message, ECHOES):
                 continue
+            if isinstance(message, SpeakingStarted | SpeakingContinued | SpeakingFinished):
+                self.said_recently.append(message)
             if isinstance(message, ComponentJoined) and message.part == "eyes":
                 sheet = self.sheet
                 if sheet is not None:  # what the tab sent while they were gone reached nobody
@@ -404,15 +414,20 @@ class Session:
 
     def _on_listen(self, message: dict) -> None:
         samples = stream_piece(message.get("pcm"), message.get("rate"), self.limits)
+        played = played_marks(message.get("played"), message.get("rate"), self.limits)
         if self.listener is None:
             self.listener = HandsFreeListener(self.robot, self.listening)  # loads the VAD
+            self.listener.placed_by_player = "played" in message
+            self.listener.remember(list(self.said_recently))
         if self.robot.finished:  # the goodbye: nothing more to hear until a new game
             self.listener.stop_listening()
             return
         if self.stream_cut:  # in the feeder's thread, as every listen and listen_off
             self.stream_cut = False
             self.listener.stop_listening()
-        self.listener.feed(samples)
+        if "played" in message:  # the page says where it plays the robot's voice
+            self.listener.placed_by_player = True
+        self.listener.feed(samples, played)
 
     def _on_paper(self, message: dict) -> None:
         on = message.get("on")

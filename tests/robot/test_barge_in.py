@@ -65,18 +65,26 @@ def play(
     person_at: float = 0.0,
     config: ListeningConfig | None = None,
     room: np.ndarray | None = None,
+    late: float = 0.0,
+    marked: bool = False,
 ) -> tuple[Ears, HandsFreeListener, list, int]:
-    """The robot says its two sentences from 1 s into the stream, the microphone hears their
-    echo (and the person from `person_at` s after the robot starts); the stream is fed in 0.1 s
-    pieces. Returns the ears, the listener, the StopSpeaking / PersonAnswering published (with
-    the stream position they came at) and where the robot started."""
+    """The robot says its two sentences from 1 s into the stream, the player plays them `late`
+    s after, and the microphone hears their echo (and the person from `person_at` s after the
+    robot starts); the stream is fed in 0.1 s pieces, `marked` with where the player began each
+    sentence (as the page says it) or not. Returns the ears, the listener, the StopSpeaking /
+    PersonAnswering published (with the stream position they came at) and where the robot
+    started."""
     ears = Ears()
     listener = HandsFreeListener(ears, config or ListeningConfig())
     news = ears.bus.subscribe(StopSpeaking, PersonAnswering)
     started = RATE
-    sound = np.concatenate([heard_in_the_room(w, 0.0) for w in robot_wavs])
-    echo = np.zeros(started + int(delay * RATE) + len(sound) + 3 * RATE)
-    echo[started + int(delay * RATE) :][: len(sound)] = sound
+    sentences = [heard_in_the_room(w, 0.0) for w in robot_wavs]
+    sound = np.concatenate(sentences)
+    plays = started + int(late * RATE)
+    echo = np.zeros(plays + int(delay * RATE) + len(sound) + 3 * RATE)
+    echo[plays + int(delay * RATE) :][: len(sound)] = sound
+    # the page marks both sentences in the piece where the first begins: it queues the next
+    marks = [(" ".join(ROBOT), 0, plays), (" ".join(ROBOT), 1, plays + len(sentences[0]))]
     voice = np.zeros(len(echo))
     if room is not None:  # the room's own sounds, all along
         voice += np.resize(room, len(voice))
@@ -91,7 +99,9 @@ def play(
                 seconds = read_wav(wav).seconds
                 ears.bus.publish(kind(text=" ".join(ROBOT), audio=wav, seconds=seconds))
         piece = np.round(echo[at : at + PIECE] + voice[at : at + PIECE])
-        listener.feed(np.clip(piece, -32768, 32767).astype(np.int16))
+        played = [(t, i, p - at) for t, i, p in marks if marked and at <= plays < at + PIECE]
+        listener.placed_by_player = marked
+        listener.feed(np.clip(piece, -32768, 32767).astype(np.int16), played)
         for message in news.drain():
             published.append((message, at + PIECE))
             if isinstance(message, StopSpeaking):  # the voice finishes, the player stops
@@ -107,6 +117,24 @@ def test_the_robots_own_voice_fed_back_is_never_taken_for_the_person(robot_wavs,
     assert listener.echo.correlation > 0.9
     assert listener.echo.delay == pytest.approx(delay * RATE, abs=0.005 * RATE)
     assert 0.03 < listener.echo.gain < 10 ** (ECHO_DB / 20)  # the direct sound's share
+
+
+def test_a_player_late_by_more_than_the_echo_search_is_followed_where_it_says_it_played(
+    robot_wavs, stop_word
+):
+    """A loaded page plays the robot's voice 1.5 s after the bus said it: placed where the
+    page says it began, the echo is found at its room delay, never taken for the person, and a
+    stop said over it is still heard."""
+    late = 1.5
+    assert late > MAX_DELAY  # placed where the bus said it, the echo could not be found
+    ears, listener, published, _ = play(robot_wavs, 0.12, late=late, marked=True)
+    assert ears.recordings == [] and published == []
+    assert listener.echo.delay == pytest.approx(0.12 * RATE, abs=0.005 * RATE)
+    ears, _, published, _ = play(
+        robot_wavs, 0.12, person=stop_word, person_at=late + 1.5, late=late, marked=True
+    )
+    assert [type(m) for m, _ in published] == [StopSpeaking, PersonAnswering]
+    assert len(ears.recordings) == 1
 
 
 def test_a_room_s_noise_over_the_robot_cuts_nothing_short(robot_wavs):
@@ -182,3 +210,62 @@ def test_a_voice_cut_short_finishes_at_once_and_says_no_more(robot_wavs):
         assert time.monotonic() - cut < 0.1
     finally:
         voice.stop()
+
+
+def test_a_placed_utterance_that_cuts_off_the_last_is_taken_out_at_once(robot_wavs):
+    """A player that says where it plays: the second utterance starts while the first plays
+    (the page cuts the first off), sooner than a path could be found for it alone. Its echo is
+    taken out from its first sample on the room's path found before, and never heard."""
+    ears = Ears()
+    listener = HandsFreeListener(ears, ListeningConfig())
+    listener.placed_by_player = True
+    news = ears.bus.subscribe(StopSpeaking, PersonAnswering)
+    first, second = (heard_in_the_room(w, 0.05) for w in robot_wavs)
+    starts = (RATE, RATE + len(first) // 2)  # the second cuts the first off halfway
+    stream = np.zeros(starts[1] + len(second) + 2 * RATE)
+    stream[starts[0] : starts[1]] = first[: starts[1] - starts[0]]
+    stream[starts[1] :][: len(second)] = second
+    texts = ("first utterance", "second utterance")
+    for at in range(0, len(stream), PIECE):
+        played = []
+        for text, wav, start in zip(texts, robot_wavs, starts, strict=True):
+            if at <= start < at + PIECE:
+                ears.bus.publish(SpeakingStarted(text=text, audio=wav, seconds=1.0))
+                played.append((text, 0, start - at))
+        piece = np.clip(np.round(stream[at : at + PIECE]), -32768, 32767).astype(np.int16)
+        listener.feed(piece, played)
+        if at == starts[1]:  # the path found on the first holds for the second at once
+            assert listener.echo.gain > 0.03 and listener.echo.delay is not None
+    assert ears.recordings == [] and news.drain() == []
+    assert listener.echo.delay == pytest.approx(0.05 * RATE, abs=0.005 * RATE)
+
+
+def test_hands_free_turned_on_while_the_robot_speaks_hears_the_person_not_the_robot(
+    robot_wavs, stop_word
+):
+    """The page's hands-free is turned on halfway through the robot's sentence: the listener,
+    made then, is told what the robot said before it (`remember`) and where the sentence
+    began, before its stream did; the rest of the echo is not heard, the person after it is."""
+    ears = Ears()
+    # the robot is done with it (faster than real time, as in the tests) but the page plays on
+    said = [
+        SpeakingStarted(text=ROBOT[0], audio=robot_wavs[0], seconds=1.0),
+        SpeakingFinished(text=ROBOT[0]),
+    ]
+    for message in said:
+        ears.bus.publish(message)
+    listener = HandsFreeListener(ears, ListeningConfig())
+    listener.placed_by_player = True
+    listener.remember(said)
+    echo = heard_in_the_room(robot_wavs[0], 0.05)
+    began = -len(echo) // 2  # where the sentence began, from the stream's first sample
+    stream = np.zeros(len(echo) // 2 + 3 * RATE)
+    stream[: len(echo) + began] = echo[-began:]
+    at_person = len(echo) // 2 + RATE
+    stream[at_person : at_person + len(stop_word)] = stop_word
+    for at in range(0, len(stream), PIECE):
+        played = [(ROBOT[0], 0, began)] if at == 0 else []
+        piece = np.clip(np.round(stream[at : at + PIECE]), -32768, 32767).astype(np.int16)
+        listener.feed(piece, played)
+    assert len(ears.recordings) == 1  # the person's word, and nothing of the robot's
+    assert listener.echo.gain > 0.03

@@ -96,6 +96,8 @@ def test_each_tab_is_its_own_session_and_ends_cleanly(server_url, ws_url):
         time.sleep(0.1)
 
 
+PIECE = base64.b64encode(bytes(3_200)).decode()  # 0.1 s of silence
+
 BAD_INPUT = [
     ("not json{", "not JSON"),
     ("[1, 2]", "JSON object"),
@@ -138,6 +140,18 @@ BAD_INPUT = [
         ),
         "at most 1 s",
     ),
+    *[
+        (json.dumps({"type": "listen", "rate": 16000, "pcm": PIECE, "played": bad}), expected)
+        for bad, expected in [
+            ({"text": "Hello"}, "must be a list"),
+            ([{"text": "Hello", "sentence": 0, "at": 0}] * 17, "at most 16"),
+            (["Hello"], "must be an object"),
+            ([{"text": 3, "sentence": 0, "at": 0}], "text must be the robot's utterance"),
+            ([{"text": "Hello", "sentence": -1, "at": 0}], "its index in the utterance"),
+            ([{"text": "Hello", "sentence": 0, "at": 1e12}], "within a minute"),
+            ([{"text": "Hello", "sentence": 0, "at": True}], "within a minute"),
+        ]
+    ],
 ]
 
 

@@ -21,7 +21,9 @@ from oxbot.testing.browser import CHROMIUM, conversation_page, log_items
 from oxbot.web.server import create_app
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
-CONFIG = load_config(None, ["robot.speed_factor=1", "robot.question_timeout=30"])
+CONFIG = load_config(
+    None, ["robot.speed_factor=1", "robot.question_timeout=30", "robot.hang_seconds=10"]
+)
 """Real time: the robot's clock and the page's audio agree, as with a person."""
 ECHO_DB = -10.0
 APP = create_app(CONFIG)

@@ -431,6 +431,7 @@ const mic = {
   ring: [], ringLength: 0,   // the pre-roll: the latest audio blocks (Float32), newest last
   recording: null, held: 0,  // push-to-talk: the blocks since the press, pre-roll first
   handsFree: false, piece: [], pieceLength: 0,   // hands-free: the stream's next piece
+  pieceFrame: 0, played: [],  // its first sample's frame; the robot's sentences begun since
   stats: { opened: 0, firstSampleAt: 0, pressedAt: 0, listeningAt: 0, sent: [], pieces: 0 },
   pieceSentAt: 0,
 };
@@ -456,7 +457,7 @@ async function reallyOpen() {
   try {
     await ctx.audioWorklet.addModule("/static/tap.js");
     const node = new AudioWorkletNode(ctx, "tap");
-    node.port.onmessage = (m) => { if (mic.ctx === ctx) onSamples(m.data); };
+    node.port.onmessage = (m) => { if (mic.ctx === ctx) onSamples(m.data.samples, m.data.frame); };
     const stream = await navigator.mediaDevices.getUserMedia({
       // the browser's echo canceller takes out the robot's voice where it can; the server
       // takes out what is left (oxbot.speech.echo) and hears the person over it
@@ -476,7 +477,7 @@ function closeMicrophone() {
   if (mic.stream) mic.stream.getTracks().forEach((t) => t.stop());
   if (mic.ctx) mic.ctx.close();
   mic.stream = mic.ctx = null; mic.live = false;
-  mic.ring = []; mic.ringLength = 0; mic.piece = []; mic.pieceLength = 0;
+  mic.ring = []; mic.ringLength = 0; mic.piece = []; mic.pieceLength = 0; mic.played = [];
 }
 
 function microphoneLost(stream) {
@@ -492,7 +493,7 @@ function microphoneLost(stream) {
   showTalk();
 }
 
-function onSamples(block) {
+function onSamples(block, frame) {
   if (!mic.live) { mic.live = true; mic.stats.firstSampleAt = performance.now(); showTalk(); }
   if (mic.recording) {
     mic.recording.push(block); mic.held += block.length;
@@ -501,10 +502,11 @@ function onSamples(block) {
   mic.ring.push(block); mic.ringLength += block.length;
   const keep = (state.hello ? state.hello.pre_roll_seconds : 0.3) * mic.ctx.sampleRate;
   while (mic.ringLength - mic.ring[0].length >= keep) mic.ringLength -= mic.ring.shift().length;
-  if (mic.handsFree && !state.ended) streamPiece(block);
+  if (mic.handsFree && !state.ended) streamPiece(block, frame);
 }
 
-function streamPiece(block) {
+function streamPiece(block, frame) {
+  if (!mic.pieceLength) mic.pieceFrame = frame;
   mic.piece.push(block); mic.pieceLength += block.length;
   const rate = mic.ctx.sampleRate, seconds = state.hello ? state.hello.stream_piece_seconds : 0.1;
   if (mic.pieceLength < rate * seconds) return;
@@ -513,8 +515,19 @@ function streamPiece(block) {
   const now = performance.now();
   if (now - mic.pieceSentAt < 900 * seconds && mic.pieceLength < rate * 0.5) return;
   const samples = concat(mic.piece);
-  mic.piece = []; mic.pieceLength = 0; mic.pieceSentAt = now;
-  if (send({ type: "listen", rate, pcm: toBase64(toInt16(samples).buffer) })) mic.stats.pieces++;
+  // where in this piece the robot's sentences began to play (later ones: past its end), so
+  // that the server finds its own voice in the stream however late the pieces come
+  const played = mic.played.map((p) => ({ text: p.text, sentence: p.sentence, at: p.frame - mic.pieceFrame }));
+  mic.piece = []; mic.pieceLength = 0; mic.pieceSentAt = now; mic.played = [];
+  if (send({ type: "listen", rate, pcm: toBase64(toInt16(samples).buffer), played })) mic.stats.pieces++;
+}
+
+// A sentence of the robot's begins at `start` on the speech clock: the microphone's frame
+// then, for the next piece to say.
+function markPlayed(text, sentence, start) {
+  if (!mic.handsFree || !mic.ctx || !state.audio) return;
+  const frame = Math.round((mic.ctx.currentTime + start - state.audio.currentTime) * mic.ctx.sampleRate);
+  mic.played.push({ text, sentence, frame });
 }
 
 function showTalk() {
@@ -596,7 +609,11 @@ async function setHandsFree(on) {
   } else if (mic.handsFree) {
     send({ type: "listen_off" });
   }
-  mic.handsFree = on; mic.piece = []; mic.pieceLength = 0;
+  mic.handsFree = on; mic.piece = []; mic.pieceLength = 0; mic.played = [];
+  // what the robot is saying now is heard back too: the server is told where it began
+  for (const s of on ? state.sentences : []) {
+    if (s.played && s.end > speechClock()) markPlayed(s.text, s.index, s.start);
+  }
   try { sessionStorage.setItem(HANDS_FREE, on ? "1" : ""); } catch (_) { /* storage off */ }
   $("hands-free").textContent = `Hands-free: ${on ? "on" : "off"}`;
   $("hands-free").setAttribute("aria-pressed", String(on));
@@ -638,10 +655,13 @@ async function playSentence(d, first) {
   const speed = state.hello ? state.hello.speed_factor : 1;
   if (first) {
     for (const src of state.sources || []) { try { src.stop(); } catch (_) { /* ended */ } }
-    state.sources = []; state.sentences = []; state.source = null;
+    state.sources = []; state.sentences = []; state.source = null; state.sentenceIndex = 0;
+  } else {
+    state.sentenceIndex = (state.sentenceIndex || 0) + 1;
   }
   const last = state.sentences[state.sentences.length - 1];
   let start = Math.max(speechClock(), last ? last.end : 0), seconds = (d.seconds || 0.5) / speed;
+  let played = false;
   if (d.audio && state.audio) {
     try {
       const bytes = Uint8Array.from(atob(d.audio), (c) => c.charCodeAt(0));
@@ -651,6 +671,7 @@ async function playSentence(d, first) {
       const src = state.audio.createBufferSource(); src.buffer = buffer;
       src.connect(state.analyser); src.start(start);
       state.sources = [...(state.sources || []), src]; state.source = src;
+      markPlayed(d.text, state.sentenceIndex, start); played = true;
       src.onended = () => {
         state.sources = state.sources.filter((s) => s !== src);
         if (state.source === src) state.source = null;
@@ -658,7 +679,8 @@ async function playSentence(d, first) {
     } catch (err) { console.warn("cannot play the robot's speech", err); }
   }
   state.sentences.push({ start, end: start + seconds, visemes: d.visemes || [],
-                         scale: d.audio && state.audio ? 1 : 1 / speed });
+                         scale: d.audio && state.audio ? 1 : 1 / speed,
+                         text: d.text, index: state.sentenceIndex, played });
   state.mouthUntil = performance.now() + 1000 * (start + seconds - speechClock());
 }
 
