@@ -190,6 +190,15 @@ class HandsFreeListener:
         began = self.cutter.in_utterance
         ended = self.cutter.feed(samples, judged)
         if self.cutter.in_utterance and not began:  # the robot waits for them to finish
+            log.debug(
+                "an utterance begins at %.2f s (over the robot: %s; echo delay %s, gain %.3f, "
+                "correlation %.2f)",
+                position / RATE,
+                speaking,
+                self.echo.delay,
+                self.echo.gain,
+                self.echo.correlation,
+            )
             if speaking:  # over the robot: cut it short, in every player too
                 self._over_the_robot = True
                 self.robot.bus.publish(StopSpeaking(text=self._said))
