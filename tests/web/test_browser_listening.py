@@ -30,10 +30,17 @@ from oxbot.web.server import create_app, serving_in_background
 
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 CONFIG = load_config(
-    None, ["robot.speed_factor=8", "robot.answer_timeout=4", "robot.question_timeout=240"]
+    None,
+    [
+        "robot.speed_factor=8",
+        "robot.answer_timeout=4",
+        "robot.question_timeout=240",
+        "robot.hang_seconds=10",
+    ],
 )
 """8x faster than real time (0.5 s after the greeting), but 30 s to answer a question: a slow
-machine never loses it."""
+machine never loses it (nor calls Whisper hung before 10 s: at 5 s on a slowed machine, the
+answer it was hearing was lost with it)."""
 
 
 @pytest.fixture(scope="module")
