@@ -417,6 +417,7 @@ class Session:
         played = played_marks(message.get("played"), message.get("rate"), self.limits)
         if self.listener is None:
             self.listener = HandsFreeListener(self.robot, self.listening)  # loads the VAD
+            # the page says where it plays the robot's voice, from its first piece on
             self.listener.placed_by_player = "played" in message
             self.listener.remember(list(self.said_recently))
         if self.robot.finished:  # the goodbye: nothing more to hear until a new game
@@ -425,8 +426,6 @@ class Session:
         if self.stream_cut:  # in the feeder's thread, as every listen and listen_off
             self.stream_cut = False
             self.listener.stop_listening()
-        if "played" in message:  # the page says where it plays the robot's voice
-            self.listener.placed_by_player = True
         self.listener.feed(samples, played)
 
     def _on_paper(self, message: dict) -> None:
