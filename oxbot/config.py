@@ -512,13 +512,18 @@ class RobotConfig:
     hang_limit: int = 1
     """oxbot: hangs a component may recover from within `restart_window` (each costs the person
     `hang_seconds` and leaves a thread behind); one more and it stays off."""
+    rejoin_seconds: float = 10.0
+    """oxbot: in a robot of processes (`oxbot robot --launch`), how long a component whose
+    process ended may take to come back (respawned within about 1 s, then its models loaded:
+    Piper's voice takes 1.3 s on a quiet machine and more than 10 s on a busy one) before the
+    robot takes it as lost."""
     arm: ArmConfig = field(default_factory=ArmConfig)
     """Paper §3.1: Baxter's arm drew the robot's symbol; oxbot's is simulated, as fast as a pen."""
     head: HeadConfig = field(default_factory=HeadConfig)
     """Paper §3.1: head-move recognition from a Kinect; oxbot's from a webcam."""
 
     def __post_init__(self) -> None:
-        _require_positive(self, "speed_factor", "restart_window", "hang_seconds")
+        _require_positive(self, "speed_factor", "restart_window", "hang_seconds", "rejoin_seconds")
         _require_at_least(
             self, 0, "answer_timeout", "pause_timeout", "question_timeout", "move_timeout"
         )

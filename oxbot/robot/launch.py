@@ -189,7 +189,9 @@ def run_component(
         on_lost = None
         if name == "manager":
             others = {n: p for n, p in parts().items() if n != name}
-            watcher = PartsWatcher(bus, others, siblings=beside).start()
+            watcher = PartsWatcher(
+                bus, others, rejoin_seconds=config.robot.rejoin_seconds, siblings=beside
+            ).start()
 
             def on_lost(lost: Component) -> None:
                 from oxbot.game.board import outcome

@@ -24,9 +24,10 @@ from oxbot.robot.messages import ComponentFailed, ComponentJoined, ComponentLost
 log = logging.getLogger(__name__)
 
 REJOIN_SECONDS = 10.0
-"""How long a component whose process ended may take to come back (respawned by
-`oxbot robot --launch` within about 1 s, then its models loaded: Piper's voice takes 1.3 s on
-a quiet machine and more than 5 s beside other jobs) before the robot takes it as lost."""
+"""The default of `robot.rejoin_seconds`: how long a component whose process ended may take to
+come back (respawned by `oxbot robot --launch` within about 1 s, then its models loaded: Piper's
+voice takes 1.3 s on a quiet machine and more than 5 s beside other jobs) before the robot takes
+it as lost."""
 MAX_WATCHED_CHANGES = 1_000
 """The most liveliness changes `PartsWatcher` holds unread (a robot's seven parts make a few a
 respawn; only a peer flooding tokens makes more). Beyond it a new change is dropped, with a log

@@ -69,6 +69,7 @@ CONFIG = load_config(
         "robot.pause_timeout=0",  # the person answers the greeting once it is said
         "robot.move_timeout=60",
         "robot.hang_seconds=10",
+        "robot.rejoin_seconds=30",  # a voice respawned beside the rest of the suite loads slowly
     ],
 )
 

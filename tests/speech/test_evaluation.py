@@ -1,5 +1,3 @@
-import time
-
 from oxbot.dialogue.domain import load_domain
 from oxbot.dialogue.understanding import UserActClassifier
 from oxbot.speech.evaluation import (
@@ -28,7 +26,6 @@ def test_accept_decline_intent_in_twelve_voices_clean_and_at_20_db_by_the_fallba
     answers = accept_decline_phrases(domain)
     assert {intent_of_act(act) for act in answers.values()} == {"accept", "decline"}
     assert len(VOICES) >= 6
-    started = time.perf_counter()
     trials = listening_test(
         answers,
         UserActClassifier(domain),
@@ -48,7 +45,6 @@ def test_accept_decline_intent_in_twelve_voices_clean_and_at_20_db_by_the_fallba
     # Faster than real time as a rule; the slowest single answer, which another process on
     # the machine can hold up, is bench/bench_speech.py's to print ("RTF ... max").
     assert median_real_time_factor(trials) < 1.0
-    assert time.perf_counter() - started < 60
 
 
 def test_whisper_never_flips_the_answers_to_the_invitation_in_synthetic_voices():
