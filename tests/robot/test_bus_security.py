@@ -19,6 +19,8 @@ from oxbot.robot.messages import NewGame
 from oxbot.robot.zenoh_bus import Endpoints, ZenohBus
 from tests.robot.test_zenoh import REPO, free_port, robot_name
 
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
+
 PEER = """
 import sys
 from pathlib import Path

@@ -31,6 +31,8 @@ from oxbot.robot.messages import (
 from oxbot.robot.zenoh_bus import FORMAT, ZenohBus
 from tests.robot.test_zenoh import CONFIG, free_port, loopback, robot_name
 
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
+
 HOSTILE = {
     "not a cell": to_json(ArmCommand(where="middle", symbol="cross")).replace("middle", "nowhere"),
     "200 KB to say": to_json(Utterance(text="a" * 200_000, act="Provide(name)")),

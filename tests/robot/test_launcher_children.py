@@ -11,8 +11,12 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from oxbot.robot.children import end_leftovers, pid_file, remove_unmapped
 from tests.robot.test_zenoh import REPO, free_port, robot_name
+
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
 
 LAUNCH = """
 import sys, time

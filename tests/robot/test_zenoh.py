@@ -57,6 +57,8 @@ from tests.robot.helpers import collect, wait_for
 from tests.robot.test_headless_game import ANSWERS, EXPECTED_ACTS, Camera
 from tests.robot.test_messages import EXAMPLES
 
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
+
 REPO = str(Path(__file__).resolve().parents[2])
 """The checkout under test, for the component processes' imports."""
 # a recogniser that takes over 3 s under a full suite's load is slow, not hung: these tests

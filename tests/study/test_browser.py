@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from playwright.sync_api import sync_playwright
 
 from oxbot.config import OxbotConfig
@@ -13,6 +14,8 @@ from oxbot.study.page import add_routes
 from oxbot.study.session import Study
 from oxbot.testing.browser import CHROMIUM, FLAGS
 from oxbot.web.server import create_app, serving_in_background
+
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
 
 PRE = ["pre-age_band-25-34", "pre-robot_experience-never", "pre-game_experience-often"]
 

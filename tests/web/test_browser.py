@@ -22,6 +22,8 @@ from skimage import data
 from oxbot.testing.browser import CHROMIUM, draw, log_items
 from oxbot.testing.browser import FLAGS as BROWSER_FLAGS
 
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
+
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 FLAGS = [*BROWSER_FLAGS, "--use-fake-ui-for-media-stream", "--use-fake-device-for-media-stream"]
 MOVE = "GameMove(gridloc="

@@ -28,6 +28,8 @@ from oxbot.speech import pcm16
 from oxbot.testing.browser import CHROMIUM, FLAGS, room_script
 from oxbot.web.server import create_app, serving_in_background
 
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
+
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 CONFIG = load_config(
     None,

@@ -15,6 +15,8 @@ from playwright.sync_api import sync_playwright
 from oxbot.config import SpeechConfig
 from oxbot.testing.browser import CHROMIUM, FLAGS
 
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
+
 TOLERANCE = 0.04
 """Seconds the mouth may take to reach a shape after the alignment says it starts (and may
 leave it before it ends)."""

@@ -42,6 +42,8 @@ from oxbot.testing.webcam import PaperVideo, frame_index
 from oxbot.web.server import create_app, serving_in_background
 from tests.web.test_browser import ARTIFACTS, log_items, wait_for_act
 
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
+
 CONFIG = load_config(
     None,
     [

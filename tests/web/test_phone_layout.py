@@ -6,10 +6,13 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+import pytest
 from playwright.sync_api import Page, sync_playwright
 
 from oxbot.testing.browser import CHROMIUM
 from oxbot.testing.browser import FLAGS as BROWSER_FLAGS
+
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
 
 
 @contextmanager

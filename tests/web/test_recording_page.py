@@ -18,6 +18,8 @@ from oxbot.testing.browser import CHROMIUM, FLAGS, draw
 from oxbot.web.recording import RecordingSetup
 from tests.web.conftest import FAST, running_server
 
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
+
 MOVE = "GameMove(gridloc="
 
 

@@ -8,11 +8,14 @@ import time
 
 import httpx
 import numpy as np
+import pytest
 from playwright.sync_api import Page, sync_playwright
 
 from oxbot.testing.browser import CHROMIUM, draw, log_items
 from oxbot.testing.browser import FLAGS as BROWSER_FLAGS
 from tests.web.test_browser import ARTIFACTS, wait_for_act
+
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
 
 MOVE = "GameMove(gridloc="
 

@@ -20,6 +20,8 @@ from oxbot.speech.evaluation import speak
 from oxbot.testing.browser import CHROMIUM, conversation_page, log_items
 from oxbot.web.server import create_app
 
+pytestmark = pytest.mark.realtime  # timed by the wall clock: `make test` runs these apart
+
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 CONFIG = load_config(
     None, ["robot.speed_factor=1", "robot.question_timeout=30", "robot.hang_seconds=10"]
