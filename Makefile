@@ -42,12 +42,12 @@ run: setup
 	$(BIN)/oxbot play
 
 # The tests timed by the wall clock (a real browser's audio and animation, robot processes
-# respawned) run after the rest, two at a time on two cores: beside the CPU-heavy tests, a busy
-# machine, not the code, made them miss. Both parts run; either failing fails the target.
+# respawned) run after the rest, one at a time: beside the CPU-heavy tests or one another, a
+# busy machine, not the code, made them miss. Both parts run; either failing fails the target.
 test: setup lint
 	@status=0; \
 	$(BIN)/pytest -m "not realtime" || status=1; \
-	$(BIN)/pytest -m realtime -n 2 || status=1; \
+	$(BIN)/pytest -m realtime -n 1 || status=1; \
 	exit $$status
 
 # ruff, then the import contracts of pyproject.toml (the layers, no cycles, no test harness in

@@ -34,11 +34,13 @@ CONFIG = load_config(
     [
         "robot.speed_factor=30",
         "robot.answer_timeout=2",
-        "robot.question_timeout=10",
+        # the robot asks 3 times (1 s each) before it takes it that nobody is there: longer
+        # than a hung recogniser takes to be found
+        "robot.question_timeout=30",
         "robot.move_timeout=10",
         # a fault hangs for good; a real call on a machine busy with the rest of the suite can
         # take half a second, and a second hang would be one too many (robot.hang_limit)
-        "robot.hang_seconds=2",
+        "robot.hang_seconds=1.5",
         f"robot.restart_limit={LIMIT}",
         "robot.restart_backoff=0.05",
         "robot.restart_backoff_max=0.4",
