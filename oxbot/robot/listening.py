@@ -148,8 +148,9 @@ class HandsFreeListener:
         where it began; past their end when it began later)."""
         samples = np.asarray(samples)
         position = self._position
-        speaking = self.robot_speaking
+        self._follow_speech()  # the sentences a player may say it began
         self._place(list(played), position)
+        speaking = self.robot_speaking  # with a sentence begun in these samples
         self.echo.hear(samples, position)
         self._position += len(samples)
         cancelling = self.echo.active(position, self.config.echo_seconds)  # audio to take out

@@ -158,6 +158,9 @@ def _is_int(value: object) -> bool:
 
 STREAM_PIECE_SECONDS = 0.1
 """How much of the hands-free stream the page sends at a time (told in Hello)."""
+STREAM_PIECE_SECONDS_OVER_SPEECH = 0.05
+"""The same while the robot's voice plays: a person talking over it waits for a piece to fill
+before the listener hears them, and the cut comes that much later."""
 
 
 def check_raw(text: str, limits: WebConfig) -> None:

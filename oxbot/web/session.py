@@ -130,6 +130,7 @@ from oxbot.robot.messages import (
 )
 from oxbot.web.inbound import (
     STREAM_PIECE_SECONDS,
+    STREAM_PIECE_SECONDS_OVER_SPEECH,
     MessageRate,
     check_raw,
     decode_image,
@@ -522,6 +523,7 @@ def hello(session: Session, app: FastAPI, resumed: bool = False) -> dict:
         "audio_rate": session.limits.audio_rate,
         "pre_roll_seconds": session.listening.pre_roll_seconds,
         "stream_piece_seconds": STREAM_PIECE_SECONDS,
+        "stream_piece_seconds_over_speech": STREAM_PIECE_SECONDS_OVER_SPEECH,
         "tls_fingerprint": app.state.fingerprint,
         "resume_token": session.token if session.limits.resume_seconds > 0 else "",
         "resume_seconds": session.limits.resume_seconds,

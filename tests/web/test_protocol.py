@@ -300,6 +300,7 @@ def test_hands_free_a_spoken_answer_streamed_in_pieces_is_heard(ws_url):
         async with websockets.connect(ws_url) as ws:
             hello = (await next_of(ws, {"Hello"}))["data"]
             assert hello["stream_piece_seconds"] == 0.1 and hello["pre_roll_seconds"] > 0
+            assert 0 < hello["stream_piece_seconds_over_speech"] < hello["stream_piece_seconds"]
             while (await next_of(ws, {"DialogueAct"}))["data"]["act"] != "Request(playGame)":
                 pass
             await next_of(ws, {"SpeakingFinished"})

@@ -508,7 +508,10 @@ function onSamples(block, frame) {
 function streamPiece(block, frame) {
   if (!mic.pieceLength) mic.pieceFrame = frame;
   mic.piece.push(block); mic.pieceLength += block.length;
-  const rate = mic.ctx.sampleRate, seconds = state.hello ? state.hello.stream_piece_seconds : 0.1;
+  const rate = mic.ctx.sampleRate, h = state.hello || {};
+  // shorter while the robot's voice plays: someone talking over it is heard (and it is cut
+  // short) as soon as a piece is full
+  const seconds = (robotAudible() ? h.stream_piece_seconds_over_speech : h.stream_piece_seconds) || 0.1;
   if (mic.pieceLength < rate * seconds) return;
   // a busy page gets its samples in bursts: what comes sooner than a piece's time after the
   // last one goes with the next, so the stream never sends more messages than it is long
@@ -520,6 +523,12 @@ function streamPiece(block, frame) {
   const played = mic.played.map((p) => ({ text: p.text, sentence: p.sentence, at: p.frame - mic.pieceFrame }));
   mic.piece = []; mic.pieceLength = 0; mic.pieceSentAt = now; mic.played = [];
   if (send({ type: "listen", rate, pcm: toBase64(toInt16(samples).buffer), played })) mic.stats.pieces++;
+}
+
+// Whether a sentence of the robot's is playing now (or about to: it is scheduled).
+function robotAudible() {
+  const last = state.sentences[state.sentences.length - 1];
+  return !!last && last.played && last.end > speechClock();
 }
 
 // A sentence of the robot's begins at `start` on the speech clock: the microphone's frame
