@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import base64
+import logging
 import statistics
 
 import numpy as np
@@ -37,7 +38,13 @@ def main() -> None:
     parser.add_argument("--tries", type=int, default=5, help="tries of each word")
     parser.add_argument("--echo-db", type=float, default=-10.0)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--log", help="write the robot's debug log (its listener's) here")
     args = parser.parse_args()
+    if args.log:
+        logging.basicConfig(
+            filename=args.log, level=logging.WARNING, format="%(asctime)s %(name)s %(message)s"
+        )
+        logging.getLogger("oxbot.robot.listening").setLevel(logging.DEBUG)
     rng = np.random.default_rng(args.seed)
     config = load_config(None, ["robot.speed_factor=1", "robot.question_timeout=30"])
     from playwright.sync_api import sync_playwright
@@ -73,10 +80,13 @@ def main() -> None:
                     wav,
                 )
                 try:
-                    page.wait_for_function("window.oxbot.stats.cuts.length > 0", timeout=5_000)
-                    said, cut = page.evaluate(
-                        "[window.__room.said.at(-1), window.oxbot.stats.cuts[0]]"
-                    )
+                    # the first cut after the word was said (one before it: its own voice)
+                    said, cut = page.wait_for_function(
+                        """() => { const said = window.__room.said.at(-1);
+                                   const cut = window.oxbot.stats.cuts.find((c) => c >= said);
+                                   return cut !== undefined && [said, cut]; }""",
+                        timeout=5_000,
+                    ).json_value()
                     took = (cut - said) / 1e3 - first_sound
                     cuts.append(took)
                     shown = f"cut {took * 1e3:.0f} ms after its first sound"
