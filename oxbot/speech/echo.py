@@ -4,15 +4,17 @@ can listen while it speaks and never takes itself for the person.
 The listener knows what the robot says (each sentence's audio, as the page or the terminal
 plays it) and when. A player that says where in the stream it began each sentence (the page
 does) has it placed there, on one timeline: a new utterance cuts off what played before it,
-and the echo's path, found once, is the room's and stays. Otherwise the first sentence is
-placed where the stream was when its SpeakingStarted came, each further sentence right after
-the one before (or where the stream was when it came, if later), and the path is found again
-for each utterance. What reaches the microphone is modelled as that audio delayed and scaled,
-one delay and one gain, found by cross-correlation over `MIN_DELAY`..`MAX_DELAY` once
-`ESTIMATE_AFTER` seconds of it can have been heard, and found again on its latest `WINDOW`
-seconds as more comes. A browser's or a
-sound card's echo canceller takes out most of a real room's echo before this; this takes out
-what is played straight into the microphone, and tells what is left.
+and the echo's path, found once, is the room's and stays, fitted again on each new sentence
+alone once `SENTENCE_HEARD` of it is heard (a player's marks are a few milliseconds off, and
+a path 10 ms off leaves most of the echo) and changed only by a better fit. Otherwise the
+first sentence is placed where the stream was when its SpeakingStarted came, each further
+sentence right after the one before (or where the stream was when it came, if later), and the
+path is found again for each utterance. What reaches the microphone is modelled as that audio
+delayed and scaled, one delay and one gain, found by cross-correlation over
+`MIN_DELAY`..`MAX_DELAY` once `ESTIMATE_AFTER` seconds of it can have been heard, and found
+again on its latest `WINDOW` seconds as more comes. A browser's or a sound card's echo
+canceller takes out most of a real room's echo before this; this takes out what is played
+straight into the microphone, and tells what is left.
 
 The residual (the microphone less the modelled echo) is what the person said over the robot. A
 frame of it counts only where it is `ECHO_MARGIN` times louder than the echo it could be the
@@ -43,6 +45,11 @@ MIN_CORRELATION = 0.3
 """A delay whose normalised correlation is below this finds no echo: the gain is 0."""
 SURE_CORRELATION = 0.6
 """Before the latest echo can have shown, a delay is taken only this surely."""
+SENTENCE_HEARD = 0.3
+"""Seconds of a placed sentence heard before its path is estimated on it alone."""
+BETTER_BY = 0.05
+"""A placed player's path is changed only by one whose correlation is this much higher on the
+same window (the person talking over the robot lowers both)."""
 WINDOW = 2.0
 """Seconds of the robot's latest audio the delay and gain are estimated on, again every 0.5 s."""
 ECHO_MARGIN = 2.0
@@ -75,6 +82,8 @@ class EchoCanceller:
         self.correlation = 0.0
         self._estimated_at = 0
         self._cut_at: int | None = None
+        self._sentence_at = 0  # where in the reference the latest placed sentence begins
+        self._sentence_due: int | None = None  # heard this far, its path is estimated on it
         self.placed = False
         """Whether a player says where it began each sentence (`speak`'s `placed`)."""
 
@@ -96,11 +105,12 @@ class EchoCanceller:
             if 0 <= at <= len(played) + MAX_DELAY * self.rate:  # its echo may still sound
                 gap = np.zeros(max(0, at - len(played)))
                 self._reference = np.concatenate([played[:at], gap, audio])
-                self._cut_at = None
+                self._cut_at, self._sentence_at = None, at
+                self._sentence_due = at + max(self.delay or 0, 0) + int(SENTENCE_HEARD * self.rate)
                 return
             if self.gain > 0:  # long after: a new timeline, on the path found
                 self._reference, self._start, self._cut_at = audio, position, None
-                self._estimated_at = 0
+                self._estimated_at = self._sentence_at = 0
                 return
         if first or not len(self._reference):
             kept = self._mic[-self._kept_before :] if len(self._mic) else self._mic
@@ -108,9 +118,10 @@ class EchoCanceller:
             self._mic = kept.copy()
             self._reference, self._start = audio, position
             self.delay, self.gain, self.correlation = None, 0.0, 0.0
-            self._estimated_at, self._cut_at = 0, None
+            self._estimated_at, self._cut_at, self._sentence_at = 0, None, 0
             return
         gap = max(0, position - (self._start + len(self._reference)))
+        self._sentence_at = len(self._reference) + gap
         self._reference = np.concatenate([self._reference, np.zeros(gap), audio])
 
     def cut(self, position: int) -> None:
@@ -153,6 +164,8 @@ class EchoCanceller:
         heard = position + len(mic) - self._start
         due = heard >= ESTIMATE_AFTER * self.rate and heard - self._estimated_at >= 0.2 * self.rate
         again = heard - self._estimated_at >= 0.5 * self.rate
+        if self._sentence_due is not None and heard >= self._sentence_due:
+            again, self._sentence_due = True, None  # a new sentence: its own path, soon
         if due if self.delay is None else again:
             self._estimate(heard)
 
@@ -164,6 +177,11 @@ class EchoCanceller:
         # ... and heard since the microphone's record begins (a player may say it began a
         # sentence before the stream did)
         r0 = max(0, end - int(WINDOW * self.rate), self._mic_start - self._start - lo)
+        # ... and of the latest placed sentence alone, once enough of it can be heard: a
+        # player's marks of two sentences may be a few milliseconds apart from the truth, and a
+        # window over both would fit neither
+        if self.placed and end - self._sentence_at >= SENTENCE_HEARD * self.rate:
+            r0 = max(r0, self._sentence_at)
         reference = self._reference[r0:end]
         offset = self._start + r0 - self._mic_start  # the window's place in self._mic
         if len(reference) < FRAME or float(reference @ reference) <= 0:
@@ -202,11 +220,17 @@ class EchoCanceller:
                 self.delay, self.gain, self.correlation = 0, 0.0, correlation
             return  # else more of it is waited for: a part of an echo can match elsewhere
         # the path found before stands against a weaker match (the person over the robot); a
-        # placed player's is the room's, changed only by a sure one
+        # placed player's is the room's, changed only by a sure one that fits this window
+        # better than it does
         if self.delay is not None and correlation < (
             SURE_CORRELATION if self.placed and self.gain > 0 else MIN_CORRELATION
         ):
             return
+        if self.placed and self.gain > 0 and self.delay in lags:
+            kept = float(score[int(np.flatnonzero(lags == self.delay)[0])])
+            if correlation < kept + BETTER_BY:
+                self.correlation = kept
+                return
         self.correlation = correlation
         self.delay = int(lags[best])
         self.gain = gain

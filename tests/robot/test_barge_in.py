@@ -269,3 +269,38 @@ def test_hands_free_turned_on_while_the_robot_speaks_hears_the_person_not_the_ro
         listener.feed(piece, played)
     assert len(ears.recordings) == 1  # the person's word, and nothing of the robot's
     assert listener.echo.gain > 0.03
+
+
+def test_each_placed_sentence_s_echo_is_taken_out_on_its_own_path(robot_wavs):
+    """A page's marks of two sentences can be a few milliseconds off from where each really
+    played (its two audio clocks read at slightly different moments): here the second's echo
+    comes 10 ms later than marked. From 0.5 s into it, it is taken out on a path fitted to it
+    alone, not on the one found on the first, which leaves much of it for the recogniser when
+    the person talks over the robot."""
+    ears = Ears()
+    listener = HandsFreeListener(ears, ListeningConfig())
+    listener.placed_by_player = True
+    first, second = (heard_in_the_room(w, 0.05) for w in robot_wavs)
+    text = " ".join(ROBOT)
+    marks = (RATE, RATE + len(first))  # where the page says each began
+    late = int(0.01 * RATE)
+    stream = np.zeros(marks[1] + late + len(second) + 2 * RATE)
+    stream[marks[0] :][: len(first)] = first
+    stream[marks[1] + late :][: len(second)] = second
+    judged = range(marks[1] + late + RATE // 2, marks[1] + late + len(second) - PIECE)
+    echo_energy = left_energy = 0.0
+    for at in range(0, len(stream), PIECE):
+        if at == marks[0]:
+            for i, wav in enumerate(robot_wavs):
+                kind = SpeakingStarted if i == 0 else SpeakingContinued
+                ears.bus.publish(kind(text=text, audio=wav, seconds=read_wav(wav).seconds))
+        played = [(text, i, m - at) for i, m in enumerate(marks) if at <= marks[0] < at + PIECE]
+        piece = np.clip(np.round(stream[at : at + PIECE]), -32768, 32767).astype(np.int16)
+        if at in judged:  # what the recogniser would get of it, on the path known then
+            residual, _ = listener.echo.separate(piece, at)
+            echo_energy += float(np.sum(piece.astype(np.float64) ** 2))
+            left_energy += float(np.sum(residual.astype(np.float64) ** 2))
+        listener.feed(piece, played)
+    assert ears.recordings == []
+    assert listener.echo.delay == pytest.approx(0.05 * RATE + late, abs=0.002 * RATE)
+    assert left_energy < 0.05 * echo_energy, left_energy / echo_energy  # 13 dB taken out
