@@ -18,16 +18,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
+from oxbot.config import RobotConfig
 from oxbot.robot.children import Siblings
 from oxbot.robot.messages import ComponentFailed, ComponentJoined, ComponentLost, Message
 
 log = logging.getLogger(__name__)
 
-REJOIN_SECONDS = 10.0
-"""The default of `robot.rejoin_seconds`: how long a component whose process ended may take to
-come back (respawned by `oxbot robot --launch` within about 1 s, then its models loaded: Piper's
-voice takes 1.3 s on a quiet machine and more than 5 s beside other jobs) before the robot takes
-it as lost."""
+REJOIN_SECONDS = RobotConfig.rejoin_seconds
+"""How long a component whose process ended may take to come back before the robot takes it as
+lost: `robot.rejoin_seconds`'s default (the launcher passes the config's)."""
 MAX_WATCHED_CHANGES = 1_000
 """The most liveliness changes `PartsWatcher` holds unread (a robot's seven parts make a few a
 respawn; only a peer flooding tokens makes more). Beyond it a new change is dropped, with a log
