@@ -111,6 +111,7 @@ class EchoCanceller:
             if self.gain > 0:  # long after: a new timeline, on the path found
                 self._reference, self._start, self._cut_at = audio, position, None
                 self._estimated_at = self._sentence_at = 0
+                self._sentence_due = None  # the old timeline's; the first estimate comes soon
                 return
         if first or not len(self._reference):
             kept = self._mic[-self._kept_before :] if len(self._mic) else self._mic
@@ -119,6 +120,7 @@ class EchoCanceller:
             self._reference, self._start = audio, position
             self.delay, self.gain, self.correlation = None, 0.0, 0.0
             self._estimated_at, self._cut_at, self._sentence_at = 0, None, 0
+            self._sentence_due = None
             return
         gap = max(0, position - (self._start + len(self._reference)))
         self._sentence_at = len(self._reference) + gap
