@@ -218,6 +218,8 @@ class PersonInput:
             return
         # after "Would you like another game?", a late yes is one too
         act = self._understand(message.nbest, INVITATION if self._offers else "").act
+        if act != SILENCE:  # the person sees what was made of their words, as in a game
+            self._publish_turn("usr", act, text)
         if act == NEW_GAME or (self._offers and act == ACCEPT):
             carried = self._carried(text)
             self.bus.publish(NewGame(robot_starts=self.state.robot_starts, carried=carried))

@@ -19,6 +19,7 @@ from oxbot.dialogue.domain import (
 from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.game.board import EMPTY
 from oxbot.robot.manager import Phase
+from oxbot.robot.messages import DialogueAct
 from oxbot.robot.sentences import HOLD_SENTENCE
 from tests.robot.helpers import ManagerAtHand
 
@@ -159,6 +160,12 @@ def test_after_the_goodbye_a_late_yes_plays_again_and_other_words_get_a_reply():
     hand.say("yes please")  # the late yes to the offer
     assert not hand.done and hand.last_act == LETS_PLAY
     assert acts(hand) == [GREETING, INTRODUCTION, INVITATION, LETS_PLAY]
+    # the page's log shows each of those words with what was made of them
+    shown = []
+    while (message := hand.record.get(0)) is not None:
+        if isinstance(message, DialogueAct) and message.speaker == "usr":
+            shown.append(message.text)
+    assert shown[-3:] == ["what time is it", "bye", "yes please"]
 
 
 @pytest.mark.parametrize("late", ["Well played.", "Good game.", "Thanks for the game."])
