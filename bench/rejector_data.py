@@ -1,10 +1,14 @@
 """Training and development-validation drawings for the learned rejector
 (`oxbot.perception.rejector`): whole circles and crosses, and ink that is no move.
 
-Sources (never `oxbot.testing.heldout_drawings`, nor Quick, Draw!, nor the real handwriting):
+Sources (never `oxbot.testing.heldout_drawings`, nor Quick, Draw!, nor the real handwriting's
+test part):
 - positives: the training synthesiser's circles and crosses (`synth.symbol_strokes`), the
-  development drawings' whole kinds (`dev_shapes`, many hands) and the page's person
-  (`sheet.person_strokes`);
+  development drawings' whole kinds (`dev_shapes`, many hands), the page's person
+  (`sheet.person_strokes`) and, when `real_hands` is given, the UNIPEN circles and crosses of
+  the composed boards' development writers (`HandwritingSource.split("dev")`; their Quick,
+  Draw! circles are left out, since the held-out Quick, Draw! set is copied from the same
+  file);
 - negatives: the development drawings' refused kinds (`dev_shapes.REFUSED_KINDS`), the
   synthesiser's partial kinds (`synth.partial_strokes`) and shapes of this file's own
   (`EXTRA_KINDS`: random strokes, polygons, letters and signs the development drawings do not
@@ -20,6 +24,7 @@ grain, uneven light, grid remnants).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -35,6 +40,7 @@ from oxbot.perception.synth import (
     partial_strokes,
     symbol_strokes,
 )
+from oxbot.testing.composite import HandwritingSource
 from oxbot.testing.dev_shapes import (
     REFUSED_KINDS,
     _arc,
@@ -78,7 +84,25 @@ NEGATIVE_SOURCES = (
     *(f"synth_{k}" for k in PARTIAL_KINDS),
     *(f"extra_{k}" for k in EXTRA_KINDS),
 )
+REAL_SOURCES = ("real_circle", "real_cross")
 RENDERS = ("sheet", "cell", "synth")
+
+
+def real_hands(folder: Path, manifest: Path) -> dict[str, list[list[np.ndarray]]]:
+    """The development writers' UNIPEN circles and crosses of the composed boards' handwriting,
+    each drawing's strokes in [-0.5, 0.5]^2 (its longer side 1, centred)."""
+    dev = HandwritingSource.load(folder, manifest).split("dev")
+    hands: dict[str, list[list[np.ndarray]]] = {}
+    for name in ("circle", "cross"):
+        hands[name] = []
+        for strokes, writer in zip(dev.drawings[name], dev.writers[name], strict=True):
+            if not writer.startswith("unipen:"):
+                continue
+            points = np.concatenate(strokes)
+            lo, hi = points.min(0), points.max(0)
+            scale = float((hi - lo).max())
+            hands[name].append([(s - (lo + hi) / 2) / scale for s in strokes])
+    return hands
 
 
 def _hand(template: list[np.ndarray], rng: np.random.Generator) -> list[np.ndarray]:
@@ -354,9 +378,17 @@ def _loose_cross(rng: np.random.Generator) -> list[np.ndarray]:
     return [(s - (lo + hi) / 2) / float((hi - lo).max()) for s in out]
 
 
-def strokes_of(source: str, rng: np.random.Generator) -> list[np.ndarray]:
-    """One drawing of `source` (POSITIVE_SOURCES, NEGATIVE_SOURCES) in a cell's unit square."""
+def strokes_of(
+    source: str, rng: np.random.Generator, hands: dict[str, list[list[np.ndarray]]] | None = None
+) -> list[np.ndarray]:
+    """One drawing of `source` (POSITIVE_SOURCES, REAL_SOURCES, NEGATIVE_SOURCES) in a cell's
+    unit square; `hands` holds the real drawings (`real_hands`)."""
     group, _, kind = source.partition("_")
+    if group == "real":
+        if not hands:
+            raise ValueError("real drawings asked for without real_hands")
+        drawings = hands[kind]
+        return _hand(drawings[int(rng.integers(len(drawings)))], rng)
     if group == "dev":
         return draw_kind(kind, rng)
     if group == "loose":
@@ -380,15 +412,24 @@ def synth_render(strokes: list[np.ndarray], rng: np.random.Generator, size: int 
 
 
 def draw_set(
-    n: int, seed: int, positive_share: float = 0.4
+    n: int,
+    seed: int,
+    positive_share: float = 0.4,
+    hands: dict[str, list[list[np.ndarray]]] | None = None,
+    real_share: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """`n` cells (uint8 (n, 40, 40)), their labels (1: whole symbol) and sources; a third of
-    them on sheets cut by the board reader, a third alone in a cell, a third synthesised."""
+    them on sheets cut by the board reader, a third alone in a cell, a third synthesised.
+    `real_share` of the positives are `hands`' real drawings."""
     rng = np.random.default_rng([seed, 77])
+
+    def positive() -> str:
+        if hands and rng.random() < real_share:
+            return str(rng.choice(REAL_SOURCES))
+        return str(rng.choice(POSITIVE_SOURCES))
+
     sources = [
-        str(rng.choice(POSITIVE_SOURCES))
-        if rng.random() < positive_share
-        else str(rng.choice(NEGATIVE_SOURCES))
+        positive() if rng.random() < positive_share else str(rng.choice(NEGATIVE_SOURCES))
         for _ in range(n)
     ]
     renders = [RENDERS[i % 3] for i in range(n)]
@@ -399,19 +440,19 @@ def draw_set(
         sheet = Sheet(int(rng.integers(2**31)))
         for cell, i in zip(CELL_NAMES, part, strict=False):
             width = int(rng.integers(3, 9)) if rng.random() < 0.7 else 5
-            for points in strokes_of(sources[i], rng):
+            for points in strokes_of(sources[i], rng, hands):
                 sheet.stroke(unit_to_canvas(cell, points), width)
         try:
             cut = cut_board(sheet.image)[0]
         except OxbotError:  # a drawing that hides the grid: draw these alone
-            cut = np.stack([cell_image(strokes_of(sources[i], rng), rng) for i in part])
+            cut = np.stack([cell_image(strokes_of(sources[i], rng, hands), rng) for i in part])
             cells[part] = cut[: len(part)]
             continue
         cells[part] = cut[: len(part)]
     for i, r in enumerate(renders):
         if r == "cell":
-            cells[i] = cell_image(strokes_of(sources[i], rng), rng)
+            cells[i] = cell_image(strokes_of(sources[i], rng, hands), rng)
         elif r == "synth":
-            cells[i] = synth_render(strokes_of(sources[i], rng), rng)
-    labels = np.array([s in POSITIVE_SOURCES for s in sources], np.float32)
+            cells[i] = synth_render(strokes_of(sources[i], rng, hands), rng)
+    labels = np.array([s in POSITIVE_SOURCES or s in REAL_SOURCES for s in sources], np.float32)
     return cells, labels, [f"{s}|{r}" for s, r in zip(sources, renders, strict=True)]

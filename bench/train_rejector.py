@@ -2,13 +2,16 @@
 
     PYTHONPATH=. .venv/bin/python bench/train_rejector.py --out runs/rejector/rejector.pt
     PYTHONPATH=. .venv/bin/python bench/train_rejector.py --out oxbot/data/models/rejector.pt
+    PYTHONPATH=.:bench .venv/bin/python bench/train_rejector.py --real-share 0.3 ...
 
 Draws the training and development-validation cells (`bench/rejector_data.py`, seeds
 `--seed` and `--seed + 1`: no drawing is in both), trains the network (Adam, one-cycle, each
 batch in one of its 8 quarter turns and mirror images, binary cross-entropy), chooses the
 threshold on the validation part so that at least `--keep` of its whole symbols pass, and writes
 the model (config, seed, threshold and metrics in its metadata, checksummed), its metrics JSON
-and its learning curve PNG beside it.
+and its learning curve PNG beside it. With `--real-share`, that share of the positives are the
+composed boards' development writers' UNIPEN circles and crosses (restored as
+bench/data/composite_boards/SOURCES.md says); their test writers are never drawn.
 """
 
 from __future__ import annotations
@@ -23,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from rejector_data import draw_set
+from composite_sources import DATA
+from rejector_data import draw_set, real_hands
 from torch import nn
 
 from oxbot.atomic import save_figure, write_text_atomic
@@ -42,6 +46,8 @@ class TrainConfig:
     keep: float = 0.997
     seed: int = 1000
     threads: int = 2
+    real_share: float = 0.0
+    """Share of the positives drawn from the composed boards' development writers (UNIPEN)."""
 
 
 def turn_or_flip(x: torch.Tensor, k: int) -> torch.Tensor:
@@ -82,8 +88,16 @@ def main() -> None:
         xs, ys, vs, vy = data["xs"], data["ys"], data["vs"], data["vy"]
         vsrc = list(data["vsrc"])
     else:
-        xs, ys, _ = draw_set(cfg.train_cells, cfg.seed)
-        vs, vy, vsrc = draw_set(cfg.val_cells, cfg.seed + 1)
+        hands = None
+        if cfg.real_share > 0:
+            try:
+                hands = real_hands(
+                    DATA / "sources" / "handwriting", DATA / "handwriting_manifest.csv"
+                )
+            except FileNotFoundError as err:
+                raise SystemExit(f"train_rejector: {err}") from None
+        xs, ys, _ = draw_set(cfg.train_cells, cfg.seed, hands=hands, real_share=cfg.real_share)
+        vs, vy, vsrc = draw_set(cfg.val_cells, cfg.seed + 1, hands=hands, real_share=cfg.real_share)
         if args.cache is not None:
             args.cache.parent.mkdir(parents=True, exist_ok=True)
             np.savez_compressed(args.cache, xs=xs, ys=ys, vs=vs, vy=vy, vsrc=np.array(vsrc))
