@@ -30,6 +30,7 @@ publish, and holding nothing of the robot's.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import functools
 import logging
 import os
@@ -125,13 +126,17 @@ def _loaded_policy(
 
 @functools.cache
 def warm_up(config: OxbotConfig | None = None) -> None:
-    """Load the shared models once (policy, classifier, voice, recogniser: a few seconds), so that
-    the first game does not wait for them mid-sentence. A recogniser the config names but that
-    cannot be built is a ConfigError here; one that is not installed only a warning."""
+    """Load the shared models once (policy, understanding, classifier, voice, recogniser: a few
+    seconds), so that the first game does not wait for them mid-sentence. A recogniser the config
+    names but that cannot be built is a ConfigError here; one that is not installed only a
+    warning."""
+    from oxbot.dialogue.model import build_dialogue_model
     from oxbot.perception.board import default_reader
 
     config = config if config is not None else OxbotConfig()
     shared_policy(config.robot.manager, config)
+    understanding = build_dialogue_model(config).understanding  # trained at first use (0.4 s)
+    understanding.intent_of([("yes", 1.0)])
     default_reader(config.perception)
     robot_voice(config.speech)
     try:
@@ -168,6 +173,13 @@ def robot_sentences(domain: Domain | None = None) -> list[str]:
     return list(dict.fromkeys(s for s in sentences if s.strip()))
 
 
+def _yield_to_games() -> None:
+    """Lower the calling thread's CPU priority (Linux gives each thread its own nice value), so
+    that sentences made ahead never slow a game that is being played meanwhile."""
+    with contextlib.suppress(AttributeError, OSError):  # not Linux, or not allowed: as it is
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
+
+
 def prepare_voice(config: OxbotConfig) -> threading.Thread | None:
     """Load the robot's voice and make every sentence it can say with Piper in a background
     thread, greetings first (the voice keeps them), so that no sentence of a game waits for
@@ -181,6 +193,7 @@ def prepare_voice(config: OxbotConfig) -> threading.Thread | None:
         voice = robot_voice(config.speech)  # the one load the robots share
         if not isinstance(voice, PiperVoice):
             return  # espeak-ng, after robot_voice's warning
+        _yield_to_games()
         started = time.perf_counter()
         try:
             domain = load_domain(config.dialogue.domain or None)  # --domain's templates
