@@ -19,7 +19,7 @@ happens but -DL.
 
 ## Observation Space
 
-`Box(0, 1, (152,), float32)`, the layout in `oxbot.dialogue.features`: word features of the last
+`Box(0, 1, (149,), float32)`, the layout in `oxbot.dialogue.features`: word features of the last
 system and user responses, game-move features that keep the board, game flags, the act the
 person's answer was understood as (with its score), the robot's last act and dialogue flags. The
 state behind it is a `DialogueState` (`oxbot.dialogue.state`), the same the robot's

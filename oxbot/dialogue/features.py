@@ -1,31 +1,31 @@
 """The state the interaction manager sees: word features plus game and dialogue context.
 
-Layout (paper §2.2 "State Space") with the shipped vocabulary of 84 words, 152 features:
+Layout (paper §2.2 "State Space") with the shipped vocabulary of 81 words, 149 features:
 
     index    name                     value
-    0-83     word:<w>, vocabulary     system words of the last response: 1 if present; user
+    0-80     word:<w>, vocabulary     system words of the last response: 1 if present; user
              order                    words of the last answer: the recogniser's confidence in
                                       [0, 1], overriding the system's value on overlap
-    84-92    robot:<cell>             1 if the robot's mark is on the cell (row-major)
-    93-101   person:<cell>            1 if the person's mark is on the cell
-    102      game:robot_to_move       1 while the game is on and it is the robot's turn to draw
+    81-89    robot:<cell>             1 if the robot's mark is on the cell (row-major)
+    90-98    person:<cell>            1 if the person's mark is on the cell
+    99       game:robot_to_move       1 while the game is on and it is the robot's turn to draw
                                       (before the first move: 1 if the robot starts)
-    103      game:robot_won           1 once the robot has three in a row
-    104      game:person_won          1 once the person has three in a row
-    105      game:draw                1 once the board is full with no line
-    106-119  heard:<user act>         the act the last answer was understood as
+    100      game:robot_won           1 once the robot has three in a row
+    101      game:person_won          1 once the person has three in a row
+    102      game:draw                1 once the board is full with no line
+    103-116  heard:<user act>         the act the last answer was understood as
                                       (`UserActClassifier`): its score (1 for Unknown)
-    120-140  last:<system act>        1 for the robot's last act
-    141-144  dialogue:greeted, introduced, invited, gave_feedback
+    117-137  last:<system act>        1 for the robot's last act
+    138-141  dialogue:greeted, introduced, invited, gave_feedback
                                       1 once the robot has said that act (any feedback act)
-    145      dialogue:acknowledged    1 once it has acknowledged a refusal or a stop
-    146      dialogue:asked_twice     1 once it has asked to play (invited, asked again) twice,
+    142      dialogue:acknowledged    1 once it has acknowledged a refusal or a stop
+    143      dialogue:asked_twice     1 once it has asked to play (invited, asked again) twice,
                                       a no said before it first asked counting as once
-    147-149  person:agreed, refused, stopped
+    144-146  person:agreed, refused, stopped
                                       1 once an answer was understood as that (any refusal)
-    150      person:no_is_final       1 while asking to play would not let a no go: a clear
+    147      person:no_is_final       1 while asking to play would not let a no go: a clear
                                       no to the question, or a no after asking once more
-    151      person:stop_is_final     1 while asking for a move would not let a stop go: two
+    148      person:stop_is_final     1 while asking for a move would not let a stop go: two
                                       stops, or one clear, with no yes or drawing since
 
 The paper had 57 features (about 40 words plus game moves); the words, cells and game flags here

@@ -13,8 +13,8 @@ LAYOUT = shipped_dialogue_model().layout
 def test_the_network_is_the_papers_by_default():
     net = QNetwork(LAYOUT.n_features)
     shapes = [tuple(p.shape) for p in net.parameters()]
-    # the paper's two hidden layers of 60; oxbot's 152 features and 21 acts (docs/deviations.md)
-    assert shapes == [(60, 152), (60,), (60, 60), (60,), (21, 60), (21,)]
+    # the paper's two hidden layers of 60; oxbot's 149 features and 21 acts (docs/deviations.md)
+    assert shapes == [(60, 149), (60,), (60, 60), (60,), (21, 60), (21,)]
     assert isinstance(net.net[1], torch.nn.ReLU)
 
 
