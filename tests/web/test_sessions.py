@@ -4,12 +4,17 @@ from __future__ import annotations
 
 import asyncio
 
+import pytest
+
 from oxbot.game.board import outcome
 from tests.web.conftest import FAST, running_server
 
 SESSIONS = 20
 
 
+# twenty robots in one process, each supervised by the wall clock (a part silent for 3 s is hung):
+# beside other workers' CPU-bound tests a tick can wait that long on two cores
+@pytest.mark.realtime
 def test_twenty_concurrent_games_finish_without_cross_talk():
     with running_server(config=FAST) as url:
         ws_url = url.replace("http://", "ws://") + "/ws"
