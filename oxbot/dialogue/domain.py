@@ -89,7 +89,11 @@ OFFER_ANOTHER = "Request(anotherGame)"
 """oxbot: "Would you like another game?" after a game, before the goodbye the policy chose:
 said, never chosen by the policy. A yes to it starts the next game without a goodbye, a
 greeting or an introduction."""
-SAID_OUTSIDE_THE_POLICY = (PROBLEM, ANSWER, OFFER_ANOTHER)
+AFTER_ALL = "Request(playAfterAll)"
+"""oxbot: "Do you want to play after all?" when "Okay, maybe another time." is answered with a bare
+yes, which may agree that it is for another time or take the no back: said, never chosen by the
+policy. A yes to it is the person's yes to playing."""
+SAID_OUTSIDE_THE_POLICY = (PROBLEM, ANSWER, OFFER_ANOTHER, AFTER_ALL)
 """The robot's acts that its interaction manager says around the policy's."""
 
 MOVE_ACT_TYPE = "GameMove"

@@ -39,7 +39,10 @@ Around the games, the visit's conversation (`oxbot.dialogue.asides`):
 - after a game played out, it offers another (`robot.offer_another_game`): a clear yes ends
   this dialogue without a goodbye and starts the next, which takes up the question and the
   yes; a no or a goodbye gets the closing; anything else gets the offer once more;
-- after its goodbye, a late yes still plays, and other words get `AFTER_GOODBYE`.
+- after its goodbye, a late yes still plays, and other words get `AFTER_GOODBYE`;
+- when "Okay, maybe another time." is answered with a bare yes ("yes", "yeah"), it asks "Do
+  you want to play after all?": a yes then is the person's yes to playing, which the policy
+  answers; anything else, or silence, is read as after "maybe another time".
 
 On real paper (SheetMode) the robot has no arm that reaches the sheet: it says where
 it plays ("I take the upper left.") instead of "I take this one"; the policy still sees the
@@ -77,6 +80,7 @@ from oxbot.dialogue.asides import HOLD, NAME, REPEAT
 from oxbot.dialogue.cells_in_words import MoveHeard
 from oxbot.dialogue.domain import (
     ACCEPT,
+    AFTER_ALL,
     CLOSING,
     GREETING,
     INTRODUCTION,
@@ -119,6 +123,7 @@ from oxbot.robot.messages import (
 from oxbot.robot.person_input import PersonInput, Phase, Understand
 from oxbot.robot.resync import replay_dialogue
 from oxbot.robot.sentences import (
+    AFTER_ALL_SENTENCE,
     GUIDANCE_SENTENCES,
     HOLD_SENTENCE,
     LOST_SENTENCES,
@@ -311,6 +316,8 @@ class InteractionManagerComponent(PersonInput, Component):
             "_introductions",
             "_offers",
             "_offering",
+            "_asking_after_all",
+            "_after_all_due",
             "_answering",
             "_pausing",
         ):
@@ -370,6 +377,8 @@ class InteractionManagerComponent(PersonInput, Component):
         self._deferred: list[tuple[str, str]] = []  # (act, sentence) to say after the act
         self._offers = 0  # times another game was offered after this one
         self._offering = False  # the robot waits for the answer to its offer
+        self._asking_after_all = False  # ... or to "Do you want to play after all?"
+        self._after_all_due = False  # that question, once the robot's act is over
         self._deadline = 0.0
         self._drawing_until = float("inf")  # only a resumed drawing has an end of its own
         self._unanswered_in_a_row = 0
@@ -393,6 +402,7 @@ class InteractionManagerComponent(PersonInput, Component):
         )
         self._moved_since, self._spoke_since = False, False
         self._offering, self._answering, self._pausing = False, False, False
+        self._asking_after_all, self._after_all_due = False, False
         act = SYSTEM_ACTS[action]
         if act == CLOSING and self.state.outcome is not None and not self._broken:
             if self._rematch:  # they asked for another game after this one: no goodbye
@@ -452,13 +462,16 @@ class InteractionManagerComponent(PersonInput, Component):
         for act, sentence in self._deferred:
             self._tell(sentence, act)
         self._deferred.clear()
+        if self._after_all_due:  # a bare yes came over "Okay, maybe another time."
+            self._ask_after_all()
+            return
         if self._early_answer is not None and self.state.invitations:
             early, self._early_answer = self._early_answer, None
             self._heard(early)  # now it answers the question
             return
         if self._expects_move():
             wait = self.timing.move_timeout
-        elif self._offering:
+        elif self._offering or self._asking_after_all:
             wait = self.timing.question_timeout
         elif last_act in self._unanswered:
             # nobody answers it, but a person who spoke over it is waited for
@@ -561,6 +574,16 @@ class InteractionManagerComponent(PersonInput, Component):
         self._tell(str(sentence), OFFER_ANOTHER)
         # unlike a problem told, the offer is waited on: its answer, after it is said
         self._speaking, self._arm_cell, self._offering = str(sentence), None, True
+        self.phase = Phase.SPEAKING
+
+    def _ask_after_all(self) -> None:
+        self._asking_after_all = True
+        if self.phase is not Phase.LISTENING:
+            self._after_all_due = True  # never over the robot's own words or arm
+            return
+        self._after_all_due = False
+        self._tell(AFTER_ALL_SENTENCE, AFTER_ALL)
+        self._speaking, self._arm_cell = AFTER_ALL_SENTENCE, None  # its answer, once said
         self.phase = Phase.SPEAKING
 
     def _play_again(self, words: str) -> None:

@@ -35,6 +35,7 @@ from oxbot.dialogue.domain import (
     ANSWER,
     CLOSING,
     GAME_MOVE_TEMPLATE,
+    GRANT_REFUSAL,
     INVITATION,
     MOVE_REQUEST,
     NEW_GAME,
@@ -65,6 +66,9 @@ from oxbot.robot.sentences import (
 )
 from oxbot.speech.keywords import answer_to
 from oxbot.speech.nbest import Hypothesis
+
+BARE_YES = ("yes", "yeah", "yep", "yup")
+"""Words of a yes that, after the robot let a no go, may agree that it is for another time."""
 
 Understand = Callable[[Sequence[tuple[str, float]], str], UserAct]
 """Reads what the person said (an N-best list) in the context of the robot's last act as
@@ -102,6 +106,7 @@ class PersonInput:
     _agreed_words: str
     _offering: bool
     _offers: int
+    _asking_after_all: bool
     _broken: bool
     _early_answer: SpeechHypotheses | None
     _move_in_words: tuple[MoveHeard, Sequence[tuple[str, float]]] | None
@@ -126,6 +131,9 @@ class PersonInput:
         raise NotImplementedError
 
     def _offer(self) -> None:
+        raise NotImplementedError
+
+    def _ask_after_all(self) -> None:
         raise NotImplementedError
 
     def _play_again(self, words: str) -> None:
@@ -166,12 +174,21 @@ class PersonInput:
         if self._offering:
             self._heard_about_another_game(nbest, text)
             return
+        if self._asking_after_all and self._plays_after_all(nbest, text, words):
+            return
         if self._persons_turn():
             move = move_in_words(nbest)
             if move is not None:  # "top left": the person's move, said instead of drawn
                 self._moved_in_words(move, words)
                 return
         reading = self._understand(nbest, self.state.last_act)
+        if self._bare_yes_after_letting_go(nbest, text, reading):
+            # "yes" to "Okay, maybe another time.": another time, or the no taken back?
+            self.state.person_informs(reading.act, text, reading.score)
+            self._publish_turn("usr", reading.act, text)
+            self._unanswered_in_a_row = 0
+            self._ask_after_all()
+            return
         if (
             self._persons_turn()
             and reading.act in (UNKNOWN, GAME_MOVE_TEMPLATE)
@@ -205,6 +222,39 @@ class PersonInput:
             self._expects_move() and is_game_move(reading.act)
         ):
             self._decide()
+
+    def _bare_yes_after_letting_go(
+        self, nbest: Sequence[tuple[str, float]], text: str, reading: UserAct
+    ) -> bool:
+        """Whether the person answered the robot's letting a no go ("Okay, maybe another time.")
+        with a yes that may only agree ("yes", "yeah"): read there as an acknowledgement, but a
+        yes to playing had the robot asked (a yes with "play", "actually"... is a change of
+        mind already)."""
+        return (
+            self.state.last_act == GRANT_REFUSAL
+            and not self._asking_after_all
+            and reading.act == ACKNOWLEDGE
+            and any(w in BARE_YES for w in words_of(text))
+            and self._understand(nbest, INVITATION).act == ACCEPT
+        )
+
+    def _plays_after_all(
+        self, nbest: Sequence[tuple[str, float]], text: str, words: Sequence[tuple[str, float]]
+    ) -> bool:
+        """The answer to "Do you want to play after all?": a yes is the person's yes to playing,
+        which the policy answers (True); anything else is read as it would have been after
+        "Okay, maybe another time." (False)."""
+        self._asking_after_all = False
+        reading = self._understand(nbest, INVITATION)
+        if reading.act != ACCEPT:
+            return False
+        self.state.person_says(ACCEPT, text, words, (ACCEPT, reading.score))
+        self._publish_turn("usr", ACCEPT, text)
+        self._spoke_since, self._heard_act = True, ACCEPT
+        self._unanswered_in_a_row = 0
+        if self.phase is Phase.LISTENING:
+            self._decide()
+        return True
 
     def _heard_after_goodbye(self, message: SpeechHypotheses) -> None:
         """After the goodbye the robot listens for a new game ("again!", "new game"), and

@@ -74,6 +74,9 @@ OFFER_SENTENCES = (
     "How about another game?",
 )
 """What the robot asks after a game, before its goodbye (as the act OFFER_ANOTHER)."""
+AFTER_ALL_SENTENCE = "Do you want to play after all?"
+"""What the robot asks (as the act AFTER_ALL) when "Okay, maybe another time." is answered with
+a bare yes."""
 """What the robot says (as the act PROBLEM) to a move in words on an occupied cell."""
 
 

@@ -8,6 +8,7 @@ import pytest
 from oxbot.dialogue.domain import (
     ANSWER,
     CLOSING,
+    GRANT_REFUSAL,
     GREETING,
     INTRODUCTION,
     INVITATION,
@@ -20,7 +21,7 @@ from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.game.board import EMPTY
 from oxbot.robot.manager import Phase
 from oxbot.robot.messages import DialogueAct
-from oxbot.robot.sentences import HOLD_SENTENCE
+from oxbot.robot.sentences import AFTER_ALL_SENTENCE, HOLD_SENTENCE
 from tests.robot.helpers import ManagerAtHand
 
 
@@ -191,3 +192,55 @@ def test_wait_said_over_the_robot_is_answered_and_the_robot_waits_longer():
     assert hand.last_act != INVITATION and "Confirm(playGame=yes)" in [
         t["act"] for t in manager.transcript
     ]
+
+
+def let_go(seed: int) -> ManagerAtHand:
+    """The person says no to the invitation, and the robot lets it go."""
+    hand = ManagerAtHand(robot_starts=True, seed=seed)
+    while hand.last_act != INVITATION:
+        hand.wait()
+    hand.say("no thanks")
+    assert hand.last_act == GRANT_REFUSAL and not hand.done
+    return hand
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_bare_yes_after_maybe_another_time_is_asked_about_and_a_yes_then_plays(seed):
+    hand = let_go(seed)
+    hand.say("yes")  # agreeing it is for another time, or taking the no back?
+    assert hand.said[-1] == AFTER_ALL_SENTENCE and not hand.done
+    hand.say("yes please")
+    assert hand.last_act == LETS_PLAY
+    hand.wait()
+    play_out(hand)
+    hand.say("no thanks")  # to the offer of another game
+    transcript = hand.manager.transcript
+    assert [t["text"] for t in transcript if t["speaker"] == "usr"][:3] == [
+        "no thanks",
+        "yes",
+        "yes please",
+    ]
+    assert check_dialogue(transcript, hand.manager.state.outcome) is None
+
+
+@pytest.mark.parametrize(("answer", "seed"), [("no", 0), ("no thanks", 1), ("", 2)])
+def test_a_no_or_silence_after_play_after_all_gets_the_goodbye(answer, seed):
+    hand = let_go(seed)
+    hand.say("yeah")
+    assert hand.said[-1] == AFTER_ALL_SENTENCE
+    if answer:
+        hand.say(answer)
+    else:
+        hand.wait()
+    assert hand.last_act == CLOSING and hand.done
+    assert not any(a.startswith("GameMove") for a in acts(hand))
+    assert hand.ended.outcome == "declined"
+    assert check_dialogue(hand.manager.transcript, hand.ended.outcome) is None
+
+
+@pytest.mark.parametrize("answer", ["okay", "all right", "sure"])
+def test_agreeing_that_it_is_for_another_time_gets_the_goodbye_without_a_question(answer):
+    hand = let_go(seed=3)
+    hand.say(answer)
+    assert hand.last_act == CLOSING and hand.done
+    assert AFTER_ALL_SENTENCE not in hand.said
