@@ -98,11 +98,16 @@ def real_hands(folder: Path, manifest: Path) -> dict[str, list[list[np.ndarray]]
         for strokes, writer in zip(dev.drawings[name], dev.writers[name], strict=True):
             if not writer.startswith("unipen:"):
                 continue
-            points = np.concatenate(strokes)
-            lo, hi = points.min(0), points.max(0)
-            scale = float((hi - lo).max())
-            hands[name].append([(s - (lo + hi) / 2) / scale for s in strokes])
+            hands[name].append(_centred(strokes))
     return hands
+
+
+def _centred(strokes: list[np.ndarray]) -> list[np.ndarray]:
+    """`strokes` moved and scaled together into [-0.5, 0.5]^2: their box centred, its longer
+    side 1."""
+    points = np.concatenate(strokes)
+    lo, hi = points.min(0), points.max(0)
+    return [(s - (lo + hi) / 2) / float((hi - lo).max()) for s in strokes]
 
 
 def _hand(template: list[np.ndarray], rng: np.random.Generator) -> list[np.ndarray]:
@@ -345,9 +350,7 @@ def _loose_circle(rng: np.random.Generator) -> list[np.ndarray]:
             )
     a = rng.uniform(0, math.pi)
     rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
-    pts = pts @ rot.T
-    lo, hi = pts.min(0), pts.max(0)
-    return [(pts - (lo + hi) / 2) / float((hi - lo).max())]
+    return _centred([pts @ rot.T])
 
 
 def _loose_cross(rng: np.random.Generator) -> list[np.ndarray]:
@@ -373,9 +376,7 @@ def _loose_cross(rng: np.random.Generator) -> list[np.ndarray]:
             )
             stroke = np.concatenate([stroke, hook])
         out.append(stroke if rng.random() < 0.5 else stroke[::-1])
-    pts = np.concatenate(out)
-    lo, hi = pts.min(0), pts.max(0)
-    return [(s - (lo + hi) / 2) / float((hi - lo).max()) for s in out]
+    return _centred(out)
 
 
 def strokes_of(
