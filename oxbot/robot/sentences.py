@@ -54,6 +54,7 @@ WHICH_CELL = "Which cell do you mean? Say it like top left, the middle, or numbe
 """What the robot asks (as the act PROBLEM) when the person seems to name their cell in words
 but not surely enough to play it (`speech.min_move_confidence`), or among other words."""
 TAKEN_IN_WORDS = "{cell} is already taken. Please pick an empty cell."
+"""What the robot says (as the act PROBLEM) to a move in words on an occupied cell."""
 WHO_STARTS_SENTENCES = {
     "robot": "I start this time: I draw {robot}, and you draw {person}.",
     "person": "You start this time: you draw {person}, and I draw {robot}.",
@@ -77,7 +78,6 @@ OFFER_SENTENCES = (
 AFTER_ALL_SENTENCE = "Do you want to play after all?"
 """What the robot asks (as the act AFTER_ALL) when "Okay, maybe another time." is answered with
 a bare yes."""
-"""What the robot says (as the act PROBLEM) to a move in words on an occupied cell."""
 
 
 def say_goodbye(bus: Bus, part: str, result: Ending | None) -> None:
