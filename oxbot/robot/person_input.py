@@ -232,7 +232,6 @@ class PersonInput:
         mind already)."""
         return (
             self.state.last_act == GRANT_REFUSAL
-            and not self._asking_after_all
             and reading.act == ACKNOWLEDGE
             and any(w in BARE_YES for w in words_of(text))
             and self._understand(nbest, INVITATION).act == ACCEPT
