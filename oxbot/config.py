@@ -101,6 +101,8 @@ class PerceptionConfig:
     """oxbot: how the board reader finds the grid: "classical" (hand-written line grouping,
     `oxbot.perception.grid`) or "learned" (a network's heatmaps of the grid's points,
     `oxbot.perception.grid_points`; trained by `oxbot train reader`)."""
+    grid_model_path: str = ""
+    """oxbot: the learned grid finder's model file; empty: the one shipped with oxbot."""
     rejector: bool = False
     """oxbot: (experimental) after the wholeness check, a learned rejector
     (`oxbot.perception.rejector`, `oxbot/data/models/rejector.pt`) reads a circle or cross whose
@@ -156,10 +158,19 @@ class GridModelConfig:
     """oxbot: seed of the renders and of the network's initial weights."""
     threads: int = 2
     """oxbot: torch threads and rendering processes while training."""
+    finetune_epochs: int = 6
+    """oxbot: passes of `oxbot train reader --finetune` over its photos and fresh renders."""
+    finetune_learning_rate: float = 0.0005
+    """oxbot: the fine-tuning's peak step size, a sixth of training's: it adjusts, not
+    relearns."""
+    finetune_renders: int = 1500
+    """oxbot: fresh renders mixed with the fine-tuning photos, so that what the renders taught
+    is kept."""
 
     def __post_init__(self) -> None:
         _require_positive(self, "width", "scenes", "validation_scenes", "epochs", "batch_size")
-        _require_positive(self, "learning_rate", "heat_sigma", "threads")
+        _require_positive(self, "learning_rate", "heat_sigma", "threads", "finetune_epochs")
+        _require_positive(self, "finetune_learning_rate", "finetune_renders")
         _require_at_least(self, 0, "weight_decay", "seed")
         _require_finite(self)
 

@@ -111,14 +111,48 @@ def train_reader_command(
         int | None, typer.Option(help="Randomised renders to train on (default: config).")
     ] = None,
     epochs: Annotated[int | None, typer.Option(help="Passes over them (default: config).")] = None,
+    finetune: Annotated[
+        list[Path] | None,
+        typer.Option(
+            help="Instead of training from nothing, go on from --start with the photos of this "
+            "folder (images/ and lattices.json, as bench/compose_boards.py writes); repeatable."
+        ),
+    ] = None,
+    start: Annotated[
+        Path | None,
+        typer.Option(help="The model --finetune goes on from (default: the shipped one)."),
+    ] = None,
     quiet: Annotated[bool, typer.Option("--quiet", help="No progress bar.")] = False,
 ) -> None:
-    """Train the learned grid finder from nothing on randomised renders (`[grid_model]`)."""
+    """Train the learned grid finder from nothing on randomised renders (`[grid_model]`), or
+    fine-tune one on photos whose grids are known."""
     import dataclasses
 
-    from oxbot.perception.grid_training import train_reader
+    from oxbot.perception.grid_points import shipped_path
+    from oxbot.perception.grid_training import finetune_reader, train_reader
 
     config = config_of(ctx).grid_model
+    if finetune:
+        changes = {"finetune_epochs": epochs}
+        config = dataclasses.replace(config, **{k: v for k, v in changes.items() if v is not None})
+        try:
+            result = finetune_reader(
+                config, start or shipped_path(), finetune, out, show_progress=not quiet
+            )
+        except (FileNotFoundError, ValueError) as err:
+            raise typer.BadParameter(str(err), param_hint="--finetune") from None
+        m, v = result.metrics, result.metrics["validation"]
+        typer.echo(
+            f"fine-tuned on {m['photos']['trained_on']:,} photos and {config.finetune_renders:,} "
+            f"renders in {m['train_seconds']:.0f} s; photos kept apart: "
+            f"{m['before']['photos']['found']} -> {v['photos_found']} of {v['photos_grids']} "
+            f"grids found, median point error {m['before']['photos']['median_point_error_px']:.2f}"
+            f" -> {v['photos_median_point_error_px']:.2f} px; validation renders: {v['found']}/"
+            f"{v['grids']} grids found (before {m['before']['renders']['found']})"
+        )
+        typer.echo(f"wrote {result.model_path}, {result.metrics_path}, {result.curve_path}")
+        typer.echo(_read_with(result.model_path))
+        return
     changes = {"scenes": scenes, "epochs": epochs}
     config = dataclasses.replace(config, **{k: v for k, v in changes.items() if v is not None})
     result = train_reader(config, out, show_progress=not quiet)
@@ -131,7 +165,14 @@ def train_reader_command(
         "without a grid given one"
     )
     typer.echo(f"wrote {result.model_path}, {result.metrics_path}, {result.curve_path}")
-    typer.echo("read boards with it: oxbot --set perception.grid_finder=learned see PHOTO")
+    typer.echo(_read_with(result.model_path))
+
+
+def _read_with(model: Path) -> str:
+    return (
+        "read boards with it: oxbot --set perception.grid_finder=learned "
+        f"--set perception.grid_model_path={model} see PHOTO"
+    )
 
 
 def evaluate_perceiver_command(
@@ -217,7 +258,7 @@ def see(
             err_console.print(f"[bold red]error:[/] {escape(f'{path}: {exc}')}", soft_wrap=True)
             if debug is not None and frame is not None:
                 typer.echo(f"wrote {save_refusal(frame, str(exc), debug, path.stem)}")
-                save_heatmaps(perception.grid_finder, frame, debug, path.stem)
+                save_heatmaps(perception, frame, debug, path.stem)
             continue
         typer.echo(f"{path}: {' '.join(reading.labels)}")
         typer.echo(render_labels(reading.labels))
@@ -228,19 +269,21 @@ def see(
         if debug is not None:
             written = save_debug(reading, frame, debug, path.stem)
             typer.echo(f"wrote {len(written)} images to {debug}/{path.stem}_*.png")
-            save_heatmaps(perception.grid_finder, frame, debug, path.stem)
+            save_heatmaps(perception, frame, debug, path.stem)
     if failed:
         raise typer.Exit(2)
 
 
-def save_heatmaps(finder: str, frame, folder: Path, stem: str) -> None:
+def save_heatmaps(perception, frame, folder: Path, stem: str) -> None:
     """With the learned grid finder, what its network saw: `<stem>_heatmaps.png`."""
-    if finder != "learned":
+    if perception.grid_finder != "learned":
         return
-    from oxbot.perception.grid_points import heatmap_picture, shipped_finder
+    from oxbot.perception.grid_points import LearnedGridFinder, heatmap_picture, shipped_finder
     from oxbot.perception.seeds import write_png
 
-    picture = heatmap_picture(shipped_finder().look(frame), frame)
+    path = perception.grid_model_path
+    finder = LearnedGridFinder.load(path) if path else shipped_finder()
+    picture = heatmap_picture(finder.look(frame), frame)
     path = folder / f"{stem}_heatmaps.png"
     write_png(path, picture[:, :, ::-1].copy())
     typer.echo(f"wrote {path}")

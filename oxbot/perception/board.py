@@ -155,7 +155,7 @@ class BoardReader:
             classifier = load_classifier()
         self.classifier = classifier
         self.config = config if config is not None else PerceptionConfig()
-        self.find_grid = grid_finder(self.config.grid_finder)
+        self.find_grid = grid_finder(self.config.grid_finder, self.config.grid_model_path or None)
         self.rejector = None
         if self.config.rejector:
             from oxbot.perception.rejector import load_rejector
@@ -204,12 +204,13 @@ class BoardReader:
         return readings
 
 
-def grid_finder(name: str) -> GridFinder:
-    """The grid finder `PerceptionConfig.grid_finder` names."""
+def grid_finder(name: str, model: str | None = None) -> GridFinder:
+    """The grid finder `PerceptionConfig.grid_finder` names; the learned one from the model file
+    `model` (None: the shipped one)."""
     if name == "learned":
-        from oxbot.perception.grid_points import shipped_finder
+        from oxbot.perception.grid_points import LearnedGridFinder, shipped_finder
 
-        return shipped_finder().find
+        return (shipped_finder() if model is None else LearnedGridFinder.load(model)).find
     return find_grid
 
 

@@ -14,11 +14,20 @@ Writes the model (`artifacts`, with its checksum, config, seed and figures), a m
 a learning-curve PNG beside it. Renders kept apart (their own seeds) measure each epoch: the
 mean distance of the found lattice's points from the true ones, grids found, and renders
 without a grid wrongly given one.
+
+`finetune_reader` goes on from a trained model with photos whose lattices are known (folders
+holding `images/` and a `lattices.json`, as `oxbot.testing.composite.write_set` writes for
+boards composed from real handwriting on real paper, or as a person marks real photos), mixed
+with fresh renders so that what the renders taught is kept (chesscog's recipe: a network
+trained on renders, then fine-tuned on a few real photos of a new setting). Photos carry no
+line ink, so their line loss is left out. A tenth of the photos are kept apart and measured
+each epoch beside the validation renders.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import logging
 import math
@@ -64,6 +73,40 @@ class Renders:
     """bool (N,)."""
     sizes: np.ndarray
     """int (N, 2): width and height of each render before padding."""
+    lines_known: np.ndarray | None = None
+    """bool (N,): whether `lines` is the truth (a photo's line ink is unknown and its line
+    loss left out); None when all are."""
+
+    def __len__(self) -> int:
+        return len(self.pictures)
+
+    def take(self, index: np.ndarray) -> Renders:
+        """The pictures of `index`, in that order."""
+        known = self.lines_known if self.lines_known is not None else np.ones(len(self), bool)
+        return Renders(
+            self.pictures[index],
+            self.lattices[index],
+            self.lines[index],
+            self.present[index],
+            self.sizes[index],
+            known[index],
+        )
+
+
+def joined(*parts: Renders) -> Renders:
+    """The pictures of `parts`, one after another."""
+    known = [p.lines_known if p.lines_known is not None else np.ones(len(p), bool) for p in parts]
+    return Renders(
+        *(np.concatenate([getattr(p, f) for p in parts]) for f in _ARRAYS), np.concatenate(known)
+    )
+
+
+_ARRAYS = ("pictures", "lattices", "lines", "present", "sizes")
+
+LATTICES = "lattices.json"
+"""In a fine-tuning folder beside `images/`: {photo name: its (4, 4, 2) lattice of cell corners
+in photo pixels, as nested lists}; `oxbot.testing.composite.write_set` writes one (it keeps its
+own copy of the name: the composer imports nothing of the reader it measures)."""
 
 
 def _render_one(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool, tuple[int, int]]:
@@ -102,6 +145,47 @@ def render(seeds: list[int], processes: int, show_progress: bool, what: str) -> 
     pictures, lattices, lines, present, sizes = zip(*results, strict=True)
     return Renders(
         np.stack(pictures), np.stack(lattices), np.stack(lines), np.array(present), np.array(sizes)
+    )
+
+
+def load_photos(folders: list[Path]) -> Renders:
+    """The photos of `folders` (each with `images/` and `lattices.json`) as the network sees
+    them: shrunk to INPUT_SIDE on the long side (as `picture_of` shrinks a frame), padded to
+    INPUT_SIDE square, their lattices in those pictures' pixels, line ink unknown."""
+    import cv2
+
+    from oxbot.perception.grid_points import picture_of
+
+    pictures, lattices, sizes = [], [], []
+    for folder in folders:
+        listed = folder / LATTICES
+        if not listed.is_file():
+            raise FileNotFoundError(
+                f"{folder} has no {LATTICES}: fine-tune on folders of photos with their "
+                "lattices, as bench/compose_boards.py writes them"
+            )
+        for name, lattice in sorted(json.loads(listed.read_text(encoding="utf-8")).items()):
+            image = cv2.imread(str(folder / "images" / name), cv2.IMREAD_COLOR)
+            if image is None:
+                raise FileNotFoundError(f"{folder / 'images' / name} is listed but unreadable")
+            picture, scale = picture_of(image[:, :, ::-1])
+            h, w = (round(n / scale) for n in image.shape[:2])
+            square = np.zeros((INPUT_SIDE, INPUT_SIDE, 3), np.uint8)
+            square[:h, :w] = np.round(picture[:, :h, :w].transpose(1, 2, 0) * 255)
+            pictures.append(square)
+            lattices.append((np.asarray(lattice, np.float32) + 0.5) / scale - 0.5)
+            sizes.append((w, h))
+    n = len(pictures)
+    if n == 0:
+        raise FileNotFoundError(f"no photos listed in {', '.join(map(str, folders))}")
+    side = INPUT_SIDE // STRIDE
+    return Renders(
+        np.stack(pictures),
+        np.stack(lattices),
+        np.zeros((n, side, side), np.uint8),
+        np.ones(n, bool),
+        np.array(sizes),
+        np.zeros(n, bool),
     )
 
 
@@ -157,17 +241,22 @@ def _batch(renders: Renders, index: np.ndarray, sigma: float, rng: np.random.Gen
     x = torch.from_numpy(pictures.transpose(0, 3, 1, 2).astype(np.float32) / 255.0)
     heat = np.concatenate([points, lines[:, None].astype(np.float32)], axis=1)
     present = torch.from_numpy(renders.present[index].astype(np.float32))
-    return x, torch.from_numpy(np.ascontiguousarray(heat)), present
+    known = np.ones(len(index), bool) if renders.lines_known is None else renders.lines_known[index]
+    lines_known = torch.from_numpy(known.astype(np.float32))
+    return x, torch.from_numpy(np.ascontiguousarray(heat)), present, lines_known
 
 
 def loss_of(net: GridPointNet, batch: tuple) -> Any:
-    """The training loss of one batch: points, lines and presence."""
+    """The training loss of one batch: points, lines (where known) and presence."""
     from torch.nn import functional
 
-    x, heat, present = batch
+    x, heat, present, lines_known = batch
     logits, presence = net(x)
     points = focal_loss(logits[:, [CROSSINGS, OUTER]], heat[:, :2])
-    lines = functional.binary_cross_entropy_with_logits(logits[:, LINES], heat[:, 2])
+    per_picture = functional.binary_cross_entropy_with_logits(
+        logits[:, LINES], heat[:, 2], reduction="none"
+    ).mean(dim=(1, 2))
+    lines = (per_picture * lines_known).sum() / lines_known.sum().clamp(min=1)
     there = functional.binary_cross_entropy_with_logits(presence, present)
     return points + 0.5 * lines + 0.5 * there
 
@@ -220,10 +309,7 @@ def train_reader(
     """Train the grid-point network from nothing on `config.scenes` renders; write the model,
     its metrics JSON and learning curve beside `out`."""
     import torch
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(config.threads)
     torch.manual_seed(config.seed)
     states = np.random.SeedSequence(config.seed).generate_state(
@@ -235,14 +321,130 @@ def train_reader(
     valid = render(seeds[config.scenes :], config.threads, show_progress, "validation renders")
     render_seconds = time.perf_counter() - tick
     net = GridPointNet(config.width)
-    steps_per_epoch = math.ceil(config.scenes / config.batch_size)
+    fitted = _fit(
+        net,
+        train,
+        {"": valid},
+        config.epochs,
+        config.learning_rate,
+        config,
+        np.random.default_rng(config.seed),
+        show_progress,
+    )
+    metrics = {
+        "config": dataclasses.asdict(config),
+        "render_seconds": render_seconds,
+        "train_seconds": fitted.seconds,
+        "validation": fitted.curve[-1],
+        "curve": fitted.curve,
+    }
+    return _written(net, config, metrics, {}, Path(out))
+
+
+def finetune_reader(
+    config: GridModelConfig,
+    start: str | Path,
+    folders: list[Path],
+    out: str | Path,
+    show_progress: bool = True,
+) -> TrainedReader:
+    """Go on training the model at `start` on the photos of `folders` (each with `images/` and
+    `lattices.json`) and `config.finetune_renders` fresh renders, for `config.finetune_epochs`;
+    write the model, its metrics JSON and learning curve beside `out`."""
+    import torch
+
+    torch.set_num_threads(config.threads)
+    torch.manual_seed(config.seed)
+    begun = LearnedGridFinder.load(start)
+    if begun.info.get("width") != config.width:
+        raise ValueError(
+            f"{start} has width {begun.info.get('width')}, the config {config.width}: fine-tune "
+            "with the config the model was trained with"
+        )
+    photos = load_photos([Path(f) for f in folders])
+    rng = np.random.default_rng([config.seed, 1])
+    order = rng.permutation(len(photos))
+    kept_apart = max(1, round(FINETUNE_VALIDATION_SHARE * len(photos)))
+    tick = time.perf_counter()
+    fresh = np.random.SeedSequence([config.seed, 1]).generate_state(config.finetune_renders)
+    renders = render([int(s) for s in fresh], config.threads, show_progress, "fresh renders")
+    states = np.random.SeedSequence(config.seed).generate_state(
+        config.scenes + config.validation_scenes
+    )
+    valid = render(
+        [int(s) for s in states[config.scenes :]], config.threads, show_progress, "validation"
+    )
+    render_seconds = time.perf_counter() - tick
+    net = begun.net
+    before = {
+        "renders": measure(LearnedGridFinder(net), valid),
+        "photos": measure(LearnedGridFinder(net), photos.take(order[:kept_apart])),
+    }
+    fitted = _fit(
+        net,
+        joined(photos.take(order[kept_apart:]), renders),
+        {"": valid, "photos_": photos.take(order[:kept_apart])},
+        config.finetune_epochs,
+        config.finetune_learning_rate,
+        config,
+        rng,
+        show_progress,
+    )
+    metrics = {
+        "config": dataclasses.asdict(config),
+        "finetuned_from": {"path": str(start), "sha256": _sha256(Path(start))},
+        "photos": {
+            "folders": [str(f) for f in folders],
+            "trained_on": len(photos) - kept_apart,
+            "kept_apart": kept_apart,
+        },
+        "before": before,
+        "render_seconds": render_seconds,
+        "train_seconds": fitted.seconds,
+        "validation": fitted.curve[-1],
+        "curve": fitted.curve,
+    }
+    extra = {"finetuned_from": metrics["finetuned_from"], "photos": metrics["photos"]}
+    return _written(net, config, metrics, extra, Path(out))
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+FINETUNE_VALIDATION_SHARE = 0.1
+"""The share of fine-tuning photos kept apart to follow it with."""
+
+
+@dataclass(frozen=True)
+class _Fitted:
+    curve: list[dict[str, float]]
+    seconds: float
+
+
+def _fit(
+    net: GridPointNet,
+    train: Renders,
+    valid: dict[str, Renders],
+    epochs: int,
+    learning_rate: float,
+    config: GridModelConfig,
+    rng: np.random.Generator,
+    show_progress: bool,
+) -> _Fitted:
+    """AdamW with a one-cycle schedule peaking at `learning_rate` over `epochs` passes of
+    `train`; after each, `measure` on every set of `valid`, its figures named with its key
+    as a prefix."""
+    import torch
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    steps_per_epoch = math.ceil(len(train) / config.batch_size)
     optimiser = torch.optim.AdamW(
-        net.parameters(), lr=config.learning_rate, weight_decay=config.weight_decay
+        net.parameters(), lr=learning_rate, weight_decay=config.weight_decay
     )
     schedule = torch.optim.lr_scheduler.OneCycleLR(
-        optimiser, config.learning_rate, total_steps=config.epochs * steps_per_epoch
+        optimiser, learning_rate, total_steps=epochs * steps_per_epoch
     )
-    rng = np.random.default_rng(config.seed)
     curve: list[dict[str, float]] = []
     tick = time.perf_counter()
     with Progress(
@@ -253,10 +455,10 @@ def train_reader(
         disable=not show_progress,
         transient=True,
     ) as progress:
-        task = progress.add_task("training", total=config.epochs * steps_per_epoch)
-        for epoch in range(config.epochs):
+        task = progress.add_task("training", total=epochs * steps_per_epoch)
+        for epoch in range(epochs):
             net.train()
-            order = rng.permutation(config.scenes)
+            order = rng.permutation(len(train))
             losses = []
             for step in range(steps_per_epoch):
                 index = order[step * config.batch_size : (step + 1) * config.batch_size]
@@ -267,29 +469,38 @@ def train_reader(
                 schedule.step()
                 losses.append(float(loss.detach()))
                 progress.update(task, advance=1, description=f"epoch {epoch + 1}: {losses[-1]:.3f}")
-            figures = measure(LearnedGridFinder(net), valid)
-            curve.append({"epoch": epoch + 1, "loss": float(np.mean(losses)), **figures})
-            log.info("epoch %d: %s", epoch + 1, curve[-1])
-    train_seconds = time.perf_counter() - tick
-    metrics = {
-        "config": dataclasses.asdict(config),
-        "render_seconds": render_seconds,
-        "train_seconds": train_seconds,
-        "validation": curve[-1],
-        "curve": curve,
-    }
+            point: dict[str, float] = {"epoch": epoch + 1, "loss": float(np.mean(losses))}
+            for prefix, renders in valid.items():
+                figures = measure(LearnedGridFinder(net), renders)
+                point |= {prefix + k: v for k, v in figures.items()}
+            curve.append(point)
+            log.info("epoch %d: %s", epoch + 1, point)
     net.eval()
+    return _Fitted(curve, time.perf_counter() - tick)
+
+
+def _written(
+    net: GridPointNet,
+    config: GridModelConfig,
+    metrics: dict[str, Any],
+    extra: dict[str, Any],
+    out: Path,
+) -> TrainedReader:
+    """The model (with its config, seed, figures and `extra`), its metrics JSON and learning
+    curve, written beside `out`."""
+    out.parent.mkdir(parents=True, exist_ok=True)
     payload = {
         "state_dict": net.state_dict(),
         "width": config.width,
         "config": dataclasses.asdict(config),
         "seed": config.seed,
         "metrics": {k: v for k, v in metrics.items() if k != "curve"},
+        **extra,
     }
     model_path = artifacts.save(out, KIND, VERSION, payload)
     metrics_path = out.with_suffix(".metrics.json")
     write_text_atomic(metrics_path, json.dumps(metrics, indent=2) + "\n")
-    curve_path = plot_curve(curve, out.with_suffix(".curve.png"))
+    curve_path = plot_curve(metrics["curve"], out.with_suffix(".curve.png"))
     return TrainedReader(model_path, metrics_path, curve_path, metrics)
 
 
@@ -319,4 +530,12 @@ def plot_curve(curve: list[dict[str, float]], path: Path) -> Path:
     return save_figure(fig, path)
 
 
-__all__ = ["TrainedReader", "measure", "render", "train_reader"]
+__all__ = [
+    "TrainedReader",
+    "finetune_reader",
+    "joined",
+    "load_photos",
+    "measure",
+    "render",
+    "train_reader",
+]

@@ -16,12 +16,16 @@ cannot pass by recognising them. The sources are not in git; see
                                      the blank stretches of paper, whiteboard and desk photos
                                      that a CSV file lists, with the part each belongs to
     compose(rng, hands, papers)      one photo (RGB uint8) and its 9 labels, row by row
+    compose_board(rng, hands, papers)
+                                     the same photo with where its grid lies: the 4x4 lattice
+                                     of cell corners, to fine-tune a learned grid finder on
     compose_game(rng, hands, papers, labels, order, frames)
                                      photos of one sheet from a camera held still as a game's
                                      symbols are drawn on it one by one (bench_composite_games.py)
     write_set(out, hands, papers, n, seed, split)
                                      n photos of one part's drawings (`papers` already of that
-                                     part) and a labels.csv that bench_real_boards.py reads
+                                     part), a labels.csv that bench_real_boards.py reads and a
+                                     lattices.json of where each grid lies
     symbol_cells(hands, papers, rng) every circle and cross alone in a 40x40 cell
 
 How a photo is made, stage by stage: a crop of a paper photo (or a whiteboard) is the sheet; the
@@ -52,6 +56,8 @@ sheet lies on."""
 SHEET = 1000  # the sheet is composed at this many pixels a side before the camera sees it
 CELLS = tuple(f"c{r}{c}" for r in range(3) for c in range(3))
 COLUMNS = ("file", "board", "split", "paper", "ink", "grid_frac", *CELLS, "notes")
+LATTICES = "lattices.json"
+"""Beside a set's labels.csv: {photo name: its (4, 4, 2) lattice as nested lists}."""
 
 # Ink colours as what they let through of each RGB channel (1 = all of it).
 INKS = {
@@ -225,6 +231,44 @@ def _line_from(
     return np.stack([w.real + start[0], w.imag + start[1]], axis=1)
 
 
+def _crossing(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Where polylines `a` and `b` (N, 2) cross (the mean of their segments' crossings, for a
+    wavering pen may cross twice), else where their chords' lines meet."""
+    p, r = a[:-1], np.diff(a, axis=0)
+    q, s = b[:-1], np.diff(b, axis=0)
+    across = r[:, None, 0] * s[None, :, 1] - r[:, None, 1] * s[None, :, 0]
+    apart = q[None] - p[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (apart[..., 0] * s[None, :, 1] - apart[..., 1] * s[None, :, 0]) / across
+        u = (apart[..., 0] * r[:, None, 1] - apart[..., 1] * r[:, None, 0]) / across
+    hit = (across != 0) & (t >= 0) & (t <= 1) & (u >= 0) & (u <= 1)
+    if hit.any():
+        i, j = np.nonzero(hit)
+        return (p[i] + t[i, j, None] * r[i]).mean(axis=0)
+    r, s = a[-1] - a[0], b[-1] - b[0]
+    apart = b[0] - a[0]
+    t = (apart[0] * s[1] - apart[1] * s[0]) / (r[0] * s[1] - r[1] * s[0])
+    return a[0] + t * r
+
+
+def _lattice(columns: list[np.ndarray], rows: list[np.ndarray]) -> np.ndarray:
+    """The (4, 4, 2) cell corners of a drawn grid, `lattice[r, c]` at cell units x=c, y=r, as
+    a grid finder reports them: the inner four where the drawn lines cross, the outer ones one
+    middle cell further along each line, the corners completing parallelograms."""
+    q = np.zeros((4, 4, 2))
+    for j, row in zip((1, 2), rows, strict=True):
+        for k, column in zip((1, 2), columns, strict=True):
+            q[j, k] = _crossing(row, column)
+    for k in (1, 2):
+        q[0, k], q[3, k] = 2 * q[1, k] - q[2, k], 2 * q[2, k] - q[1, k]
+    for j in (1, 2):
+        q[j, 0], q[j, 3] = 2 * q[j, 1] - q[j, 2], 2 * q[j, 2] - q[j, 1]
+    for j, jn in ((0, 1), (3, 2)):
+        for k, kn in ((0, 1), (3, 2)):
+            q[j, k] = q[j, kn] + q[jn, k] - q[jn, kn]
+    return q
+
+
 def _draw(mask: np.ndarray, strokes: list[np.ndarray], width: float, up: int = 4) -> None:
     """Adds the strokes' ink to `mask` (float32 0..1), drawn `up` times larger, then shrunk."""
     points = np.concatenate(strokes)
@@ -263,6 +307,8 @@ class _Drawing:
     labels: list[str]
     corners: np.ndarray
     """The grid's 4 outer corners in sheet pixels."""
+    lattice: np.ndarray
+    """(4, 4, 2) sheet pixels: the cell corners as the drawn lines place them (`_lattice`)."""
     paper_name: str
     ink: str
     grid: np.ndarray
@@ -333,8 +379,9 @@ def _sheet(
         lines.append(
             (np.array([xs[0] - over[0], ys[i]]), np.array([xs[3] + over[1], ys[i] - tilt * side]))
         )
-    for start, end in lines:
-        _draw(grid_mask, [_line_from(people_lines, rng, start, end)], width)
+    drawn = [_line_from(people_lines, rng, start, end) for start, end in lines]
+    for line in drawn:
+        _draw(grid_mask, [line], width)
 
     labels = random_position(rng) if labels is None else list(labels)
     symbols = {}
@@ -365,6 +412,7 @@ def _sheet(
         paper=sheet,
         labels=labels,
         corners=corners,
+        lattice=_lattice(columns=drawn[0::2], rows=drawn[1::2]),
         paper_name=f"{kind} ({name})",
         ink=ink if ink == symbol_ink else (f"{ink} grid; {symbol_ink} symbols"),
         grid=grid_mask,
@@ -513,15 +561,41 @@ class _Camera:
         return cv2.imdecode(data, cv2.IMREAD_COLOR)[:, :, ::-1], quality
 
 
-def compose(
+@dataclass(frozen=True)
+class ComposedBoard:
+    """One composed photo of a board and its truth."""
+
+    photo: np.ndarray
+    """RGB uint8."""
+    labels: list[str]
+    """The 9 cells, row by row."""
+    notes: dict[str, str]
+    """What it shows: paper, ink, the grid's share of the frame, camera."""
+    lattice: np.ndarray
+    """(4, 4, 2) photo pixels (x, y): the cell corners, `lattice[r, c]` at cell units x=c,
+    y=r, as `oxbot.perception.grid.Grid.lattice` has them. Pixel centres are at integers."""
+
+
+def compose_board(
     rng: np.random.Generator, hands: HandwritingSource, papers: PaperSource
-) -> tuple[np.ndarray, list[str], dict[str, str]]:
-    """One photo of a board: RGB uint8, its 9 labels row by row, and what it shows."""
+) -> ComposedBoard:
+    """One photo of a board with its labels and where its grid lies."""
     drawing = _sheet(hands, papers, rng)
     camera = _Camera.sample(rng, drawing, papers)
     photo, quality = camera.photograph(camera.see(drawing.inked()), rng)
     notes = dict(camera.notes, notes=camera.notes["notes"].format(quality=quality))
-    return photo, drawing.labels, notes
+    lattice = cv2.perspectiveTransform(
+        drawing.lattice.reshape(-1, 1, 2).astype(np.float64), camera.homography
+    ).reshape(4, 4, 2)
+    return ComposedBoard(photo, drawing.labels, notes, lattice)
+
+
+def compose(
+    rng: np.random.Generator, hands: HandwritingSource, papers: PaperSource
+) -> tuple[np.ndarray, list[str], dict[str, str]]:
+    """One photo of a board: RGB uint8, its 9 labels row by row, and what it shows."""
+    board = compose_board(rng, hands, papers)
+    return board.photo, board.labels, board.notes
 
 
 def compose_game(
@@ -555,16 +629,19 @@ def write_set(
     seed: int,
     split: str,
 ) -> Path:
-    """`n` photos of the `split` part's drawings on `papers` in `out/images`, and
-    `out/labels.csv` (bench/bench_real_boards.py's format; each photo its own board)."""
+    """`n` photos of the `split` part's drawings on `papers` in `out/images`,
+    `out/labels.csv` (bench/bench_real_boards.py's format; each photo its own board) and
+    `out/lattices.json` (`LATTICES`): each photo's name to its `ComposedBoard.lattice`."""
     out = Path(out)
     (out / "images").mkdir(parents=True, exist_ok=True)
     hands = hands.split(split)
     rng = np.random.default_rng([seed, 0 if split == "dev" else 1])
-    rows = []
+    rows, lattices = [], {}
     for i in range(n):
-        photo, labels, notes = compose(rng, hands, papers)
+        board = compose_board(rng, hands, papers)
+        photo, labels, notes = board.photo, board.labels, board.notes
         name = f"{split}_{i:04d}.png"
+        lattices[name] = np.round(board.lattice, 3).tolist()
         ok, data = cv2.imencode(".png", photo[:, :, ::-1])
         assert ok
         with atomic_write(out / "images" / name) as handle:
@@ -587,6 +664,12 @@ def write_set(
         writer = csv.DictWriter(handle, fieldnames=COLUMNS)
         writer.writeheader()
         writer.writerows(existing + rows)
+    lattices_path = out / LATTICES
+    if lattices_path.is_file():
+        kept = json.loads(lattices_path.read_text(encoding="utf-8"))
+        lattices = {k: v for k, v in kept.items() if not k.startswith(f"{split}_")} | lattices
+    with atomic_write(lattices_path, "w") as handle:
+        json.dump(lattices, handle)
     return labels_path
 
 

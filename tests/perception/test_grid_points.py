@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 
 import cv2
 import numpy as np
 import pytest
+import torch
 
 from oxbot.config import GridModelConfig
 from oxbot.errors import ModelFileError
@@ -20,7 +22,12 @@ from oxbot.perception.grid_points import (
     peaks,
     picture_of,
 )
-from oxbot.perception.grid_training import point_targets, train_reader
+from oxbot.perception.grid_training import (
+    finetune_reader,
+    load_photos,
+    point_targets,
+    train_reader,
+)
 
 
 def grid_lattice(rotation: float, centre=(120.0, 100.0), cell=40.0, tilt=0.0) -> np.ndarray:
@@ -115,6 +122,75 @@ def test_a_tiny_training_run_writes_a_checked_model_its_metrics_and_curve(tmp_pa
     damaged.write_bytes(bytes(data))
     with pytest.raises(ModelFileError, match=r"damaged\.pt is corrupt"):
         LearnedGridFinder.load(damaged)
+
+
+def photos_with_lattices(folder, count: int, size=(480, 360)) -> list[np.ndarray]:
+    """`count` photos of grids (large renders standing in for real photos) written as a
+    fine-tuning folder: images/ and lattices.json. Their lattices, in photo pixels."""
+    from oxbot.perception.grid_scenes import random_grid_scene
+
+    (folder / "images").mkdir(parents=True)
+    rng = np.random.default_rng(11)
+    lattices, truths = {}, []
+    while len(truths) < count:
+        scene = random_grid_scene(rng, size)
+        if not scene.present:
+            continue
+        name = f"photo_{len(truths)}.png"
+        cv2.imwrite(str(folder / "images" / name), scene.image[:, :, ::-1])
+        lattices[name] = scene.lattice.tolist()
+        truths.append(scene.lattice)
+    (folder / "lattices.json").write_text(json.dumps(lattices))
+    return truths
+
+
+def test_photos_are_seen_as_the_network_sees_a_frame_with_their_lattices_scaled(tmp_path):
+    truths = photos_with_lattices(tmp_path / "photos", 3, size=(512, 384))
+    photos = load_photos([tmp_path / "photos"])
+    assert photos.pictures.shape == (3, INPUT_SIDE, INPUT_SIDE, 3)
+    assert photos.sizes.tolist() == [[256, 192]] * 3
+    # half the size, about the pixel centres: (x + 0.5) / 2 - 0.5
+    assert np.allclose(photos.lattices[0], (truths[0] + 0.5) / 2 - 0.5, atol=1e-4)
+    assert photos.present.all() and not photos.lines_known.any()
+    assert photos.pictures[:, 192:].max() == 0  # padded below, as renders are
+
+
+def test_fine_tuning_goes_on_from_a_model_and_records_where_from(tmp_path):
+    config = GridModelConfig(
+        width=4,
+        scenes=16,
+        validation_scenes=8,
+        epochs=1,
+        batch_size=8,
+        threads=1,
+        finetune_epochs=2,
+        finetune_renders=8,
+    )
+    begun = train_reader(config, tmp_path / "grid.pt", show_progress=False)
+    photos_with_lattices(tmp_path / "photos", 20)
+    result = finetune_reader(
+        config, begun.model_path, [tmp_path / "photos"], tmp_path / "tuned.pt", False
+    )
+    metrics = json.loads(result.metrics_path.read_text())
+    assert metrics["photos"] == {
+        "folders": [str(tmp_path / "photos")],
+        "trained_on": 18,
+        "kept_apart": 2,
+    }
+    assert len(metrics["curve"]) == 2 and metrics["curve"][-1]["photos_grids"] == 2
+    assert metrics["before"]["photos"]["grids"] == 2
+    finder = LearnedGridFinder.load(result.model_path)
+    digest = hashlib.sha256(begun.model_path.read_bytes()).hexdigest()
+    assert finder.info["finetuned_from"]["sha256"] == digest
+    before = LearnedGridFinder.load(begun.model_path).net.state_dict()
+    after = finder.net.state_dict()
+    assert any(not torch.equal(before[k], after[k]) for k in before)
+
+
+def test_fine_tuning_on_a_folder_without_lattices_says_what_it_needs(tmp_path):
+    (tmp_path / "images").mkdir()
+    with pytest.raises(FileNotFoundError, match=r"has no lattices\.json.*compose_boards"):
+        load_photos([tmp_path])
 
 
 def test_a_crossing_the_net_missed_is_completed_when_the_lines_vouch_for_it():

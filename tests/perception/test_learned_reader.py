@@ -84,3 +84,30 @@ def test_see_with_the_learned_reader_writes_what_its_network_saw(tmp_path):
         timeout=120,
     )
     assert wrong.returncode == 2 and "choose one of classical, learned" in wrong.stderr
+
+
+def test_a_grid_model_of_ones_own_reads_boards_and_a_missing_one_says_what_to_do(tmp_path):
+    photo = render_photo(np.random.default_rng(6), style=TUNING_VARIANTS["tuning-hand"])
+    path = tmp_path / "sheet.png"
+    cv2.imwrite(str(path), cv2.cvtColor(photo.image, cv2.COLOR_RGB2BGR))
+    own = tmp_path / "mine.pt"
+    own.write_bytes(shipped_path().read_bytes())
+
+    def see(model) -> subprocess.CompletedProcess:
+        args = ["--set", "perception.grid_finder=learned"]
+        args += ["--set", f"perception.grid_model_path={model}", "see", str(path)]
+        return subprocess.run(
+            [sys.executable, "-m", "oxbot.cli", *args], capture_output=True, text=True, timeout=120
+        )
+
+    assert f"{path}: {' '.join(photo.labels)}" in see(own).stdout
+    missing = see(tmp_path / "nowhere.pt")
+    assert missing.returncode != 0 and "nowhere.pt" in missing.stderr
+    assert "oxbot train reader" in missing.stderr and "Traceback" not in missing.stderr
+    no_lattices = subprocess.run(
+        [sys.executable, "-m", "oxbot.cli", "train", "reader", "--finetune", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert no_lattices.returncode == 2 and "lattices.json" in no_lattices.stderr

@@ -13,9 +13,11 @@ import pytest
 from oxbot.testing.composite import (
     CELLS,
     COLUMNS,
+    LATTICES,
     HandwritingSource,
     PaperSource,
     compose,
+    compose_board,
     compose_game,
     random_position,
     symbol_cells,
@@ -96,10 +98,51 @@ def test_write_set_writes_what_the_bench_reads_and_a_seed_repeats(sources, tmp_p
         a = (tmp_path / "a" / "images" / row["file"]).read_bytes()
         assert a == (tmp_path / "b" / "images" / row["file"]).read_bytes()
     assert again.read_text() == first.read_text()
+    lattices = json.loads((tmp_path / "a" / LATTICES).read_text())
+    assert sorted(lattices) == sorted(r["file"] for r in rows)
+    assert np.asarray(lattices[rows[0]["file"]]).shape == (4, 4, 2)
     write_set(tmp_path / "a", hands, papers, 2, seed=4, split="dev")  # a part beside the other
     with first.open(newline="") as handle:
         splits = [r["split"] for r in csv.DictReader(handle)]
     assert splits.count("test") == 3 and splits.count("dev") == 2
+    both = json.loads((tmp_path / "a" / LATTICES).read_text())
+    assert len(both) == 5 and {k: both[k] for k in lattices} == lattices
+    from oxbot.perception import grid_training  # the file that fine-tuning reads
+
+    assert grid_training.LATTICES == LATTICES
+
+
+def test_the_lattice_lies_where_the_grid_was_drawn(sources):
+    # The inner four points on the drawn lines' crossings, and each symbol inside the cell
+    # the lattice gives its label: a lattice off the lines, or turned against the labels,
+    # fails one or the other.
+    hands, folder, regions = sources
+    papers = PaperSource.load(folder, regions)
+    rng = np.random.default_rng(8)
+    boards = [compose_board(rng, hands, papers) for _ in range(10)]
+    for board in boards:
+        if "pencil" in board.notes["ink"]:  # faint, and grainy: not in question here
+            continue
+        gray = board.photo.min(axis=2).astype(np.float32)
+        grid = np.zeros(gray.shape, np.uint8)
+        cv2.fillConvexPoly(grid, np.round(board.lattice[[0, 0, 3, 3], [0, 3, 3, 0]]).astype(int), 1)
+        paper = np.median(gray[grid > 0])  # mostly paper, whatever the desk
+        for x, y in board.lattice[1:3, 1:3].reshape(-1, 2):
+            patch = gray[round(y) - 1 : round(y) + 2, round(x) - 1 : round(x) + 2]
+            assert patch.min() < paper - 40, (board.notes, x, y)
+        for cell, label in enumerate(board.labels):
+            r, c = divmod(cell, 3)
+            corners = board.lattice[[r, r, r + 1, r + 1], [c, c + 1, c + 1, c]]
+            middle = corners.mean(axis=0)
+            # the middle half of the cell: a cross's strokes cross it, an empty cell's is paper
+            inner = np.round(middle + 0.5 * (corners - middle)).astype(np.int32)
+            mask = np.zeros(gray.shape, np.uint8)
+            cv2.fillConvexPoly(mask, inner, 1)
+            darkest = gray[mask > 0].min()
+            if label == "cross":
+                assert darkest < paper - 40, (board.notes, cell)
+            elif label == "nothing":
+                assert darkest > paper - 40, (board.notes, cell)
 
 
 def test_the_labels_are_what_the_reader_sees_on_easy_photos(sources):
