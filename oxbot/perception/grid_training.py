@@ -517,12 +517,18 @@ def plot_curve(curve: list[dict[str, float]], path: Path) -> Path:
     left.set_xlabel("epoch")
     left.set_ylabel("training loss")
     left.set_yscale("log")
-    right.plot(epochs, [p["median_point_error_px"] for p in curve], "o-", label="median error")
+    found = right.twinx()
+    for prefix, what, colour in (("", "renders", "tab:blue"), ("photos_", "photos", "tab:orange")):
+        if prefix + "found_share" not in curve[0]:
+            continue
+        errors = [p[prefix + "median_point_error_px"] for p in curve]
+        right.plot(epochs, errors, "o-", color=colour, label=f"{what}: median error")
+        shares = [100 * p[prefix + "found_share"] for p in curve]
+        found.plot(epochs, shares, "s:", color=colour, label=f"{what}: found")
     right.set_xlabel("epoch")
     right.set_ylabel(f"lattice point error (px of {INPUT_SIDE})")
-    found = right.twinx()
-    found.plot(epochs, [100 * p["found_share"] for p in curve], "s:", color="tab:green")
-    found.set_ylabel("validation grids found (%)", color="tab:green")
+    found.set_ylabel("validation grids found (%, dotted)")
+    right.legend(loc="upper left", fontsize=7)
     for ax in (left, right):
         ax.grid(True, alpha=0.3)
     fig.suptitle("Learning to find the grid: heatmaps of its points")
