@@ -93,7 +93,11 @@ AFTER_ALL = "Request(playAfterAll)"
 """oxbot: "Do you want to play after all?" when "Okay, maybe another time." is answered with a bare
 yes, which may agree that it is for another time or take the no back: said, never chosen by the
 policy. A yes to it is the person's yes to playing."""
-SAID_OUTSIDE_THE_POLICY = (PROBLEM, ANSWER, OFFER_ANOTHER, AFTER_ALL)
+STOP_QUESTION = "Request(confirmStop)"
+"""oxbot: "Do you want to stop?" when the person's words mid-game were heard as a stop too unsure
+for the policy, which would ask for their move instead: said, never chosen by the policy. A yes
+to it is the stop said again; a no, their yes to playing on."""
+SAID_OUTSIDE_THE_POLICY = (PROBLEM, ANSWER, OFFER_ANOTHER, AFTER_ALL, STOP_QUESTION)
 """The robot's acts that its interaction manager says around the policy's."""
 
 MOVE_ACT_TYPE = "GameMove"

@@ -85,11 +85,13 @@ from oxbot.dialogue.domain import (
     GREETING,
     INTRODUCTION,
     INVITATION,
+    MOVE_REQUEST,
     OFFER_ANOTHER,
     PROBLEM,
     REFUSALS,
     SILENCE,
     STOP,
+    STOP_QUESTION,
     SYSTEM_ACTS,
     game_move_cell,
     is_feedback,
@@ -132,6 +134,7 @@ from oxbot.robot.sentences import (
     PAPER_MOVE,
     PROBLEM_SENTENCES,
     SHAPES,
+    STOP_QUESTION_SENTENCE,
     STOPPED_SENTENCE,
     TAKEN_IN_WORDS,
     WHICH_CELL,
@@ -318,6 +321,7 @@ class InteractionManagerComponent(PersonInput, Component):
             "_offering",
             "_asking_after_all",
             "_after_all_due",
+            "_asking_to_stop",
             "_answering",
             "_pausing",
         ):
@@ -379,6 +383,7 @@ class InteractionManagerComponent(PersonInput, Component):
         self._offering = False  # the robot waits for the answer to its offer
         self._asking_after_all = False  # ... or to "Do you want to play after all?"
         self._after_all_due = False  # that question, once the robot's act is over
+        self._asking_to_stop = False  # ... or to "Do you want to stop?"
         self._deadline = 0.0
         self._drawing_until = float("inf")  # only a resumed drawing has an end of its own
         self._unanswered_in_a_row = 0
@@ -400,10 +405,15 @@ class InteractionManagerComponent(PersonInput, Component):
                 chosen=SYSTEM_ACTS[action],
             )
         )
+        unsure_stop = self._spoke_since and self._heard_act == STOP
         self._moved_since, self._spoke_since = False, False
         self._offering, self._answering, self._pausing = False, False, False
         self._asking_after_all, self._after_all_due = False, False
+        self._asking_to_stop = False
         act = SYSTEM_ACTS[action]
+        if act == MOVE_REQUEST and unsure_stop:
+            self._ask_whether_to_stop()  # rather than "Your move" to someone who said stop
+            return
         if act == CLOSING and self.state.outcome is not None and not self._broken:
             if self._rematch:  # they asked for another game after this one: no goodbye
                 self._play_again(self._agreed_words)
@@ -471,7 +481,7 @@ class InteractionManagerComponent(PersonInput, Component):
             return
         if self._expects_move():
             wait = self.timing.move_timeout
-        elif self._offering or self._asking_after_all:
+        elif self._offering or self._asking_after_all or self._asking_to_stop:
             wait = self.timing.question_timeout
         elif last_act in self._unanswered:
             # nobody answers it, but a person who spoke over it is waited for
@@ -584,6 +594,12 @@ class InteractionManagerComponent(PersonInput, Component):
         self._after_all_due = False
         self._tell(AFTER_ALL_SENTENCE, AFTER_ALL)
         self._speaking, self._arm_cell = AFTER_ALL_SENTENCE, None  # its answer, once said
+        self.phase = Phase.SPEAKING
+
+    def _ask_whether_to_stop(self) -> None:
+        self._asking_to_stop = True
+        self._tell(STOP_QUESTION_SENTENCE, STOP_QUESTION)
+        self._speaking, self._arm_cell = STOP_QUESTION_SENTENCE, None  # its answer, once said
         self.phase = Phase.SPEAKING
 
     def _play_again(self, words: str) -> None:

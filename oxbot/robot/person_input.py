@@ -16,6 +16,12 @@ is refused in words. It never plays a cell the person did not name.
 mid-game, where the simulated people never say it, it is taken as a stop (the policy lets go,
 "Okay, let's stop here") followed by another game.
 
+A yes to playing said while a game is on is no news: it is kept from the policy (which said
+"Great, let's play." mid-game) and answered, on the person's turn, with whose turn it is. Words
+heard as a stop too unsurely for the policy, which would ask for the move instead, are asked
+about ("Do you want to stop?": the manager's `_ask_whether_to_stop`): a yes is the stop again, a
+no is the person playing on.
+
 Drawings the tracker finds impossible and the camera's guidance come here too (`BoardProblem`),
 and are said as the problem sentences of oxbot.robot.sentences.
 """
@@ -27,7 +33,7 @@ import enum
 from collections.abc import Callable, Sequence
 
 from oxbot.config import OxbotConfig
-from oxbot.dialogue.asides import ASIDE_ACTS, MIN_CONFIDENCE, aside_question
+from oxbot.dialogue.asides import ASIDE_ACTS, MIN_CONFIDENCE, WHO_STARTS, aside_question
 from oxbot.dialogue.cells_in_words import MoveHeard, move_in_words, read_cell
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -37,6 +43,7 @@ from oxbot.dialogue.domain import (
     GAME_MOVE_TEMPLATE,
     GRANT_REFUSAL,
     INVITATION,
+    LETS_PLAY,
     MOVE_REQUEST,
     NEW_GAME,
     REFUSALS,
@@ -107,6 +114,7 @@ class PersonInput:
     _offering: bool
     _offers: int
     _asking_after_all: bool
+    _asking_to_stop: bool
     _broken: bool
     _early_answer: SpeechHypotheses | None
     _move_in_words: tuple[MoveHeard, Sequence[tuple[str, float]]] | None
@@ -176,6 +184,8 @@ class PersonInput:
             return
         if self._asking_after_all and self._plays_after_all(nbest, text, words):
             return
+        if self._asking_to_stop and self._answered_whether_to_stop(nbest, text, words):
+            return
         if self._persons_turn():
             move = move_in_words(nbest)
             if move is not None:  # "top left": the person's move, said instead of drawn
@@ -196,6 +206,8 @@ class PersonInput:
         ):
             # a cell among other words ("I'll go in the middle this time"): which one, if any?
             self._ask_which_cell(UNKNOWN, text)
+            return
+        if self._keen_while_playing(reading, text):
             return
         if (
             (reading.act in (ACCEPT, STOP, CLOSING) or reading.act in REFUSALS)
@@ -222,6 +234,23 @@ class PersonInput:
             self._expects_move() and is_game_move(reading.act)
         ):
             self._decide()
+
+    def _keen_while_playing(self, reading: UserAct, text: str) -> bool:
+        """Whether the person said yes to playing ("let's play!") while a game is on: nothing
+        to agree to, so it is kept out of what the policy sees (which answered it with "Great,
+        let's play." mid-game), and told whose turn it is when it is theirs."""
+        state = self.state
+        playing = state.last_act in (LETS_PLAY, MOVE_REQUEST) or is_game_move(state.last_act)
+        if reading.act != ACCEPT or not playing or state.outcome is not None:
+            return False  # after "Okay, let's stop here." a yes takes the stop back
+        state.person_informs(reading.act, text, reading.score)
+        self._publish_turn("usr", reading.act, text)
+        self._unanswered_in_a_row = 0
+        if self._expects_move() and self.phase is Phase.LISTENING:
+            answer = self._aside_answer(WHO_STARTS)
+            if answer is not None:
+                self._aside(answer, ANSWER)
+        return True
 
     def _bare_yes_after_letting_go(
         self, nbest: Sequence[tuple[str, float]], text: str, reading: UserAct
@@ -253,6 +282,34 @@ class PersonInput:
         self._unanswered_in_a_row = 0
         if self.phase is Phase.LISTENING:
             self._decide()
+        return True
+
+    def _answered_whether_to_stop(
+        self, nbest: Sequence[tuple[str, float]], text: str, words: Sequence[tuple[str, float]]
+    ) -> bool:
+        """The answer to "Do you want to stop?": a yes (or a stop) is the stop said again, which
+        the policy answers; a no is their yes to playing on, told whose turn it is (True).
+        Anything else is read as it would have been (False)."""
+        self._asking_to_stop = False
+        reading = self._understand(nbest, INVITATION)
+        heard_as = self._understand(nbest, "")
+        if reading.act == ACCEPT or heard_as.act == STOP:
+            score = heard_as.score if heard_as.act == STOP else reading.score
+            self.state.person_says(STOP, text, words, (STOP, score))
+            self._publish_turn("usr", STOP, text)
+            self._spoke_since, self._heard_act = True, STOP
+            self._unanswered_in_a_row = 0
+            if self.phase is Phase.LISTENING:
+                self._decide()
+            return True
+        if reading.act not in REFUSALS:
+            return False
+        self.state.person_informs(ACCEPT, text, reading.score)  # no stop: they play on
+        self._publish_turn("usr", ACCEPT, text)
+        self._unanswered_in_a_row = 0
+        answer = self._aside_answer(WHO_STARTS)
+        if answer is not None:
+            self._aside(answer, ANSWER)
         return True
 
     def _heard_after_goodbye(self, message: SpeechHypotheses) -> None:

@@ -78,6 +78,9 @@ OFFER_SENTENCES = (
 AFTER_ALL_SENTENCE = "Do you want to play after all?"
 """What the robot asks (as the act AFTER_ALL) when "Okay, maybe another time." is answered with
 a bare yes."""
+STOP_QUESTION_SENTENCE = "Do you want to stop?"
+"""What the robot asks (as the act STOP_QUESTION) when it heard a stop mid-game too unsurely to
+let the game go, instead of asking for the person's move as if they had said nothing."""
 
 
 def say_goodbye(bus: Bus, part: str, result: Ending | None) -> None:

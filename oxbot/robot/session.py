@@ -93,6 +93,7 @@ from oxbot.robot.sentences import (
     HOLD_SENTENCE,
     OFFER_SENTENCES,
     PROBLEM_SENTENCES,
+    STOP_QUESTION_SENTENCE,
     WHO_STARTS_SENTENCES,
     symbol_names,
 )
@@ -163,7 +164,7 @@ def robot_sentences(domain: Domain | None = None) -> list[str]:
     sentences += [STOPPED_SENTENCE.format(part=p) for p in ESSENTIAL_PARTS]
     sentences += [*GUIDANCE_SENTENCES.values(), *LOST_SENTENCES.values()]
     sentences += [NOBODY_SENTENCE, WHICH_CELL, AFTER_GOODBYE, HOLD_SENTENCE, *OFFER_SENTENCES]
-    sentences.append(AFTER_ALL_SENTENCE)
+    sentences += [AFTER_ALL_SENTENCE, STOP_QUESTION_SENTENCE]
     sentences += [phrase for phrases in PHRASINGS.values() for phrase in phrases]
     for robot_starts in (True, False):
         names = symbol_names(robot_starts)

@@ -9,19 +9,21 @@ from oxbot.dialogue.domain import (
     ANSWER,
     CLOSING,
     GRANT_REFUSAL,
+    GRANT_STOP,
     GREETING,
     INTRODUCTION,
     INVITATION,
     LETS_PLAY,
     MOVE_REQUEST,
     OFFER_ANOTHER,
+    STOP_QUESTION,
     is_feedback,
 )
 from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.game.board import EMPTY
 from oxbot.robot.manager import Phase
 from oxbot.robot.messages import DialogueAct
-from oxbot.robot.sentences import AFTER_ALL_SENTENCE, HOLD_SENTENCE
+from oxbot.robot.sentences import AFTER_ALL_SENTENCE, HOLD_SENTENCE, STOP_QUESTION_SENTENCE
 from tests.robot.helpers import ManagerAtHand
 
 
@@ -244,3 +246,70 @@ def test_agreeing_that_it_is_for_another_time_gets_the_goodbye_without_a_questio
     hand.say(answer)
     assert hand.last_act == CLOSING and hand.done
     assert AFTER_ALL_SENTENCE not in hand.said
+
+
+def to_the_persons_move(seed: int) -> ManagerAtHand:
+    """A game agreed to, the person asked for their first move."""
+    hand = ManagerAtHand(robot_starts=False, seed=seed)
+    agree(hand)
+    while hand.last_act != MOVE_REQUEST:
+        hand.wait()
+    return hand
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_lets_play_said_during_a_game_is_told_whose_turn_it_is_not_lets_play(seed):
+    hand = to_the_persons_move(seed)
+    for words in ("let's play", "yes let's play"):
+        hand.say(words, 0.9)
+        assert hand.said[-1] == "It's your turn: please draw a circle."
+        assert acts(hand)[-1] == ANSWER and hand.last_act == MOVE_REQUEST
+    assert LETS_PLAY not in acts(hand)[acts(hand).index(MOVE_REQUEST) :]
+    play_out(hand)
+    hand.say("no thanks")  # to the offer of another game
+    assert check_dialogue(hand.manager.transcript, hand.manager.state.outcome) is None
+
+
+def test_a_stop_taken_back_with_lets_play_plays_on():
+    hand = to_the_persons_move(seed=0)
+    hand.say("stop")
+    assert hand.last_act == GRANT_STOP
+    hand.say("actually let's play")
+    assert hand.last_act == MOVE_REQUEST and not hand.done
+
+
+@pytest.mark.parametrize(("answer", "seed"), [("yes", 0), ("yes please stop", 1), ("stop", 2)])
+def test_an_unsure_stop_mid_game_is_asked_about_and_a_yes_stops(answer, seed):
+    hand = to_the_persons_move(seed)
+    hand.say("stop", 0.4)  # the policy would ask for the move, as if nothing was said
+    assert hand.said[-1] == STOP_QUESTION_SENTENCE and acts(hand)[-1] == STOP_QUESTION
+    hand.say(answer)
+    assert hand.last_act == GRANT_STOP
+    hand.wait()
+    assert hand.done and hand.ended.outcome == "stopped"
+    assert not any(a.startswith("GameMove") for a in acts(hand))
+    assert check_dialogue(hand.manager.transcript, hand.ended.outcome) is None
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_no_to_do_you_want_to_stop_plays_on(seed):
+    hand = to_the_persons_move(seed)
+    hand.say("I want to stop", 0.45)
+    assert hand.said[-1] == STOP_QUESTION_SENTENCE
+    hand.say("no")
+    assert hand.said[-1] == "It's your turn: please draw a circle."
+    assert hand.last_act == MOVE_REQUEST and not hand.done
+    play_out(hand)
+    hand.say("no thanks")  # to the offer of another game
+    assert hand.ended.outcome in ("win", "loss", "draw")
+    assert check_dialogue(hand.manager.transcript, hand.ended.outcome) is None
+
+
+def test_silence_after_do_you_want_to_stop_goes_on_and_a_sure_stop_is_not_asked_about():
+    hand = to_the_persons_move(seed=3)
+    hand.say("stop", 0.3)  # a noise heard as "stop" is asked about, not taken as one
+    assert hand.said[-1] == STOP_QUESTION_SENTENCE
+    hand.wait()
+    assert hand.last_act == MOVE_REQUEST and not hand.done
+    hand.say("stop")
+    assert hand.last_act == GRANT_STOP and STOP_QUESTION_SENTENCE not in hand.said[-2:]
