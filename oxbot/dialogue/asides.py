@@ -1,10 +1,11 @@
 """Questions a person asks the robot in passing, answered in any state of the dialogue.
 
-"Who starts?", "what's your name?", "can you repeat that?" and "wait" (a person who talks over
-the robot to stop it, or wants time) are no answer to what the robot asked, and no act its
-policy chooses among: the interaction manager answers them itself, in the transcript but not in
-what the policy sees (as it says which cell a move in words meant), and then waits for the
-answer it was waiting for ("wait": as long as for an answer to a question). The domain's
+"Who starts?", "what's your name?", "how do you play?", "can you repeat that?" and "wait" (a
+person who talks over the robot to stop it, or wants time) are no answer to what the robot
+asked, and no act its policy chooses among: the interaction manager answers them itself, in the
+transcript but not in what the policy sees (as it says which cell a move in words meant), and
+then waits for the answer it was waiting for ("wait": as long as for an answer to a question).
+The domain's
 understanding reads "who starts?" as a yes to "Shall we play?" (the robot's "let's play" and
 first move answer it); asked outright, it is answered and taken for no yes: a question is no
 consent.
@@ -15,6 +16,8 @@ consent.
 'name'
 >>> aside_question("pardon")
 'repeat'
+>>> aside_question("how do you play this game?")
+'rules'
 >>> aside_question("could you say that again please")
 'repeat'
 >>> aside_question("wait a second")
@@ -43,12 +46,14 @@ WHO_STARTS = "who_starts"
 NAME = "name"
 REPEAT = "repeat"
 HOLD = "hold"
+RULES = "rules"
 
 ASIDE_ACTS = {
     WHO_STARTS: "Request(whoStarts)",
     NAME: "Request(name)",
     REPEAT: "Request(sayAgain)",
     HOLD: "Request(wait)",
+    RULES: "Request(rules)",
 }
 """How the transcript and the page's log show each question (the person's act)."""
 
@@ -91,6 +96,16 @@ _QUESTIONS: dict[str, tuple[str, ...]] = {
         r"give me a (?:second|sec|moment|minute)",
         r"let me think",
     ),
+    RULES: (
+        r"how (?:do|does|should|can) (?:you|i|we|one|it|this|the game) (?:play|work|win)"
+        r"(?: (?:it|this|this game|the game|noughts and crosses|tic tac toe))?",
+        r"what are the rules(?: again)?",
+        r"(?:can|could|would|will) you (?:please )?(?:tell|explain) (?:me |us )?the rules",
+        r"(?:explain|tell me) the rules",
+        r"how does (?:it|this|this game|the game) work",
+        r"what do i (?:do|have to do|draw)",
+        r"i don't know (?:how to play|the rules)",
+    ),
 }
 _PATTERNS = {
     kind: re.compile(rf"^(?:{_AROUND} )*(?:{'|'.join(forms)})(?: {_AROUND})*$")
@@ -99,7 +114,8 @@ _PATTERNS = {
 
 
 def aside_question(text: str) -> str | None:
-    """Which question (`WHO_STARTS`, `NAME`, `REPEAT`, `HOLD`) the words `text` are, or None."""
+    """Which question (`WHO_STARTS`, `NAME`, `REPEAT`, `HOLD`, `RULES`) the words `text` are, or
+    None."""
     words = " ".join(words_of(text))
     if not words:
         return None
@@ -112,6 +128,7 @@ __all__ = [
     "MIN_CONFIDENCE",
     "NAME",
     "REPEAT",
+    "RULES",
     "WHO_STARTS",
     "aside_question",
 ]

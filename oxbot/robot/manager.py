@@ -76,7 +76,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from oxbot.config import OxbotConfig, RobotConfig
-from oxbot.dialogue.asides import HOLD, NAME, REPEAT
+from oxbot.dialogue.asides import HOLD, NAME, REPEAT, RULES
 from oxbot.dialogue.cells_in_words import MoveHeard
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -133,6 +133,7 @@ from oxbot.robot.sentences import (
     OFFER_SENTENCES,
     PAPER_MOVE,
     PROBLEM_SENTENCES,
+    RULES_SENTENCE,
     SHAPES,
     STOP_QUESTION_SENTENCE,
     STOPPED_SENTENCE,
@@ -618,6 +619,8 @@ class InteractionManagerComponent(PersonInput, Component):
             return spoken(self.model.template(INTRODUCTION, self.rng, self._spoken_last))
         if question == REPEAT:
             return self._spoken_last or None  # nothing said yet: the understanding reads it
+        if question == RULES:
+            return RULES_SENTENCE.format(**symbol_names(self.state.robot_starts))
         if question == HOLD:  # they want time: waited for as for an answer to a question
             wait = self.timing.question_timeout / self.timing.speed_factor
             self._deadline = max(self._deadline, time.monotonic() + wait)

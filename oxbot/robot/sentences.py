@@ -63,6 +63,10 @@ WHO_STARTS_SENTENCES = {
 }
 """The robot's answer (as the act ANSWER) to "who starts?": before a game, who will; during
 one, whose turn it is."""
+RULES_SENTENCE = (
+    "We take turns to draw in the grid: you draw {person}, I draw {robot}. Three in a row wins."
+)
+"""The robot's answer (as the act ANSWER) to "how do you play?" or "what are the rules?"."""
 HOLD_SENTENCE = "Sure, take your time."
 """The robot's answer (as the act ANSWER) to "wait" or "hold on": it then waits as long as for
 an answer to a question."""

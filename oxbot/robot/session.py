@@ -93,6 +93,7 @@ from oxbot.robot.sentences import (
     HOLD_SENTENCE,
     OFFER_SENTENCES,
     PROBLEM_SENTENCES,
+    RULES_SENTENCE,
     STOP_QUESTION_SENTENCE,
     WHO_STARTS_SENTENCES,
     symbol_names,
@@ -173,6 +174,7 @@ def robot_sentences(domain: Domain | None = None) -> list[str]:
             WHO_STARTS_SENTENCES[kind].format(**names) for kind in (starter, "your_turn", "my_turn")
         ]
         sentences += [s.format(**names, cell=c) for s in PROBLEM_SENTENCES.values() for c in cells]
+        sentences.append(RULES_SENTENCE.format(**names))
     return list(dict.fromkeys(s for s in sentences if s.strip()))
 
 

@@ -313,3 +313,20 @@ def test_silence_after_do_you_want_to_stop_goes_on_and_a_sure_stop_is_not_asked_
     assert hand.last_act == MOVE_REQUEST and not hand.done
     hand.say("stop")
     assert hand.last_act == GRANT_STOP and STOP_QUESTION_SENTENCE not in hand.said[-2:]
+
+
+def test_how_do_you_play_is_answered_with_the_rules_in_any_state_and_is_no_consent():
+    hand = ManagerAtHand(robot_starts=True, seed=4)
+    while hand.last_act != INVITATION:
+        hand.wait()
+    hand.say("how do you play?")
+    rules = (
+        "We take turns to draw in the grid: you draw crosses, I draw circles. Three in a row wins."
+    )
+    assert hand.said[-1] == rules and acts(hand)[-1] == ANSWER
+    assert hand.last_act == INVITATION  # the question stays open: a question is no consent
+    hand.say("ok let's play")
+    while hand.last_act != MOVE_REQUEST:
+        hand.wait()
+    hand.say("sorry, what are the rules?")
+    assert hand.said[-1] == rules and hand.last_act == MOVE_REQUEST
