@@ -40,6 +40,7 @@ from oxbot.dialogue.domain import (
     ACKNOWLEDGE,
     ANSWER,
     CLOSING,
+    DECLINE,
     GAME_MOVE_TEMPLATE,
     GRANT_REFUSAL,
     INVITATION,
@@ -58,7 +59,7 @@ from oxbot.dialogue.domain import (
     words_of,
 )
 from oxbot.dialogue.state import DialogueState
-from oxbot.dialogue.understanding import UserAct
+from oxbot.dialogue.understanding import UserAct, polarity
 from oxbot.game.board import CELL_NAMES, EMPTY, USER, cell_index, symbol_of
 from oxbot.robot.bus import Bus
 from oxbot.robot.messages import GameMove, NewGame, SpeechHypotheses
@@ -222,6 +223,7 @@ class PersonInput:
             if self.phase is Phase.LISTENING:
                 self._decide()  # what it would say had the person kept quiet: go on to ask
             return
+        reading = dataclasses.replace(reading, act=_unless_refused(reading.act, text))
         if reading.act == NEW_GAME and (self.state.game_started or self.state.outcome is not None):
             self._rematch, self._agreed_words = True, text  # after this dialogue, another game
             if self.state.outcome is None:  # mid-game: this one stops first (a stop it knows)
@@ -324,13 +326,15 @@ class PersonInput:
             return
         # after "Would you like another game?", a late yes is one too
         act = self._understand(message.nbest, INVITATION if self._offers else "").act
+        act = _unless_refused(act, text)
         if act != SILENCE:  # the person sees what was made of their words, as in a game
             self._publish_turn("usr", act, text)
         if act == NEW_GAME or (self._offers and act == ACCEPT):
             carried = self._carried(text)
             self.bus.publish(NewGame(robot_starts=self.state.robot_starts, carried=carried))
         elif act not in (CLOSING, STOP, THANKS, ACKNOWLEDGE, SILENCE, *REFUSALS):
-            self._tell(AFTER_GOODBYE)  # not a word lost without a reply
+            if polarity(text) != "no":  # "not again" needs no reply either
+                self._tell(AFTER_GOODBYE)  # not a word lost without a reply
 
     def _answered_in_passing(self, text: str, confidence: float) -> bool:
         """Whether `text` is a question asked in passing ("who starts?"; oxbot.dialogue.asides),
@@ -350,8 +354,10 @@ class PersonInput:
         """The answer to "Would you like another game?": a yes starts it, a no or a goodbye
         lets the robot say its goodbye, anything else is asked about once more."""
         reading = self._understand(nbest, INVITATION)
-        heard_as = self._understand(nbest, "").act
+        heard_as = _unless_refused(self._understand(nbest, "").act, text)
         act = ACCEPT if heard_as == NEW_GAME else reading.act
+        if heard_as == DECLINE and reading.act not in REFUSALS:
+            act = DECLINE  # "not again": its nearest phrasing, "again", is no yes
         if act == ACCEPT and heard_as in (ACKNOWLEDGE, THANKS):
             act = heard_as  # "good game", "thanks for the game": the outcome acknowledged late
         elif act == ACCEPT and heard_as != NEW_GAME and reading.score < SURE_NO:
@@ -450,3 +456,9 @@ class PersonInput:
             cell=cell_in_words(CELL_NAMES.index(cells[0])) if cells else "a cell",
         )
         self._aside(sentence)
+
+
+def _unless_refused(act: str, text: str) -> str:
+    """`act`, or a no where words heard as a request for another game say no ("not again", "no
+    rematch", "never again"): the understanding reads them by their nearest phrasing, "again"."""
+    return DECLINE if act == NEW_GAME and polarity(text) == "no" else act
