@@ -332,9 +332,10 @@ class PersonInput:
         if act == NEW_GAME or (self._offers and act == ACCEPT):
             carried = self._carried(text)
             self.bus.publish(NewGame(robot_starts=self.state.robot_starts, carried=carried))
-        elif act not in (CLOSING, STOP, THANKS, ACKNOWLEDGE, SILENCE, *REFUSALS):
-            if polarity(text) != "no":  # "not again" needs no reply either
-                self._tell(AFTER_GOODBYE)  # not a word lost without a reply
+        elif act not in (CLOSING, STOP, THANKS, ACKNOWLEDGE, SILENCE, *REFUSALS) and (
+            polarity(text) != "no"  # "not again" needs no reply either
+        ):
+            self._tell(AFTER_GOODBYE)  # not a word lost without a reply
 
     def _answered_in_passing(self, text: str, confidence: float) -> bool:
         """Whether `text` is a question asked in passing ("who starts?"; oxbot.dialogue.asides),

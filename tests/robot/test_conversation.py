@@ -332,7 +332,9 @@ def test_how_do_you_play_is_answered_with_the_rules_in_any_state_and_is_no_conse
     assert hand.said[-1] == rules and hand.last_act == MOVE_REQUEST
 
 
-@pytest.mark.parametrize(("answer", "seed"), [("not again", 0), ("no rematch", 1), ("never again", 2)])
+@pytest.mark.parametrize(
+    ("answer", "seed"), [("not again", 0), ("no rematch", 1), ("never again", 2)]
+)
 def test_a_no_to_another_game_in_its_own_words_is_no_rematch(answer, seed):
     # the understanding reads these by their nearest phrasing, "again" or "rematch"
     hand = to_the_offer(seed)
