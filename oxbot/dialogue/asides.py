@@ -47,6 +47,7 @@ NAME = "name"
 REPEAT = "repeat"
 HOLD = "hold"
 RULES = "rules"
+OFF_TOPIC = "off_topic"
 
 ASIDE_ACTS = {
     WHO_STARTS: "Request(whoStarts)",
@@ -54,6 +55,7 @@ ASIDE_ACTS = {
     REPEAT: "Request(sayAgain)",
     HOLD: "Request(wait)",
     RULES: "Request(rules)",
+    OFF_TOPIC: "Request(offTopic)",
 }
 """How the transcript and the page's log show each question (the person's act)."""
 
@@ -105,6 +107,7 @@ _QUESTIONS: dict[str, tuple[str, ...]] = {
         r"how does (?:it|this|this game|the game) work",
         r"what do i (?:do|have to do|draw)",
         r"i don't know (?:how to play|the rules)",
+        r"what(?:'s| is) (?:noughts and crosses|tic tac toe)",
     ),
 }
 _PATTERNS = {
@@ -122,13 +125,34 @@ def aside_question(text: str) -> str | None:
     return next((kind for kind, pattern in _PATTERNS.items() if pattern.match(words)), None)
 
 
+_QUESTION_WORDS = re.compile(
+    r"^(?:sorry |excuse me |um |uh |hmm |so |and |but |oh |robot |oxbot )*"
+    r"(?:what|what's|how|why|where|when|who|which|are|is|can|could|do|does|did|will|would"
+    r"|have|has|should|shall)\b"
+)
+
+
+def off_topic(text: str) -> bool:
+    """Whether `text` is worded as a question ("are you a robot?", "how old are you?"): asked
+    of the robot and not understood as anything of the game, it is off the topic.
+
+    >>> off_topic("can you play chess"), off_topic("how old are you?")
+    (True, True)
+    >>> off_topic("blah blah"), off_topic("the middle one")
+    (False, False)
+    """
+    return bool(_QUESTION_WORDS.match(" ".join(words_of(text))))
+
+
 __all__ = [
     "ASIDE_ACTS",
     "HOLD",
     "MIN_CONFIDENCE",
     "NAME",
+    "OFF_TOPIC",
     "REPEAT",
     "RULES",
     "WHO_STARTS",
     "aside_question",
+    "off_topic",
 ]

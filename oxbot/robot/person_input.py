@@ -33,7 +33,14 @@ import enum
 from collections.abc import Callable, Sequence
 
 from oxbot.config import OxbotConfig
-from oxbot.dialogue.asides import ASIDE_ACTS, MIN_CONFIDENCE, WHO_STARTS, aside_question
+from oxbot.dialogue.asides import (
+    ASIDE_ACTS,
+    MIN_CONFIDENCE,
+    OFF_TOPIC,
+    WHO_STARTS,
+    aside_question,
+    off_topic,
+)
 from oxbot.dialogue.cells_in_words import MoveHeard, move_in_words, read_cell
 from oxbot.dialogue.domain import (
     ACCEPT,
@@ -66,6 +73,7 @@ from oxbot.robot.messages import GameMove, NewGame, SpeechHypotheses
 from oxbot.robot.sentences import (
     AFTER_GOODBYE,
     GUIDANCE_SENTENCES,
+    OFF_TOPIC_SENTENCE,
     PROBLEM_SENTENCES,
     TAKEN_IN_WORDS,
     WHICH_CELL,
@@ -207,6 +215,13 @@ class PersonInput:
         ):
             # a cell among other words ("I'll go in the middle this time"): which one, if any?
             self._ask_which_cell(UNKNOWN, text)
+            return
+        if reading.act == UNKNOWN and confidence >= MIN_CONFIDENCE and off_topic(text):
+            # "are you a robot?": answered, not "Sorry, I didn't catch that", and waited on
+            self.state.person_informs(ASIDE_ACTS[OFF_TOPIC], text, confidence)
+            self._publish_turn("usr", ASIDE_ACTS[OFF_TOPIC], text)
+            self._unanswered_in_a_row = 0
+            self._aside(OFF_TOPIC_SENTENCE, ANSWER)
             return
         if self._keen_while_playing(reading, text):
             return

@@ -67,6 +67,9 @@ RULES_SENTENCE = (
     "We take turns to draw in the grid: you draw {person}, I draw {robot}. Three in a row wins."
 )
 """The robot's answer (as the act ANSWER) to "how do you play?" or "what are the rules?"."""
+OFF_TOPIC_SENTENCE = "Sorry, I only know about noughts and crosses."
+"""The robot's answer (as the act ANSWER) to a question it does not understand ("are you a
+robot?"), instead of saying it did not catch words it heard clearly."""
 HOLD_SENTENCE = "Sure, take your time."
 """The robot's answer (as the act ANSWER) to "wait" or "hold on": it then waits as long as for
 an answer to a question."""

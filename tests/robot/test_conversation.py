@@ -23,7 +23,12 @@ from oxbot.dialogue.wellformed import check_dialogue
 from oxbot.game.board import EMPTY
 from oxbot.robot.manager import Phase
 from oxbot.robot.messages import DialogueAct
-from oxbot.robot.sentences import AFTER_ALL_SENTENCE, HOLD_SENTENCE, STOP_QUESTION_SENTENCE
+from oxbot.robot.sentences import (
+    AFTER_ALL_SENTENCE,
+    HOLD_SENTENCE,
+    OFF_TOPIC_SENTENCE,
+    STOP_QUESTION_SENTENCE,
+)
 from tests.robot.helpers import ManagerAtHand
 
 
@@ -346,3 +351,15 @@ def test_a_no_to_another_game_in_its_own_words_is_no_rematch(answer, seed):
     assert hand.done and len(hand.said) == said
     hand.say("again")
     assert not hand.done  # a new game, as before
+
+
+@pytest.mark.parametrize("question", ["are you a robot?", "how old are you", "can you play chess"])
+def test_a_question_off_the_topic_is_answered_not_called_unheard_and_the_robot_waits_on(question):
+    hand = ManagerAtHand(robot_starts=False, seed=5)
+    while hand.last_act != INVITATION:
+        hand.wait()
+    hand.say(question, 0.95)
+    assert hand.said[-1] == OFF_TOPIC_SENTENCE and acts(hand)[-1] == ANSWER
+    assert hand.last_act == INVITATION and not hand.done  # still waiting for the answer
+    hand.say("yes")
+    assert hand.last_act == LETS_PLAY
