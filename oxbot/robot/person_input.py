@@ -216,7 +216,12 @@ class PersonInput:
             # a cell among other words ("I'll go in the middle this time"): which one, if any?
             self._ask_which_cell(UNKNOWN, text)
             return
-        if reading.act == UNKNOWN and confidence >= MIN_CONFIDENCE and off_topic(text):
+        if (
+            reading.act == UNKNOWN
+            and confidence >= MIN_CONFIDENCE
+            and off_topic(text)
+            and not self._expects_move()  # chatter over "Your move" needs no answer
+        ):
             # "are you a robot?": answered, not "Sorry, I didn't catch that", and waited on
             self.state.person_informs(ASIDE_ACTS[OFF_TOPIC], text, confidence)
             self._publish_turn("usr", ASIDE_ACTS[OFF_TOPIC], text)

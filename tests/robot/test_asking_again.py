@@ -40,7 +40,7 @@ ON_THE_WAY = {
     GREETING: {},
     MOVE_REQUEST: {},
     FEEDBACK: {},
-    ASK_AGAIN: {INVITATION: "what time is it"},
+    ASK_AGAIN: {INVITATION: "my cat is hungry"},
     GRANT_REFUSAL: {INVITATION: "no thanks"},
     GRANT_STOP: {MOVE_REQUEST: "I want to stop"},
 }

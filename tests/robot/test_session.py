@@ -328,7 +328,7 @@ def test_a_robot_nobody_answers_says_goodbye_after_three_unanswered_questions():
     from oxbot.robot.manager import NOBODY_SENTENCE
 
     with Robot(FAST, seed=15) as robot:
-        turns, ended = talk_until_goodbye(robot, {"Request(playGame)": ["What time is it?"]}, 30.0)
+        turns, ended = talk_until_goodbye(robot, {"Request(playGame)": ["My cat is hungry."]}, 30.0)
     robot_turns = [t for t in turns if t.speaker == "sys"]
     questions = [t for t in robot_turns if t.act in ("Request(playGame)", "Request(repeat)")]
     assert [t.act for t in turns if t.speaker == "usr"] == ["Unknown"]
@@ -348,7 +348,7 @@ def test_the_count_of_unanswered_questions_starts_again_when_the_person_speaks()
         ],
     )
     with Robot(config, seed=15) as robot:
-        answers = {"Request(playGame)": ["What time is it?"], "Request(repeat)": ["Hmm."]}
+        answers = {"Request(playGame)": ["My cat is hungry."], "Request(repeat)": ["Hmm."]}
         turns, _ = talk_until_goodbye(robot, answers, 30.0)
     heard = [t.act for t in turns if t.speaker == "usr"]
     questions = [t.act for t in turns if t.act in ("Request(playGame)", "Request(repeat)")]
