@@ -203,9 +203,7 @@ class PersonInput:
         reading = self._understand(nbest, self.state.last_act)
         if self._bare_yes_after_letting_go(nbest, text, reading):
             # "yes" to "Okay, maybe another time.": another time, or the no taken back?
-            self.state.person_informs(reading.act, text, reading.score)
-            self._publish_turn("usr", reading.act, text)
-            self._unanswered_in_a_row = 0
+            self._informed(reading.act, text, reading.score)
             self._ask_after_all()
             return
         if (
@@ -223,9 +221,7 @@ class PersonInput:
             and not self._expects_move()  # chatter over "Your move" needs no answer
         ):
             # "are you a robot?": answered, not "Sorry, I didn't catch that", and waited on
-            self.state.person_informs(ASIDE_ACTS[OFF_TOPIC], text, confidence)
-            self._publish_turn("usr", ASIDE_ACTS[OFF_TOPIC], text)
-            self._unanswered_in_a_row = 0
+            self._informed(ASIDE_ACTS[OFF_TOPIC], text, confidence)
             self._aside(OFF_TOPIC_SENTENCE, ANSWER)
             return
         if self._keen_while_playing(reading, text):
@@ -265,9 +261,7 @@ class PersonInput:
         playing = state.last_act in (LETS_PLAY, MOVE_REQUEST) or is_game_move(state.last_act)
         if reading.act != ACCEPT or not playing or state.outcome is not None:
             return False  # after "Okay, let's stop here." a yes takes the stop back
-        state.person_informs(reading.act, text, reading.score)
-        self._publish_turn("usr", reading.act, text)
-        self._unanswered_in_a_row = 0
+        self._informed(reading.act, text, reading.score)
         if self._expects_move() and self.phase is Phase.LISTENING:
             answer = self._aside_answer(WHO_STARTS)
             if answer is not None:
@@ -298,12 +292,7 @@ class PersonInput:
         reading = self._understand(nbest, INVITATION)
         if reading.act != ACCEPT:
             return False
-        self.state.person_says(ACCEPT, text, words, (ACCEPT, reading.score))
-        self._publish_turn("usr", ACCEPT, text)
-        self._spoke_since, self._heard_act = True, ACCEPT
-        self._unanswered_in_a_row = 0
-        if self.phase is Phase.LISTENING:
-            self._decide()
+        self._answered(ACCEPT, text, words, reading.score)
         return True
 
     def _answered_whether_to_stop(
@@ -317,22 +306,35 @@ class PersonInput:
         heard_as = self._understand(nbest, "")
         if reading.act == ACCEPT or heard_as.act == STOP:
             score = heard_as.score if heard_as.act == STOP else reading.score
-            self.state.person_says(STOP, text, words, (STOP, score))
-            self._publish_turn("usr", STOP, text)
-            self._spoke_since, self._heard_act = True, STOP
-            self._unanswered_in_a_row = 0
-            if self.phase is Phase.LISTENING:
-                self._decide()
+            self._answered(STOP, text, words, score)
             return True
         if reading.act not in REFUSALS:
             return False
-        self.state.person_informs(ACCEPT, text, reading.score)  # no stop: they play on
-        self._publish_turn("usr", ACCEPT, text)
-        self._unanswered_in_a_row = 0
+        self._informed(ACCEPT, text, reading.score)  # no stop: they play on
         answer = self._aside_answer(WHO_STARTS)
         if answer is not None:
             self._aside(answer, ANSWER)
         return True
+
+    def _informed(self, act: str, text: str, score: float) -> None:
+        """The person's words, read as `act` with `score`, in the transcript and the page's log
+        but not in what the policy sees (the robot answers them itself)."""
+        self.state.person_informs(act, text, score)
+        self._publish_turn("usr", act, text)
+        self._unanswered_in_a_row = 0
+
+    def _answered(
+        self, act: str, text: str, words: Sequence[tuple[str, float]], score: float
+    ) -> None:
+        """The answer to a question the robot asked around the policy, given to the policy as
+        `act` with `score`; it decides now if the robot is listening, else once its act is
+        over."""
+        self.state.person_says(act, text, words, (act, score))
+        self._publish_turn("usr", act, text)
+        self._spoke_since, self._heard_act = True, act
+        self._unanswered_in_a_row = 0
+        if self.phase is Phase.LISTENING:
+            self._decide()
 
     def _heard_after_goodbye(self, message: SpeechHypotheses) -> None:
         """After the goodbye the robot listens for a new game ("again!", "new game"), and
@@ -365,9 +367,7 @@ class PersonInput:
         answer = self._aside_answer(question) if question is not None else None
         if question is None or answer is None:
             return False
-        self.state.person_informs(ASIDE_ACTS[question], text, confidence)
-        self._publish_turn("usr", ASIDE_ACTS[question], text)
-        self._unanswered_in_a_row = 0
+        self._informed(ASIDE_ACTS[question], text, confidence)
         self._aside(answer, ANSWER)
         return True
 
@@ -383,9 +383,7 @@ class PersonInput:
             act = heard_as  # "good game", "thanks for the game": the outcome acknowledged late
         elif act == ACCEPT and heard_as != NEW_GAME and reading.score < SURE_NO:
             act = UNKNOWN  # "well played" is nearest "well okay" (0.5): no clear yes
-        self.state.person_informs(act, text, reading.score)
-        self._publish_turn("usr", act, text)
-        self._unanswered_in_a_row = 0
+        self._informed(act, text, reading.score)
         if act == ACCEPT:
             self._play_again(text)
         elif act in REFUSALS or act in (CLOSING, STOP):
@@ -444,9 +442,7 @@ class PersonInput:
     def _ask_which_cell(self, act: str, text: str, score: float = 0.0) -> None:
         """The person seemed to name a cell, not surely: in the transcript, not in what the
         policy sees, and the robot asks which cell (it waits for the move as before)."""
-        self._unanswered_in_a_row = 0
-        self.state.person_informs(act, text, score)
-        self._publish_turn("usr", act, text)
+        self._informed(act, text, score)
         self._aside(WHICH_CELL)
 
     def _illegal(self, cell: int, symbol: str) -> str | None:
