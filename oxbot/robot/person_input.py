@@ -83,8 +83,18 @@ from oxbot.robot.sentences import (
 from oxbot.speech.keywords import answer_to
 from oxbot.speech.nbest import Hypothesis
 
-BARE_YES = ("yes", "yeah", "yep", "yup")
-"""Words of a yes that, after the robot let a no go, may agree that it is for another time."""
+AGREEING = frozenset(
+    {
+        *("okay", "ok", "sure", "all", "right", "alright", "fine", "cool", "good", "great"),
+        *("sounds", "no", "problem", "thanks", "thank", "you", "then", "oh", "well", "that's"),
+    }
+)
+"""Words that, after the robot let a no go ("Okay, maybe another time."), only agree that it is
+for another time: "okay", "sure", "all right then". A yes with any other word ("yes", "yes
+please", "oh go on then") may take the no back, and is asked about."""
+TAKEN_BACK = ("changed my mind", "change my mind", "second thought", "second thoughts")
+"""Words that take a no back whatever else is said ("hang on, I changed my mind"), which the
+understanding reads as nothing of the game."""
 
 Understand = Callable[[Sequence[tuple[str, float]], str], UserAct]
 """Reads what the person said (an N-best list) in the context of the robot's last act as
@@ -272,13 +282,18 @@ class PersonInput:
         self, nbest: Sequence[tuple[str, float]], text: str, reading: UserAct
     ) -> bool:
         """Whether the person answered the robot's letting a no go ("Okay, maybe another time.")
-        with a yes that may only agree ("yes", "yeah"): read there as an acknowledgement, but a
-        yes to playing had the robot asked (a yes with "play", "actually"... is a change of
-        mind already)."""
+        with words that may take the no back: a yes that is more than agreement ("yes", "oh go
+        on then"), read there as an acknowledgement but a yes to playing had the robot asked,
+        or words of a changed mind ("I changed my mind"). A yes with "play", "actually"... is
+        a change of mind already, and plays."""
+        if self.state.last_act != GRANT_REFUSAL:
+            return False
+        words = words_of(text)
+        if any(f" {cue} " in f" {' '.join(words)} " for cue in TAKEN_BACK):
+            return True
         return (
-            self.state.last_act == GRANT_REFUSAL
-            and reading.act == ACKNOWLEDGE
-            and any(w in BARE_YES for w in words_of(text))
+            reading.act == ACKNOWLEDGE
+            and not set(words) <= AGREEING
             and self._understand(nbest, INVITATION).act == ACCEPT
         )
 

@@ -363,3 +363,23 @@ def test_a_question_off_the_topic_is_answered_not_called_unheard_and_the_robot_w
     assert hand.last_act == INVITATION and not hand.done  # still waiting for the answer
     hand.say("yes")
     assert hand.last_act == LETS_PLAY
+
+
+@pytest.mark.parametrize(
+    ("answer", "seed"),
+    [("oh go on then", 0), ("hang on, I changed my mind", 1), ("on second thought, yes", 2)],
+)
+def test_a_no_taken_back_in_other_words_is_asked_about_and_a_yes_plays(answer, seed):
+    hand = let_go(seed)
+    hand.say(answer)  # once read as agreeing (or nothing), and the goodbye followed
+    assert hand.said[-1] == AFTER_ALL_SENTENCE and not hand.done
+    hand.say("yes")
+    assert hand.last_act == LETS_PLAY
+
+
+@pytest.mark.parametrize("answer", ["okay then", "sounds good", "fine, thanks"])
+def test_more_words_of_agreement_still_get_the_goodbye_without_a_question(answer):
+    hand = let_go(seed=3)
+    hand.say(answer)
+    assert hand.last_act == CLOSING and hand.done
+    assert AFTER_ALL_SENTENCE not in hand.said
