@@ -116,7 +116,7 @@ def train_reader_command(
         typer.Option(
             metavar="DIR",
             help="Instead of training from nothing, go on from --start with the photos of this "
-            "folder (images/ and lattices.json, as bench/compose_boards.py writes); repeatable."
+            "folder (images/ and lattices.json, as bench/compose_boards.py writes); repeatable.",
         ),
     ] = None,
     start: Annotated[
