@@ -265,7 +265,8 @@ def test_impossible_drawings_are_refused_in_words_and_never_change_the_board(ws_
                     act = data["act"]
                     if act.startswith("GameMove(gridloc=") and data["speaker"] == "sys":
                         record.robot_cells.append(act[len("GameMove(gridloc=") : -1])
-                    elif act == "Request(playGame)":
+                    elif act in ("Request(playGame)", "Request(repeat)"):
+                        # a person asked again ("Pardon? Shall we play?") answers again
                         await ws.send(json.dumps({"type": "say", "text": "yes let's play"}))
                     elif act == "Request(userGameMove)" and data["speaker"] == "sys":
                         free = [c for c in cells if c not in record.robot_cells + record.drawn]
