@@ -5,10 +5,9 @@ person who talks over the robot to stop it, or wants time) are no answer to what
 asked, and no act its policy chooses among: the interaction manager answers them itself, in the
 transcript but not in what the policy sees (as it says which cell a move in words meant), and
 then waits for the answer it was waiting for ("wait": as long as for an answer to a question).
-The domain's
-understanding reads "who starts?" as a yes to "Shall we play?" (the robot's "let's play" and
-first move answer it); asked outright, it is answered and taken for no yes: a question is no
-consent.
+The domain's understanding reads "who starts?" as a yes to "Shall we play?" (the robot's "let's
+play" and first move answer it); asked outright, it is answered and taken for no yes: a
+question is no consent.
 
 >>> aside_question("who starts")
 'who_starts'

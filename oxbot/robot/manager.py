@@ -625,6 +625,10 @@ class InteractionManagerComponent(PersonInput, Component):
             wait = self.timing.question_timeout / self.timing.speed_factor
             self._deadline = max(self._deadline, time.monotonic() + wait)
             return HOLD_SENTENCE
+        return self._whose_turn()
+
+    def _whose_turn(self) -> str:
+        """Who will start and with which symbol; during a game, whose turn it is."""
         state = self.state
         if state.game_started and state.outcome is None:
             kind = "your_turn" if state.person_to_move else "my_turn"

@@ -37,7 +37,6 @@ from oxbot.dialogue.asides import (
     ASIDE_ACTS,
     MIN_CONFIDENCE,
     OFF_TOPIC,
-    WHO_STARTS,
     aside_question,
     off_topic,
 )
@@ -157,6 +156,9 @@ class PersonInput:
     def _aside_answer(self, question: str) -> str | None:
         raise NotImplementedError
 
+    def _whose_turn(self) -> str:
+        raise NotImplementedError
+
     def _offer(self) -> None:
         raise NotImplementedError
 
@@ -273,9 +275,7 @@ class PersonInput:
             return False  # after "Okay, let's stop here." a yes takes the stop back
         self._informed(reading.act, text, reading.score)
         if self._expects_move() and self.phase is Phase.LISTENING:
-            answer = self._aside_answer(WHO_STARTS)
-            if answer is not None:
-                self._aside(answer, ANSWER)
+            self._aside(self._whose_turn(), ANSWER)
         return True
 
     def _bare_yes_after_letting_go(
@@ -326,9 +326,7 @@ class PersonInput:
         if reading.act not in REFUSALS:
             return False
         self._informed(ACCEPT, text, reading.score)  # no stop: they play on
-        answer = self._aside_answer(WHO_STARTS)
-        if answer is not None:
-            self._aside(answer, ANSWER)
+        self._aside(self._whose_turn(), ANSWER)
         return True
 
     def _informed(self, act: str, text: str, score: float) -> None:
