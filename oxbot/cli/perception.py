@@ -279,11 +279,10 @@ def save_heatmaps(perception, frame, folder: Path, stem: str) -> None:
     """With the learned grid finder, what its network saw: `<stem>_heatmaps.png`."""
     if perception.grid_finder != "learned":
         return
-    from oxbot.perception.grid_points import LearnedGridFinder, heatmap_picture, shipped_finder
+    from oxbot.perception.grid_points import heatmap_picture, learned_finder
     from oxbot.perception.seeds import write_png
 
-    path = perception.grid_model_path
-    finder = LearnedGridFinder.load(path) if path else shipped_finder()
+    finder = learned_finder(perception.grid_model_path or None)  # the reader's, loaded once
     picture = heatmap_picture(finder.look(frame), frame)
     path = folder / f"{stem}_heatmaps.png"
     write_png(path, picture[:, :, ::-1].copy())

@@ -208,9 +208,9 @@ def grid_finder(name: str, model: str | None = None) -> GridFinder:
     """The grid finder `PerceptionConfig.grid_finder` names; the learned one from the model file
     `model` (None: the shipped one)."""
     if name == "learned":
-        from oxbot.perception.grid_points import LearnedGridFinder, shipped_finder
+        from oxbot.perception.grid_points import learned_finder
 
-        return (shipped_finder() if model is None else LearnedGridFinder.load(model)).find
+        return learned_finder(model).find
     return find_grid
 
 

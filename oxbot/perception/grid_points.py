@@ -356,6 +356,12 @@ def _convex(quad: np.ndarray) -> bool:
 
 
 @functools.cache
+def learned_finder(path: str | None = None) -> LearnedGridFinder:
+    """The finder of the model file `path` (None: the shipped one), loaded once per process:
+    the board reader and `see --debug`'s heatmaps share it."""
+    return LearnedGridFinder.load(path if path is not None else shipped_path())
+
+
 def shipped_finder() -> LearnedGridFinder:
     """The shipped finder, loaded once per process."""
-    return LearnedGridFinder.load(shipped_path())
+    return learned_finder(None)
