@@ -134,8 +134,8 @@ def train_reader_command(
 
     config = config_of(ctx).grid_model
     if finetune:
-        changes = {"finetune_epochs": epochs}
-        config = dataclasses.replace(config, **{k: v for k, v in changes.items() if v is not None})
+        if epochs is not None:
+            config = dataclasses.replace(config, finetune_epochs=epochs)
         try:
             result = finetune_reader(
                 config, start or shipped_path(), finetune, out, show_progress=not quiet

@@ -80,24 +80,21 @@ class Renders:
     def __len__(self) -> int:
         return len(self.pictures)
 
+    @property
+    def line_truth(self) -> np.ndarray:
+        """bool (N,): `lines_known`, every picture's when None."""
+        return self.lines_known if self.lines_known is not None else np.ones(len(self), bool)
+
     def take(self, index: np.ndarray) -> Renders:
         """The pictures of `index`, in that order."""
-        known = self.lines_known if self.lines_known is not None else np.ones(len(self), bool)
-        return Renders(
-            self.pictures[index],
-            self.lattices[index],
-            self.lines[index],
-            self.present[index],
-            self.sizes[index],
-            known[index],
-        )
+        return Renders(*(getattr(self, f)[index] for f in _ARRAYS), self.line_truth[index])
 
 
 def joined(*parts: Renders) -> Renders:
     """The pictures of `parts`, one after another."""
-    known = [p.lines_known if p.lines_known is not None else np.ones(len(p), bool) for p in parts]
     return Renders(
-        *(np.concatenate([getattr(p, f) for p in parts]) for f in _ARRAYS), np.concatenate(known)
+        *(np.concatenate([getattr(p, f) for p in parts]) for f in _ARRAYS),
+        np.concatenate([p.line_truth for p in parts]),
     )
 
 
@@ -241,8 +238,7 @@ def _batch(renders: Renders, index: np.ndarray, sigma: float, rng: np.random.Gen
     x = torch.from_numpy(pictures.transpose(0, 3, 1, 2).astype(np.float32) / 255.0)
     heat = np.concatenate([points, lines[:, None].astype(np.float32)], axis=1)
     present = torch.from_numpy(renders.present[index].astype(np.float32))
-    known = np.ones(len(index), bool) if renders.lines_known is None else renders.lines_known[index]
-    lines_known = torch.from_numpy(known.astype(np.float32))
+    lines_known = torch.from_numpy(renders.line_truth[index].astype(np.float32))
     return x, torch.from_numpy(np.ascontiguousarray(heat)), present, lines_known
 
 
