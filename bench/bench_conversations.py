@@ -17,8 +17,9 @@ recordings, 10 dB under). A silent person's room plays non-speech clips of the s
 
 Prints, per level, success per persona and over all, turns, the times the robot asked again,
 flips, moves without consent, moves the person did not make, noises answered and hearing
-latency (median and p90: from the answer's audio leaving the client to the recogniser's
-hypotheses); writes every conversation to `--out`/conversations.jsonl and the success per
+latency (median and p90: push-to-talk, from the answer's audio leaving the client to the
+recogniser's hypotheses; hands-free, from the words' last piece, so with the listener's wait for
+the end of speech); writes every conversation to `--out`/conversations.jsonl and the success per
 persona and level to `--out`/success.png. Not a test (tests/testing/test_personas.py and
 tests/web/test_conversation_harness.py test its pieces).
 """
@@ -97,9 +98,11 @@ async def run_level(url: str, level: str, args: argparse.Namespace, phrasings: d
                 "wrong": wrong,
                 "outcome": c.outcome,
                 "said": [[r.family, r.text] for r in c.said],
+                "heard": c.heard,
                 "turns": c.turns,
                 "person_turns": len(c.said),
                 "asked_again": c.asked_again(),
+                "confirmations": c.confirmations(),
                 "flips": c.flips(),
                 "moves_without_consent": c.moves_without_consent,
                 "moves_not_made": sum(
@@ -149,22 +152,28 @@ def table(results: list[dict], levels: list[str]) -> str:
     def mean(key: str):
         return lambda chosen: f"{np.mean([r[key] for r in chosen]):.1f}"
 
-    def latency(q: float):
+    def latency(q: float, hands_free: bool):
         def show(chosen: list[dict]) -> str:
-            values = [x for r in chosen for x in r["latencies"]]
+            values = [x for r in chosen if r["hands_free"] == hands_free for x in r["latencies"]]
             return f"{np.quantile(values, q):.2f} s" if values else "-"
 
         return show
 
     for name, show in (
         ("person turns (mean)", mean("person_turns")),
-        ("asked again", total("asked_again")),
+        ('asked again ("Sorry, I didn\'t catch that")', total("asked_again")),
+        (
+            "asked about what it heard",
+            lambda chosen: str(sum(r.get("confirmations", 0) for r in chosen)),
+        ),
         ("flips", total("flips")),
         ("moves without consent", total("moves_without_consent")),
         ("moves the person did not make", total("moves_not_made")),
         ("noises answered", total("noise_answered")),
-        ("hearing latency, median", latency(0.5)),
-        ("hearing latency, p90", latency(0.9)),
+        ("hearing latency, push-to-talk, median", latency(0.5, False)),
+        ("hearing latency, push-to-talk, p90", latency(0.9, False)),
+        ("from the words' end, hands-free, median", latency(0.5, True)),
+        ("from the words' end, hands-free, p90", latency(0.9, True)),
     ):
         rows.append(
             f"| {name} | " + " | ".join(cell(lv, lambda r: True, show) for lv in levels) + " |"
@@ -207,7 +216,12 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds a conversation")
     parser.add_argument("--seed", type=int, default=48)
     parser.add_argument("--out", type=Path, default=Path("runs/conversations"))
+    parser.add_argument("--table", type=Path, help="print the table of a saved run and stop")
     args = parser.parse_args()
+    if args.table is not None:
+        saved = [json.loads(line) for line in args.table.read_text().splitlines()]
+        print(table(saved, [level for level in LEVELS if any(r["level"] == level for r in saved)]))
+        return
     phrasings = read_phrasings(PHRASINGS)
     speed = args.speed
     config = load_config(

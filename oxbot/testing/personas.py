@@ -35,6 +35,7 @@ from oxbot.dialogue.domain import (
     STOP,
     STOP_QUESTION,
     UNKNOWN,
+    YES_QUESTION,
 )
 from oxbot.errors import DataError
 from oxbot.game.board import EMPTY_BOARD, ROBOT, USER, Board, cell_index, outcome, play
@@ -72,7 +73,9 @@ YES = frozenset({"accept", "take_back", "rematch"})
 """The families that agree to a game: a game the robot starts before one of them is unwanted."""
 AGREEING_ACTS = frozenset({ACCEPT, NEW_GAME})
 REFUSING_ACTS = frozenset({DECLINE, POSTPONE, STOP})
-QUESTIONS = frozenset({INVITATION, ASK_AGAIN, AFTER_ALL, STOP_QUESTION, OFFER_ANOTHER})
+QUESTIONS = frozenset(
+    {INVITATION, ASK_AGAIN, AFTER_ALL, STOP_QUESTION, OFFER_ANOTHER, YES_QUESTION}
+)
 """The robot's acts that wait for the person's answer (a move request waits for a drawing)."""
 
 
@@ -167,6 +170,8 @@ class Persona:
             if self.kind in ("hesitant", "changes_mind") and not self.consented:
                 return self.say("take_back")
             return None
+        if act == YES_QUESTION:  # "Sorry, was that a yes?": what they mean, said again
+            return self.say(self._stance())
         if act == AFTER_ALL:
             return self.say("accept" if self.wants_a_game else "decline")
         if act == STOP_QUESTION:
@@ -181,15 +186,19 @@ class Persona:
 
     def _invited(self) -> Reply:
         self.asked += 1
-        if self.kind == "declines":
-            return self.say("decline")
-        if self.kind == "hesitant" and self.asked == 1:
-            return self.say("postpone")
-        if self.kind == "changes_mind" and self.asked == 1:
-            return self.say("decline")
         if self.kind == "asks" and self.asked == 1:
             return self.say("repeat" if self.rng.random() < 0.5 else "off_topic")
-        return self.say("accept")
+        return self.say(self._stance())
+
+    def _stance(self) -> str:
+        """What the person means to answer to the invitation now."""
+        if self.kind == "declines":
+            return "decline"
+        if self.kind == "hesitant" and self.asked == 1:
+            return "postpone"
+        if self.kind == "changes_mind" and self.asked == 1:
+            return "decline"
+        return "accept"
 
     def _asked_to_move(self) -> Reply | None:
         """None: the person draws their move. A stopper asks to stop instead at `stop_at`, and
@@ -242,6 +251,8 @@ class Conversation:
     moves_after_stop: int = 0
     noise_answered: int = 0
     """Noise or silence understood as an answer (any act but Silence and Unknown)."""
+    heard: list[tuple[str, float]] = field(default_factory=list)
+    """The recogniser's best hypothesis and its confidence, per recording ("" when none)."""
     latencies: list[float] = field(default_factory=list)
     """Seconds from an answer's audio leaving the client to the recogniser's hypotheses."""
     outcome: str | None = None
@@ -256,6 +267,12 @@ class Conversation:
 
     def asked_again(self) -> int:
         return sum(1 for speaker, act, _ in self.turns if speaker == "sys" and act == ASK_AGAIN)
+
+    def confirmations(self) -> int:
+        """The robot's questions about what it heard: "Sorry, was that a yes?", "Do you want to
+        stop?" and "Do you want to play after all?"."""
+        asked = (YES_QUESTION, STOP_QUESTION, AFTER_ALL)
+        return sum(1 for speaker, act, _ in self.turns if speaker == "sys" and act in asked)
 
     def flips(self) -> int:
         """Answers understood as their opposite: a yes the person did not mean, or a no, later

@@ -217,6 +217,8 @@ async def converse(
                 elif kind == "GameMove" and data["who"] == "usr":
                     record.game.person_moved(data["where"])
                 elif kind == "SpeechHypotheses" and data.get("source") == "microphone":
+                    best = (data.get("nbest") or [["", 0.0]])[0]
+                    record.heard.append((str(best[0]), float(best[1])))
                     if sent_at is not None:
                         record.latencies.append(time.monotonic() - sent_at)
                         sent_at = None

@@ -20,6 +20,7 @@ from oxbot.dialogue.domain import (
     OFFER_ANOTHER,
     STOP,
     STOP_QUESTION,
+    YES_QUESTION,
     load_domain,
     words_of,
 )
@@ -39,6 +40,9 @@ from oxbot.testing.personas import (
 from oxbot.testing.rooms import SPEECH_DBFS, Room, level_dbfs
 
 PHRASINGS = Path(__file__).resolve().parents[2] / "bench" / "data" / "conversation_phrasings.csv"
+
+
+PLAIN = {family: (family,) for family in FAMILIES}
 
 
 @pytest.fixture(scope="module")
@@ -83,6 +87,17 @@ def test_the_hesitant_and_the_mind_changer_say_no_then_take_it_back(phrasings):
         assert someone.consented
         assert someone.reply(AFTER_ALL).family == "accept"
         assert someone.reply(MOVE_REQUEST) is None  # they draw
+
+
+def test_was_that_a_yes_is_answered_with_what_the_person_means():
+    assert person("keen", PLAIN).reply(YES_QUESTION).family == "accept"
+    assert person("declines", PLAIN).reply(YES_QUESTION).family == "decline"
+    hesitant = person("hesitant", PLAIN)
+    hesitant.reply(INVITATION)
+    assert hesitant.reply(YES_QUESTION).family == "postpone"
+    asks = person("asks", PLAIN)
+    asks.reply(INVITATION)  # a question heard as an unsure yes
+    assert asks.reply(YES_QUESTION).family == "accept"
 
 
 def test_the_stopper_stops_at_their_move_and_confirms_it(phrasings):
