@@ -121,6 +121,10 @@ _NUMBERS = {
     "9": "nine",
     "10": "ten",
 }
+_SPELLINGS = {"ok": "okay", "lets": "let's", "all right": "alright"}
+"""One spelling for words Whisper writes two ways: the same words are one hypothesis, whose
+lead over the next is then over different words."""
+_SPELLING = re.compile(r"\b(" + "|".join(_SPELLINGS) + r")\b")
 _TAG = re.compile(r"\[[^\]]*\]|\([^)]*\)|\*[^*]*\*|[♪♫]+")
 
 
@@ -354,10 +358,12 @@ def calibrated(logprob: float, no_speech: float, lead: float, model: str = "base
 
 def clean_text(text: str) -> str:
     """A hypothesis as the understanding reads it: non-speech tags dropped, digits as words,
-    lower case without punctuation, a phrase said back to back kept once."""
+    lower case without punctuation, one spelling of a word (`_SPELLINGS`), a phrase said back
+    to back kept once."""
     text = _TAG.sub(" ", text)
     text = " ".join(_NUMBERS.get(w, w) for w in re.findall(r"[\w']+|[^\w\s]", text))
-    return without_repeats(normalise(text))
+    text = _SPELLING.sub(lambda match: _SPELLINGS[match.group(1)], normalise(text))
+    return without_repeats(text)
 
 
 def echoes_prompt(text: str, prompt: str) -> bool:
