@@ -97,7 +97,11 @@ STOP_QUESTION = "Request(confirmStop)"
 """oxbot: "Do you want to stop?" when the person's words mid-game were heard as a stop too unsure
 for the policy, which would ask for their move instead: said, never chosen by the policy. A yes
 to it is the stop said again; a no, their yes to playing on."""
-SAID_OUTSIDE_THE_POLICY = (PROBLEM, ANSWER, OFFER_ANOTHER, AFTER_ALL, STOP_QUESTION)
+YES_QUESTION = "Request(confirmYes)"
+"""oxbot: "Sorry, was that a yes?" when the answer to "Shall we play?" was heard as a yes too
+unsurely to start a game on: said, never chosen by the policy. A yes to it is the person's yes
+to playing; a no, their no."""
+SAID_OUTSIDE_THE_POLICY = (PROBLEM, ANSWER, OFFER_ANOTHER, AFTER_ALL, STOP_QUESTION, YES_QUESTION)
 """The robot's acts that its interaction manager says around the policy's."""
 
 MOVE_ACT_TYPE = "GameMove"

@@ -151,6 +151,9 @@ class UserAct:
     """How sure the understanding is, in [0, 1]; 0 for Silence and Unknown."""
     phrase: str = ""
     """The nearest known phrasing of the act (normalised words), empty for Silence/Unknown."""
+    unsure: str = ""
+    """For Unknown: the act the words said when only the recogniser's confidence, below
+    `MIN_YES_CONFIDENCE`, made them Unknown (a yes heard too unsurely to start a game on)."""
 
 
 def normalised(text: str) -> str:
@@ -270,7 +273,7 @@ class UserActClassifier:
             return UserAct(UNKNOWN if best_text else SILENCE, 0.0)
         decided = self._decide(total / weight, best_text, context)
         if decided.act in (ACCEPT, ACKNOWLEDGE) and best_confidence < self.min_yes_confidence:
-            return UserAct(UNKNOWN, 0.0)
+            return UserAct(UNKNOWN, 0.0, unsure=decided.act)
         if (
             decided.act == DECLINE
             and best_confidence < self.min_unsaid_no_confidence

@@ -93,6 +93,7 @@ from oxbot.dialogue.domain import (
     STOP,
     STOP_QUESTION,
     SYSTEM_ACTS,
+    YES_QUESTION,
     game_move_cell,
     is_feedback,
 )
@@ -140,6 +141,7 @@ from oxbot.robot.sentences import (
     TAKEN_IN_WORDS,
     WHICH_CELL,
     WHO_STARTS_SENTENCES,
+    YES_QUESTION_SENTENCE,
     cell_in_words,
     say_goodbye,
     spoken,
@@ -323,6 +325,8 @@ class InteractionManagerComponent(PersonInput, Component):
             "_asking_after_all",
             "_after_all_due",
             "_asking_to_stop",
+            "_asking_whether_yes",
+            "_asked_whether_yes",
             "_answering",
             "_pausing",
         ):
@@ -385,6 +389,8 @@ class InteractionManagerComponent(PersonInput, Component):
         self._asking_after_all = False  # ... or to "Do you want to play after all?"
         self._after_all_due = False  # that question, once the robot's act is over
         self._asking_to_stop = False  # ... or to "Do you want to stop?"
+        self._asking_whether_yes = False  # ... or to "Sorry, was that a yes?"
+        self._asked_whether_yes = False  # asked since the policy's last act (once is enough)
         self._deadline = 0.0
         self._drawing_until = float("inf")  # only a resumed drawing has an end of its own
         self._unanswered_in_a_row = 0
@@ -411,6 +417,7 @@ class InteractionManagerComponent(PersonInput, Component):
         self._offering, self._answering, self._pausing = False, False, False
         self._asking_after_all, self._after_all_due = False, False
         self._asking_to_stop = False
+        self._asking_whether_yes, self._asked_whether_yes = False, False
         act = SYSTEM_ACTS[action]
         if act == MOVE_REQUEST and unsure_stop:
             self._ask_whether_to_stop()  # rather than "Your move" to someone who said stop
@@ -482,7 +489,7 @@ class InteractionManagerComponent(PersonInput, Component):
             return
         if self._expects_move():
             wait = self.timing.move_timeout
-        elif self._offering or self._asking_after_all or self._asking_to_stop:
+        elif self._asking_around_the_policy():
             wait = self.timing.question_timeout
         elif last_act in self._unanswered:
             # nobody answers it, but a person who spoke over it is waited for
@@ -595,6 +602,21 @@ class InteractionManagerComponent(PersonInput, Component):
         self._after_all_due = False
         self._tell(AFTER_ALL_SENTENCE, AFTER_ALL)
         self._speaking, self._arm_cell = AFTER_ALL_SENTENCE, None  # its answer, once said
+        self.phase = Phase.SPEAKING
+
+    def _asking_around_the_policy(self) -> bool:
+        """Whether the robot waits for the answer to a question it asked around the policy."""
+        return (
+            self._offering
+            or self._asking_after_all
+            or self._asking_to_stop
+            or self._asking_whether_yes
+        )
+
+    def _ask_whether_yes(self) -> None:
+        self._asking_whether_yes, self._asked_whether_yes = True, True
+        self._tell(YES_QUESTION_SENTENCE, YES_QUESTION)
+        self._speaking, self._arm_cell = YES_QUESTION_SENTENCE, None  # its answer, once said
         self.phase = Phase.SPEAKING
 
     def _ask_whether_to_stop(self) -> None:

@@ -20,7 +20,10 @@ A yes to playing said while a game is on is no news: it is kept from the policy 
 "Great, let's play." mid-game) and answered, on the person's turn, with whose turn it is. Words
 heard as a stop too unsurely for the policy, which would ask for the move instead, are asked
 about ("Do you want to stop?": the manager's `_ask_whether_to_stop`): a yes is the stop again, a
-no is the person playing on.
+no is the person playing on. A yes to "Shall we play?" heard too unsurely to start a game on
+(`UserAct.unsure`), but surely enough to be no sneeze (`MIN_UNSURE_YES`), is asked about once
+("Sorry, was that a yes?"), rather than the whole question again: a yes then plays, a no is the
+person's no.
 
 Drawings the tracker finds impossible and the camera's guidance come here too (`BoardProblem`),
 and are said as the problem sentences of oxbot.robot.sentences.
@@ -45,6 +48,7 @@ from oxbot.dialogue.domain import (
     ACCEPT,
     ACKNOWLEDGE,
     ANSWER,
+    ASK_AGAIN,
     CLOSING,
     DECLINE,
     GAME_MOVE_TEMPLATE,
@@ -91,6 +95,10 @@ AGREEING = frozenset(
 """Words that, after the robot let a no go ("Okay, maybe another time."), only agree that it is
 for another time: "okay", "sure", "all right then". A yes with any other word ("yes", "yes
 please", "oh go on then") may take the no back, and is asked about."""
+MIN_UNSURE_YES = 0.35
+"""A yes to "Shall we play?" heard less surely than the understanding starts a game on, but at
+least this surely, is asked about ("Sorry, was that a yes?"); below it, it is no answer. Above
+the development sneezes heard as "okay", "nice" and "let's go" (0.11-0.30, docs/robot.md)."""
 TAKEN_BACK = ("changed my mind", "change my mind", "second thought", "second thoughts")
 """Words that take a no back whatever else is said ("hang on, I changed my mind"), which the
 understanding reads as nothing of the game."""
@@ -133,6 +141,8 @@ class PersonInput:
     _offers: int
     _asking_after_all: bool
     _asking_to_stop: bool
+    _asking_whether_yes: bool
+    _asked_whether_yes: bool
     _broken: bool
     _early_answer: SpeechHypotheses | None
     _move_in_words: tuple[MoveHeard, Sequence[tuple[str, float]]] | None
@@ -163,6 +173,9 @@ class PersonInput:
         raise NotImplementedError
 
     def _ask_after_all(self) -> None:
+        raise NotImplementedError
+
+    def _ask_whether_yes(self) -> None:
         raise NotImplementedError
 
     def _play_again(self, words: str) -> None:
@@ -207,12 +220,18 @@ class PersonInput:
             return
         if self._asking_to_stop and self._answered_whether_to_stop(nbest, text, words):
             return
+        if self._asking_whether_yes and self._answered_whether_yes(nbest, text, words):
+            return
         if self._persons_turn():
             move = move_in_words(nbest)
             if move is not None:  # "top left": the person's move, said instead of drawn
                 self._moved_in_words(move, words)
                 return
         reading = self._understand(nbest, self.state.last_act)
+        if self._unsure_yes(reading, confidence):
+            self._informed(UNKNOWN, text, 0.0)
+            self._ask_whether_yes()
+            return
         if self._bare_yes_after_letting_go(nbest, text, reading):
             # "yes" to "Okay, maybe another time.": another time, or the no taken back?
             self._informed(reading.act, text, reading.score)
@@ -308,6 +327,30 @@ class PersonInput:
         if reading.act != ACCEPT:
             return False
         self._answered(ACCEPT, text, words, reading.score)
+        return True
+
+    def _unsure_yes(self, reading: UserAct, confidence: float) -> bool:
+        """Whether the answer to "Shall we play?" was a yes heard too unsurely to start a game
+        on, surely enough to be speech, and not yet asked about since the robot's question."""
+        return (
+            reading.act == UNKNOWN
+            and reading.unsure == ACCEPT
+            and confidence >= MIN_UNSURE_YES
+            and self.state.last_act in (INVITATION, ASK_AGAIN)
+            and not self._asked_whether_yes
+        )
+
+    def _answered_whether_yes(
+        self, nbest: Sequence[tuple[str, float]], text: str, words: Sequence[tuple[str, float]]
+    ) -> bool:
+        """The answer to "Sorry, was that a yes?": a yes is the person's yes to playing, a no
+        (or a later) their answer to the invitation, both given to the policy (True). Anything
+        else is read as the answer to the invitation it was (False)."""
+        self._asking_whether_yes = False
+        reading = self._understand(nbest, INVITATION)
+        if reading.act != ACCEPT and reading.act not in REFUSALS:
+            return False
+        self._answered(reading.act, text, words, reading.score)
         return True
 
     def _answered_whether_to_stop(

@@ -88,6 +88,9 @@ a bare yes."""
 STOP_QUESTION_SENTENCE = "Do you want to stop?"
 """What the robot asks (as the act STOP_QUESTION) when it heard a stop mid-game too unsurely to
 let the game go, instead of asking for the person's move as if they had said nothing."""
+YES_QUESTION_SENTENCE = "Sorry, was that a yes?"
+"""What the robot asks (as the act YES_QUESTION) when it heard a yes to playing too unsurely to
+start a game on, instead of asking the whole question again."""
 
 
 def say_goodbye(bus: Bus, part: str, result: Ending | None) -> None:

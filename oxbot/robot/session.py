@@ -97,6 +97,7 @@ from oxbot.robot.sentences import (
     RULES_SENTENCE,
     STOP_QUESTION_SENTENCE,
     WHO_STARTS_SENTENCES,
+    YES_QUESTION_SENTENCE,
     symbol_names,
 )
 from oxbot.robot.voice import SpeechRecognitionComponent, SpeechSynthesisComponent
@@ -166,7 +167,8 @@ def robot_sentences(domain: Domain | None = None) -> list[str]:
     sentences += [STOPPED_SENTENCE.format(part=p) for p in ESSENTIAL_PARTS]
     sentences += [*GUIDANCE_SENTENCES.values(), *LOST_SENTENCES.values()]
     sentences += [NOBODY_SENTENCE, WHICH_CELL, AFTER_GOODBYE, HOLD_SENTENCE, *OFFER_SENTENCES]
-    sentences += [AFTER_ALL_SENTENCE, STOP_QUESTION_SENTENCE, OFF_TOPIC_SENTENCE]
+    sentences += [AFTER_ALL_SENTENCE, STOP_QUESTION_SENTENCE, YES_QUESTION_SENTENCE]
+    sentences += [OFF_TOPIC_SENTENCE]
     sentences += [phrase for phrases in PHRASINGS.values() for phrase in phrases]
     for robot_starts in (True, False):
         names = symbol_names(robot_starts)

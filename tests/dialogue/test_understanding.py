@@ -179,7 +179,8 @@ def test_words_the_recogniser_barely_heard_are_no_answer(classifier):
 def test_a_yes_the_recogniser_is_unsure_of_is_asked_again_a_no_is_not(classifier):
     sure, unsure = classifier.min_yes_confidence + 0.05, classifier.min_yes_confidence - 0.05
     assert classifier.intent_of([("sure why not", sure)], INVITATION).act == ACCEPT
-    assert classifier.intent_of([("sure why not", unsure)], INVITATION) == UserAct(UNKNOWN, 0.0)
+    unsure_yes = UserAct(UNKNOWN, 0.0, unsure=ACCEPT)  # the robot may ask whether it was one
+    assert classifier.intent_of([("sure why not", unsure)], INVITATION) == unsure_yes
     assert classifier.intent_of([("no thanks", unsure)], INVITATION).act == DECLINE
     assert classifier.read("sure why not", INVITATION).act == ACCEPT  # the simulator's path
 

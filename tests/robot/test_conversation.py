@@ -16,7 +16,9 @@ from oxbot.dialogue.domain import (
     LETS_PLAY,
     MOVE_REQUEST,
     OFFER_ANOTHER,
+    REFUSALS,
     STOP_QUESTION,
+    YES_QUESTION,
     is_feedback,
 )
 from oxbot.dialogue.wellformed import check_dialogue
@@ -28,6 +30,7 @@ from oxbot.robot.sentences import (
     HOLD_SENTENCE,
     OFF_TOPIC_SENTENCE,
     STOP_QUESTION_SENTENCE,
+    YES_QUESTION_SENTENCE,
 )
 from tests.robot.helpers import ManagerAtHand
 
@@ -320,6 +323,50 @@ def test_silence_after_do_you_want_to_stop_goes_on_and_a_sure_stop_is_not_asked_
     assert hand.last_act == MOVE_REQUEST and not hand.done
     hand.say("stop")
     assert hand.last_act == GRANT_STOP and STOP_QUESTION_SENTENCE not in hand.said[-2:]
+
+
+def invited(seed: int) -> ManagerAtHand:
+    hand = ManagerAtHand(robot_starts=True, seed=seed)
+    while hand.last_act != INVITATION:
+        hand.wait()
+    return hand
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_an_unsure_yes_is_asked_about_and_a_yes_then_plays(seed):
+    """ "okay sure", a yes the domain lists, heard word for word at 0.5 was asked the whole
+    question again, and again, until the person was told nobody seemed to be there."""
+    hand = invited(seed)
+    hand.say("okay sure", 0.5)  # too unsure to start a game on
+    assert hand.said[-1] == YES_QUESTION_SENTENCE and acts(hand)[-1] == YES_QUESTION
+    assert acts(hand, "usr")[-1] == "Unknown"  # no consent yet
+    hand.say("yes")
+    assert acts(hand, "usr")[-1] == "Confirm(playGame=yes)"
+    play_out(hand)
+    hand.say("no thanks")  # to the offer of another game
+    assert hand.ended.outcome in ("win", "loss", "draw")
+    assert check_dialogue(hand.manager.transcript, hand.ended.outcome) is None
+
+
+def test_a_no_to_was_that_a_yes_is_the_persons_no():
+    hand = invited(2)
+    hand.say("okay sure", 0.5)
+    assert hand.said[-1] == YES_QUESTION_SENTENCE
+    hand.say("no")
+    assert acts(hand, "usr")[-1] in REFUSALS
+    assert hand.last_act == GRANT_REFUSAL
+    assert not any(a.startswith("GameMove") for a in acts(hand))
+
+
+def test_a_yes_is_asked_about_once_and_a_sneeze_heard_as_okay_not_at_all():
+    hand = invited(3)
+    hand.say("okay", 0.2)  # below MIN_UNSURE_YES: no answer at all
+    assert YES_QUESTION_SENTENCE not in hand.said
+    hand = invited(4)
+    hand.say("okay sure", 0.5)
+    hand.say("okay sure", 0.5)  # still unsure: the policy asks its question again
+    assert hand.said.count(YES_QUESTION_SENTENCE) == 1
+    assert hand.last_act != LETS_PLAY and not any(a.startswith("GameMove") for a in acts(hand))
 
 
 def test_how_do_you_play_is_answered_with_the_rules_in_any_state_and_is_no_consent():
