@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 from sound_sets import background, nonspeech_clips
 
-from oxbot.atomic import save_figure, write_text_atomic
+from oxbot.atomic import save_figure
 from oxbot.config import load_config
 from oxbot.speech.audio import pcm16
 from oxbot.speech.evaluation import HELD_OUT_ESPEAK, HELD_OUT_FLITE
@@ -70,7 +70,7 @@ async def run_level(url: str, level: str, args: argparse.Namespace, phrasings: d
         rng = np.random.default_rng([args.seed, i, list(LEVELS).index(level)])
         kind = PERSONAS[i % len(PERSONAS)]
         persona = Persona(
-            kind, phrasings, rng, rematch=bool(rng.random() < 0.5), stop_at=int(rng.integers(1, 4))
+            kind, phrasings, rng, rematch=bool(rng.random() < 0.5), stop_at=int(rng.integers(1, 3))
         )
         voice = VOICES[(i // len(PERSONAS)) % len(VOICES)]
         recording = sounds[int(rng.integers(len(sounds)))] if sounds else None
@@ -114,6 +114,8 @@ async def run_level(url: str, level: str, args: argparse.Namespace, phrasings: d
                 "seconds": time.monotonic() - started,
             }
         )
+        with (args.out / "conversations.jsonl").open("a", encoding="utf-8") as log:
+            log.write(json.dumps(results[-1]) + "\n")  # kept as it goes: a stopped run loses none
         mark = "ok " if not wrong else "BAD"
         print(f"  {level:6} {i:4} {kind:12} {voice:24} {mark} {'; '.join(wrong)}", flush=True)
 
@@ -235,14 +237,13 @@ def main() -> None:
         ],
     )
     args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "conversations.jsonl").unlink(missing_ok=True)
     results: list[dict] = []
     with serving_in_background(create_app(config)) as url:
         socket = url.replace("http://", "ws://") + "/ws"
         for level in args.levels:
             print(f"{level}: {args.conversations} conversations", flush=True)
             results += asyncio.run(run_level(socket, level, args, phrasings))
-    lines = "".join(json.dumps(r) + "\n" for r in results)
-    write_text_atomic(args.out / "conversations.jsonl", lines)
     plot(results, args.levels, args.out / "success.png")
     print(table(results, args.levels))
     print(f"wrote {args.out / 'conversations.jsonl'} and {args.out / 'success.png'}")

@@ -307,7 +307,7 @@ def judge(conversation: Conversation) -> list[str]:
     wanted_games = 0 if c.persona in ("declines", "silent") else 1
     if c.persona == "keen" and any(r.family == "rematch" for r in c.said):
         wanted_games = 2
-    if c.persona == "stopper":
+    if c.persona == "stopper" and any(reply.family == "stop" for reply in c.said):
         if c.outcome != "stopped":
             wrong.append(f"the stop was not honoured (ended {c.outcome})")
     elif len(finished) != wanted_games:

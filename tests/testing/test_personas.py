@@ -178,6 +178,7 @@ def test_the_judge_finds_every_way_it_went_wrong():
     assert len(judge(c)) == 2
     assert "0 games played to the end, wanted 1" in judge(played())
     stopper = played("stopper")
+    stopper.said.append(Reply("stop", "let's leave it there"))
     assert "the stop was not honoured (ended win)" in judge(stopper)
     stopper.outcome = "stopped"
     assert judge(stopper) == []
@@ -185,6 +186,15 @@ def test_the_judge_finds_every_way_it_went_wrong():
     assert judge(declined) == []
     declined.games.append(Game(robot_moves=1))
     assert "a game was played with a person who did not want one" in judge(declined)
+
+
+def test_a_stopper_whose_game_ended_before_their_stop_wanted_that_game():
+    c = played("stopper", moves=WON)
+    c.game.feedback = "win"
+    assert judge(c) == []  # they never said stop: nothing to honour
+    c.outcome = "declined"
+    c.games = [Game()]
+    assert "0 games played to the end, wanted 1" in judge(c)
 
 
 def test_a_rematch_asked_for_is_a_second_game_wanted():
