@@ -16,6 +16,7 @@ import asyncio
 import base64
 import json
 import time
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -65,6 +66,33 @@ def data_url(png: bytes) -> str:
     return "data:image/png;base64," + base64.b64encode(png).decode("ascii")
 
 
+async def received(ws, deadline: float) -> tuple[str, dict] | None:
+    """The robot's next message on `ws` as (type, data); None once `deadline` (monotonic) has
+    passed without one."""
+    while (left := deadline - time.monotonic()) > 0:
+        try:
+            raw = await asyncio.wait_for(ws.recv(), left)
+        except TimeoutError:
+            continue
+        message = json.loads(raw)
+        return message["type"], message.get("data", {})
+    return None
+
+
+async def draw_symbol(
+    send: Callable[[dict], Awaitable[None]], sheet: Sheet, where: str, symbol: str, period: float
+) -> None:
+    """Draw `symbol` in the cell `where` of `sheet` as the page sends it: the sheet after each
+    stroke but the last, `period` seconds apart, then the whole symbol."""
+    strokes = person_strokes(symbol, sheet.rng)
+    for k in range(1, len(strokes)):
+        partial = sheet.copy().draw_strokes(where, strokes[:k])
+        await send({"type": "frame", "image": data_url(partial.png())})
+        await asyncio.sleep(period)
+    sheet.draw_strokes(where, strokes)
+    await send({"type": "frame", "image": data_url(sheet.png())})
+
+
 async def play_game(
     url: str,
     seed: int = 0,
@@ -94,28 +122,17 @@ async def play_game(
                 return
             where = free[int(rng.integers(len(free)))]
             record.drawn.append(where)
-            strokes = person_strokes(record.user_symbol, sheet.rng)
             # the page sends the sheet every 100 ms while it changes: stroke by stroke here
-            for k in range(1, len(strokes)):
-                partial = sheet.copy().draw_strokes(where, strokes[:k])
-                await send({"type": "frame", "image": data_url(partial.png())})
-                await asyncio.sleep(frame_period)
-            sheet.draw_strokes(where, strokes)
-            await send({"type": "frame", "image": data_url(sheet.png())})
+            await draw_symbol(send, sheet, where, record.user_symbol, frame_period)
             drawn_at = time.monotonic()
 
         cells: list[str] = []
         while not record.ended:
-            left = timeout - (time.monotonic() - start)
-            if left <= 0:
+            got = await received(ws, start + timeout)
+            if got is None:
                 record.failures.append(f"no goodbye within {timeout:.0f} s")
                 break
-            try:
-                raw = await asyncio.wait_for(ws.recv(), left)
-            except TimeoutError:
-                continue
-            message = json.loads(raw)
-            kind, data = message["type"], message.get("data", {})
+            kind, data = got
             if kind == "Hello":
                 record.session, record.user_symbol = data["session"], data["user_symbol"]
                 cells = list(data["cells"])
@@ -150,4 +167,4 @@ async def play_game(
     return record
 
 
-__all__ = ["GameRecord", "play_game"]
+__all__ = ["GameRecord", "data_url", "draw_symbol", "play_game", "received"]

@@ -36,9 +36,9 @@ from oxbot.game.board import CELL_NAMES
 from oxbot.speech.audio import RATE, pcm16
 from oxbot.speech.evaluation import speak
 from oxbot.testing.personas import Conversation, Game, Persona, Reply, understood_as_answer
-from oxbot.testing.player import data_url
+from oxbot.testing.player import data_url, draw_symbol, received
 from oxbot.testing.rooms import Room
-from oxbot.testing.sheet import Sheet, person_strokes
+from oxbot.testing.sheet import Sheet
 
 PIECE_SECONDS = 0.1
 """A hands-free piece's length, as the page sends them."""
@@ -148,13 +148,7 @@ async def converse(
                 return
             where = free[int(rng.integers(len(free)))]
             record.game.drawn.append(where)
-            strokes = person_strokes(symbol, sheet.rng)
-            for k in range(1, len(strokes)):
-                partial = sheet.copy().draw_strokes(where, strokes[:k])
-                await send({"type": "frame", "image": data_url(partial.png())})
-                await asyncio.sleep(frame_period)
-            sheet.draw_strokes(where, strokes)
-            await send({"type": "frame", "image": data_url(sheet.png())})
+            await draw_symbol(send, sheet, where, symbol, frame_period)
 
         def robot_said(act: str) -> None:
             cell = game_move_cell(act)  # the robot's own moves come as its acts alone
@@ -189,16 +183,11 @@ async def converse(
         try:
             ended = False
             while not ended:
-                left = timeout - (time.monotonic() - start)
-                if left <= 0:
+                got = await received(ws, start + timeout)
+                if got is None:
                     record.problems.append(f"no goodbye within {timeout:.0f} s")
                     break
-                try:
-                    raw = await asyncio.wait_for(ws.recv(), left)
-                except TimeoutError:
-                    continue
-                message = json.loads(raw)
-                kind, data = message["type"], message.get("data", {})
+                kind, data = got
                 if kind == "Hello":
                     symbol = data["user_symbol"]
                     await send({"type": "frame", "image": data_url(sheet.png())})
