@@ -589,10 +589,8 @@ class InteractionManagerComponent(PersonInput, Component):
             (s for s in self.rng.permutation(OFFER_SENTENCES) if s != self._spoken_last),
             OFFER_SENTENCES[0],
         )
-        self._tell(str(sentence), OFFER_ANOTHER)
-        # unlike a problem told, the offer is waited on: its answer, after it is said
-        self._speaking, self._arm_cell, self._offering = str(sentence), None, True
-        self.phase = Phase.SPEAKING
+        self._ask(str(sentence), OFFER_ANOTHER)
+        self._offering = True
 
     def _ask_after_all(self) -> None:
         self._asking_after_all = True
@@ -600,9 +598,7 @@ class InteractionManagerComponent(PersonInput, Component):
             self._after_all_due = True  # never over the robot's own words or arm
             return
         self._after_all_due = False
-        self._tell(AFTER_ALL_SENTENCE, AFTER_ALL)
-        self._speaking, self._arm_cell = AFTER_ALL_SENTENCE, None  # its answer, once said
-        self.phase = Phase.SPEAKING
+        self._ask(AFTER_ALL_SENTENCE, AFTER_ALL)
 
     def _asking_around_the_policy(self) -> bool:
         """Whether the robot waits for the answer to a question it asked around the policy."""
@@ -613,17 +609,20 @@ class InteractionManagerComponent(PersonInput, Component):
             or self._asking_whether_yes
         )
 
+    def _ask(self, sentence: str, act: str) -> None:
+        """Say a question of its own (`act`, outside the policy's acts) and, unlike a problem
+        told, wait for its answer once it is said."""
+        self._tell(sentence, act)
+        self._speaking, self._arm_cell = sentence, None
+        self.phase = Phase.SPEAKING
+
     def _ask_whether_yes(self) -> None:
         self._asking_whether_yes, self._asked_whether_yes = True, True
-        self._tell(YES_QUESTION_SENTENCE, YES_QUESTION)
-        self._speaking, self._arm_cell = YES_QUESTION_SENTENCE, None  # its answer, once said
-        self.phase = Phase.SPEAKING
+        self._ask(YES_QUESTION_SENTENCE, YES_QUESTION)
 
     def _ask_whether_to_stop(self) -> None:
         self._asking_to_stop = True
-        self._tell(STOP_QUESTION_SENTENCE, STOP_QUESTION)
-        self._speaking, self._arm_cell = STOP_QUESTION_SENTENCE, None  # its answer, once said
-        self.phase = Phase.SPEAKING
+        self._ask(STOP_QUESTION_SENTENCE, STOP_QUESTION)
 
     def _play_again(self, words: str) -> None:
         """The person agreed to another game in `words`: this dialogue ends without a goodbye,
